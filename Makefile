@@ -1,0 +1,79 @@
+# stiffkit: thin targets over apt-get, pip, meson and pytest.
+# On a fresh Debian machine `make test` and `make demo` do everything needed:
+# missing Debian packages (apt-get, as root), a project-local .venv, an
+# editable install of the package, then the job.
+
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(VENV)/bin/pip
+STAMP_DEPS := $(VENV)/.deps-stamp
+STAMP_INSTALL := $(VENV)/.install-stamp
+CHECK_BUILD := build/check
+DEB_PACKAGES := gfortran liblapack-dev libopenblas-dev libsuitesparse-dev calculix-ccx tetgen pkg-config python3-venv
+PY_BUILD := numpy meson-python meson ninja
+PY_RUNTIME := matplotlib meshio gmsh tomli-w yourdfpy pytest hypothesis
+LINK ?= examples/beam.toml
+export OMP_NUM_THREADS ?= 1
+export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
+
+.PHONY: help system-deps venv install test test-core test-py demo bench clean
+.DEFAULT_GOAL := help
+
+help:
+	@echo "stiffkit make targets"
+	@echo "  make test        install what is missing, run the Fortran unit tests (-fcheck=all) and pytest"
+	@echo "  make demo        install what is missing, run the main job on a built-in example"
+	@echo "  make bench       benchmarks (figures for the README results section)"
+	@echo "  make install     system packages, .venv and an editable install only"
+	@echo "  make clean       remove build directories (keeps .venv)"
+
+# Debian packages: installed with apt-get when root, else the command is printed.
+system-deps:
+	@missing=""; for p in $(DEB_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "installing Debian packages:$$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+	  else \
+	    echo "missing Debian packages; run:  sudo apt-get install -y$$missing"; exit 1; \
+	  fi; \
+	fi
+
+$(STAMP_DEPS): pyproject.toml | system-deps
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PIP) install -q --upgrade pip
+	$(PIP) install -q $(PY_BUILD) $(PY_RUNTIME)
+	touch $@
+
+venv: system-deps $(STAMP_DEPS)
+
+$(STAMP_INSTALL): $(STAMP_DEPS) meson.build meson.options pyproject.toml
+	$(PIP) install -q --no-build-isolation -Cbuild-dir=build/py -e .
+	touch $@
+
+install: system-deps $(STAMP_INSTALL)
+
+# Fortran unit tests: the core compiled with -fcheck=all -Wall (meson test()).
+test-core: install
+	@if [ ! -d $(CHECK_BUILD) ]; then \
+	  $(VENV)/bin/meson setup $(CHECK_BUILD) -Dchecks=true -Dbuildtype=debug \
+	    -Dpython.install_env=auto >/dev/null; fi
+	$(VENV)/bin/meson test -C $(CHECK_BUILD) --print-errorlogs
+
+test-py: install
+	$(PY) -m pytest -q tests
+
+test: test-core test-py
+
+demo: install
+	$(VENV)/bin/stiffkit demo
+
+bench: install
+	$(PY) bench/run.py
+
+clean:
+	rm -rf build

@@ -1,0 +1,3 @@
+from stiffkit.cli import main
+
+raise SystemExit(main())

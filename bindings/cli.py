@@ -1,0 +1,60 @@
+"""The ``stiffkit`` command line: one program, one subcommand per job.
+
+Each subcommand lives in its own module that provides ``register(sub)``
+(adds its parser and sets ``func``); modules are imported lazily so that
+``stiffkit --help`` is fast and a broken optional dependency only affects
+its own command.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from ._errors import StiffkitError
+
+# (module, one-line summary); the module's register() builds the parser
+COMMANDS = [
+    ("stiffkit.cmd_field", "field: fit (t, phi) of node displacement fields; compliance from six load cases"),
+    ("stiffkit.cmd_demo", "demo: the main job on a built-in example"),
+]
+
+EPILOG = """\
+examples:
+  stiffkit demo                       run the built-in example
+  stiffkit field nodes.csv disp1.csv ... disp6.csv --reference 1,0,0 --loads 1000,1,1,1,1,1
+  stiffkit COMMAND --help             what a command does, its inputs and outputs
+
+All files are SI (m, N, N m, rad)."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="stiffkit",
+        description="How stiff a robot is, and why it bends the way it does.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    from . import __version__
+    parser.add_argument("--version", action="version", version=f"stiffkit {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for modname, _summary in COMMANDS:
+        importlib.import_module(modname).register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except StiffkitError as exc:
+        print(f"stiffkit {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as exc:
+        print(f"stiffkit {args.command}: error: file not found: {exc.filename}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"stiffkit {args.command}: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,318 @@
+!> Rigid-body motion of a node field around a reference point
+!> (Pashkevich et al. 2009, "Accuracy improvement for stiffness modeling of
+!> parallel manipulators", sections 3.1-3.4).
+!>
+!> Given node positions q_i relative to the reference point p0 and their
+!> displacements d_i, find the translation t of p0 and the rotation phi of
+!> the field such that  q_i + d_i ~ R(phi) q_i + t  (eq. 4), in the least
+!> squares sense (eq. 5). Methods:
+!>   lin    linearised model d_i = t + phi x q_i (eqs. 12-17, centred form)
+!>   svd*   orthogonal Procrustes (eqs. 6-10), angles from R by Table 1
+!>   exact  Gauss-Newton on SO(3) from the LIN start; phi is the rotation
+!>          vector log(R), so the answer carries no linearisation error.
+!> The noise model is eq. 18 (i.i.d. residuals), the covariance eq. 20 and
+!> the noise estimate eq. 21 (3n - 6 degrees of freedom).
+module sk_field_fit
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_linalg, only: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv, &
+                         spd_inverse, sym_eig, svd, all_finite, eye
+    implicit none
+    private
+    public :: fit_field, fit_rigid, trim_mask
+    public :: method_lin, method_svd_plus, method_svd_minus, method_svd_pm, method_exact
+
+    integer(ip), parameter :: method_lin = 0
+    integer(ip), parameter :: method_svd_plus = 1
+    integer(ip), parameter :: method_svd_minus = 2
+    integer(ip), parameter :: method_svd_pm = 3
+    integer(ip), parameter :: method_exact = 4
+
+    !> smallest/largest eigenvalue of the field's rotational normal matrix
+    !> below which the rotation is declared unobservable (collinear nodes)
+    real(dp), parameter :: degenerate_ratio = 1.0e-10_dp
+
+contains
+
+    !> Centroid c of q and the rotational normal matrix
+    !> D = sum_i [qh_i]x^T [qh_i]x = sum_i (|qh_i|^2 I - qh_i qh_i^T), qh = q - c
+    !> (the 3x3 block of eq. 17). info = sk_err_degenerate if D is
+    !> (numerically) singular: all nodes on one line or one point.
+    subroutine normal_matrix(q, c, dmat, info)
+        real(dp), intent(in) :: q(:, :)        !> q[3,n]
+        real(dp), intent(out) :: c(3), dmat(3, 3)
+        integer(ip), intent(out) :: info
+        real(dp) :: qh(3), ev(3), evec(3, 3), s
+        integer :: i, n
+        n = size(q, 2)
+        c = sum(q, dim=2)/real(n, dp)
+        dmat = 0.0_dp
+        do i = 1, n
+            qh = q(:, i) - c
+            s = dot_product(qh, qh)
+            dmat = dmat - spread(qh, 2, 3)*spread(qh, 1, 3)
+            dmat(1,1) = dmat(1,1) + s
+            dmat(2,2) = dmat(2,2) + s
+            dmat(3,3) = dmat(3,3) + s
+        end do
+        call sym_eig(dmat, ev, evec, info)
+        if (info /= sk_ok) return
+        if (ev(3) <= 0.0_dp .or. ev(1) <= degenerate_ratio*ev(3)) info = sk_err_degenerate
+    end subroutine normal_matrix
+
+    !> One rigid fit of all nodes given (no trimming).
+    !> q[3,n]: positions relative to the reference point; d[3,n]: displacements.
+    !> On exit t, phi: translation of the reference point and rotation;
+    !> covu[6,6]: covariance of (t, phi) per unit noise variance (eq. 20,
+    !> moved from the centroid to the reference point); res[3,n]: residuals
+    !> q + d - R q - t (LIN: d - t - phi x q); ssr: their sum of squares;
+    !> rmat: the fitted rotation (LIN: its linearisation I + [phi]x);
+    !> niter: Gauss-Newton iterations (exact method), else 0.
+    subroutine fit_rigid(q, d, method, t, phi, rmat, covu, res, ssr, niter, info)
+        real(dp), intent(in) :: q(:, :), d(:, :)
+        integer(ip), intent(in) :: method
+        real(dp), intent(out) :: t(3), phi(3), rmat(3, 3), covu(6, 6), res(:, :), ssr
+        integer(ip), intent(out) :: niter, info
+        real(dp) :: c(3), dmat(3, 3), dinv(3, 3), b(3), r(3, 3), cx(3, 3)
+        real(dp) :: gbar(3), h(3, 3), u(3, 3), s(3), vt(3, 3), fix(3, 3), y(3)
+        real(dp) :: delta(3), ji(3, 3), dy(3, 3), dyinv(3, 3), rc(3)
+        integer :: i, n, it
+        integer, parameter :: max_iter = 100
+        n = size(q, 2)
+        niter = 0
+        call normal_matrix(q, c, dmat, info)
+        if (info /= sk_ok) return
+        call spd_inverse(dmat, dinv, info)
+        if (info /= sk_ok) then
+            info = sk_err_degenerate
+            return
+        end if
+
+        ! LIN, centred form (eq. 17): t_c = mean(d), phi = D^-1 sum qh x d
+        b = 0.0_dp
+        do i = 1, n
+            b = b + cross(q(:, i) - c, d(:, i))
+        end do
+        phi = matmul(dinv, b)
+        t = sum(d, dim=2)/real(n, dp) - cross(phi, c)
+        ! eq. 20 at the centroid, then t(p0) = t_c + [c]x phi
+        cx = skew(c)
+        covu = 0.0_dp
+        covu(1:3, 1:3) = eye(3)/real(n, dp) + matmul(matmul(cx, dinv), transpose(cx))
+        covu(1:3, 4:6) = matmul(cx, dinv)
+        covu(4:6, 1:3) = transpose(covu(1:3, 4:6))
+        covu(4:6, 4:6) = dinv
+
+        select case (method)
+        case (method_lin)
+            r = eye(3) + skew(phi)
+        case (method_svd_plus, method_svd_minus, method_svd_pm)
+            ! eqs. 7-10: Procrustes on the centred fields
+            gbar = sum(q + d, dim=2)/real(n, dp)
+            h = 0.0_dp
+            do i = 1, n
+                h = h + spread(q(:, i) - c, 2, 3)*spread(q(:, i) + d(:, i) - gbar, 1, 3)
+            end do
+            call svd(h, u, s, vt, info)
+            if (info /= sk_ok) return
+            ! R = V U^T (eq. 9), a proper rotation (det = +1)
+            fix = eye(3)
+            if (det3(matmul(transpose(vt), transpose(u))) < 0.0_dp) fix(3, 3) = -1.0_dp
+            r = matmul(matmul(transpose(vt), fix), transpose(u))
+            t = gbar - matmul(r, c)                      ! eq. 6
+            select case (method)                          ! Table 1
+            case (method_svd_plus)
+                phi = [r(3,2), r(1,3), r(2,1)]
+            case (method_svd_minus)
+                phi = [-r(2,3), -r(3,1), -r(1,2)]
+            case default
+                phi = 0.5_dp*[r(3,2) - r(2,3), r(1,3) - r(3,1), r(2,1) - r(1,2)]
+            end select
+        case (method_exact)
+            ! Gauss-Newton on SO(3): R <- exp([delta]x) R, with (delta, t)
+            ! the exact least-squares step of the model linearised at R.
+            gbar = sum(q + d, dim=2)/real(n, dp)
+            r = rot_exp(phi)
+            do it = 1, max_iter
+                niter = it
+                b = 0.0_dp
+                dy = 0.0_dp
+                do i = 1, n
+                    y = matmul(r, q(:, i) - c)
+                    b = b + cross(y, q(:, i) + d(:, i) - gbar - y)
+                end do
+                dy = matmul(matmul(r, dmat), transpose(r))
+                call spd_inverse(dy, dyinv, info)
+                if (info /= sk_ok) return
+                delta = matmul(dyinv, b)
+                r = matmul(rot_exp(delta), r)
+                if (norm2(delta) <= 1.0e-15_dp + 1.0e-14_dp*norm2(rot_log(r))) exit
+            end do
+            if (norm2(delta) > 1.0e-8_dp) then
+                info = sk_err_noconv
+                return
+            end if
+            phi = rot_log(r)
+            rc = matmul(r, c)
+            t = gbar - rc
+            ! covariance: delta ~ D_y^-1 (unit), t = gbar - R c, phi = log R
+            dy = matmul(matmul(r, dmat), transpose(r))
+            call spd_inverse(dy, dyinv, info)
+            if (info /= sk_ok) return
+            ji = left_jacobian_inv(phi)
+            cx = skew(rc)
+            covu(1:3, 1:3) = eye(3)/real(n, dp) + matmul(matmul(cx, dyinv), transpose(cx))
+            covu(1:3, 4:6) = matmul(matmul(cx, dyinv), transpose(ji))
+            covu(4:6, 1:3) = transpose(covu(1:3, 4:6))
+            covu(4:6, 4:6) = matmul(matmul(ji, dyinv), transpose(ji))
+        case default
+            info = sk_err_argument
+            return
+        end select
+        rmat = r
+        call residuals(q, d, t, rmat, res)
+        ssr = sum(res**2)
+        info = sk_ok
+    end subroutine fit_rigid
+
+    !> Outlier mask (paper s3.4, s4.5): the ntrim nodes whose largest
+    !> absolute residual component is largest are dropped (a node goes if
+    !> any of its three residuals is among the largest). used[n] in/out.
+    subroutine trim_mask(res, ntrim, used)
+        real(dp), intent(in) :: res(:, :)
+        integer, intent(in) :: ntrim
+        logical, intent(inout) :: used(:)
+        real(dp), allocatable :: score(:)
+        integer, allocatable :: idx(:)
+        integer :: i, n
+        n = size(res, 2)
+        if (ntrim <= 0) return
+        allocate(score(n))
+        do i = 1, n
+            score(i) = maxval(abs(res(:, i)))
+            if (.not. used(i)) score(i) = -1.0_dp
+        end do
+        idx = argsort(score)
+        do i = n, max(1, n - ntrim + 1), -1
+            used(idx(i)) = .false.
+        end do
+    end subroutine trim_mask
+
+    !> Fit of the field p[3,n] + d[3,n] about the reference point p0, with
+    !> optional trimming of a fraction `trim` of the nodes (refit once).
+    !> res[3,n] holds the residuals of every node (trimmed ones included)
+    !> against the final fit; used[n] tells which nodes entered it.
+    subroutine fit_field(p, d, p0, method, trim, t, phi, covu, res, used, ssr, nused, niter, info)
+        real(dp), intent(in) :: p(:, :), d(:, :), p0(3), trim
+        integer(ip), intent(in) :: method
+        real(dp), intent(out) :: t(3), phi(3), covu(6, 6), res(:, :), ssr
+        logical, intent(out) :: used(:)
+        integer(ip), intent(out) :: nused, niter, info
+        real(dp), allocatable :: q(:, :), qs(:, :), ds(:, :), rs(:, :)
+        real(dp) :: rmat(3, 3)
+        integer :: n, ntrim, i, k
+        n = size(p, 2)
+        used = .true.
+        nused = 0
+        niter = 0
+        t = 0.0_dp
+        phi = 0.0_dp
+        covu = 0.0_dp
+        res = 0.0_dp
+        ssr = 0.0_dp
+        if (size(p, 1) /= 3 .or. any(shape(d) /= [3, n]) .or. any(shape(res) /= [3, n]) &
+            .or. size(used) /= n) then
+            info = sk_err_size
+            return
+        end if
+        if (n < 3) then
+            info = sk_err_size
+            return
+        end if
+        if (.not. (all_finite(p) .and. all_finite(d) .and. all_finite(p0) .and. all_finite([trim]))) then
+            info = sk_err_nonfinite
+            return
+        end if
+        if (method < method_lin .or. method > method_exact .or. trim < 0.0_dp .or. trim >= 0.5_dp) then
+            info = sk_err_argument
+            return
+        end if
+        allocate(q(3, n))
+        do i = 1, n
+            q(:, i) = p(:, i) - p0
+        end do
+        call fit_rigid(q, d, method, t, phi, rmat, covu, res, ssr, niter, info)
+        if (info /= sk_ok) return
+        nused = n
+        ntrim = nint(trim*real(n, dp))
+        if (ntrim > 0) then
+            if (n - ntrim < 3) then
+                info = sk_err_too_few
+                return
+            end if
+            call trim_mask(res, ntrim, used)
+            nused = count(used)
+            allocate(qs(3, nused), ds(3, nused), rs(3, nused))
+            k = 0
+            do i = 1, n
+                if (used(i)) then
+                    k = k + 1
+                    qs(:, k) = q(:, i)
+                    ds(:, k) = d(:, i)
+                end if
+            end do
+            call fit_rigid(qs, ds, method, t, phi, rmat, covu, rs, ssr, niter, info)
+            if (info /= sk_ok) return
+            call residuals(q, d, t, rmat, res)
+        end if
+    end subroutine fit_field
+
+    !> Residuals q + d - R q - t of every node against a fit (R, t).
+    !> With the LIN fit R = I + [phi]x, this is d - t - phi x q (eq. 15).
+    pure subroutine residuals(q, d, t, rmat, res)
+        real(dp), intent(in) :: q(:, :), d(:, :), t(3), rmat(3, 3)
+        real(dp), intent(out) :: res(:, :)
+        real(dp) :: rm(3, 3)
+        integer :: i
+        rm = rmat - eye(3)    ! small: keeps the residual free of q + d - q cancellation
+        do i = 1, size(q, 2)
+            res(:, i) = d(:, i) - t - matmul(rm, q(:, i))
+        end do
+    end subroutine residuals
+
+    !> Indices that sort x ascending (heap sort, O(n log n), not stable).
+    function argsort(x) result(idx)
+        real(dp), intent(in) :: x(:)
+        integer, allocatable :: idx(:)
+        integer :: n, i, tmp
+        n = size(x)
+        idx = [(i, i = 1, n)]
+        do i = n/2, 1, -1
+            call sift(i, n)
+        end do
+        do i = n, 2, -1
+            tmp = idx(1); idx(1) = idx(i); idx(i) = tmp
+            call sift(1, i - 1)
+        end do
+    contains
+        subroutine sift(start, last)
+            integer, intent(in) :: start, last
+            integer :: root, child, t
+            root = start
+            do
+                child = 2*root
+                if (child > last) exit
+                if (child < last) then
+                    if (x(idx(child)) < x(idx(child + 1))) child = child + 1
+                end if
+                if (x(idx(root)) < x(idx(child))) then
+                    t = idx(root); idx(root) = idx(child); idx(child) = t
+                    root = child
+                else
+                    exit
+                end if
+            end do
+        end subroutine sift
+    end function argsort
+
+end module sk_field_fit

@@ -1,0 +1,309 @@
+!> Small dense linear algebra shared by the core: cross-product matrices,
+!> rotations (exponential and logarithm maps of SO(3)), and thin checked
+!> wrappers around LAPACK (dgesv, dgesvd, dsyev, dpotrf/dpotri).
+!>
+!> Wrappers copy their inputs, check sizes and return an `info` from
+!> sk_errors (never the raw LAPACK code).
+module sk_linalg
+    use sk_kinds, only: dp, ip, pi
+    use sk_errors
+    implicit none
+    private
+    public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
+    public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
+    public :: eye
+
+    interface all_finite
+        module procedure all_finite_1, all_finite_2, all_finite_3
+    end interface all_finite
+
+    interface
+        subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
+            import :: dp
+            integer, intent(in) :: n, nrhs, lda, ldb
+            real(dp), intent(inout) :: a(lda, *), b(ldb, *)
+            integer, intent(out) :: ipiv(*), info
+        end subroutine dgesv
+        subroutine dgesvd(jobu, jobvt, m, n, a, lda, s, u, ldu, vt, ldvt, work, lwork, info)
+            import :: dp
+            character, intent(in) :: jobu, jobvt
+            integer, intent(in) :: m, n, lda, ldu, ldvt, lwork
+            real(dp), intent(inout) :: a(lda, *)
+            real(dp), intent(out) :: s(*), u(ldu, *), vt(ldvt, *), work(*)
+            integer, intent(out) :: info
+        end subroutine dgesvd
+        subroutine dsyev(jobz, uplo, n, a, lda, w, work, lwork, info)
+            import :: dp
+            character, intent(in) :: jobz, uplo
+            integer, intent(in) :: n, lda, lwork
+            real(dp), intent(inout) :: a(lda, *)
+            real(dp), intent(out) :: w(*), work(*)
+            integer, intent(out) :: info
+        end subroutine dsyev
+        subroutine dpotrf(uplo, n, a, lda, info)
+            import :: dp
+            character, intent(in) :: uplo
+            integer, intent(in) :: n, lda
+            real(dp), intent(inout) :: a(lda, *)
+            integer, intent(out) :: info
+        end subroutine dpotrf
+        subroutine dpotri(uplo, n, a, lda, info)
+            import :: dp
+            character, intent(in) :: uplo
+            integer, intent(in) :: n, lda
+            real(dp), intent(inout) :: a(lda, *)
+            integer, intent(out) :: info
+        end subroutine dpotri
+    end interface
+
+contains
+
+    !> Identity matrix of order n.
+    pure function eye(n) result(a)
+        integer, intent(in) :: n
+        real(dp) :: a(n, n)
+        integer :: i
+        a = 0.0_dp
+        do i = 1, n
+            a(i, i) = 1.0_dp
+        end do
+    end function eye
+
+    !> Cross-product matrix [v]x, so that matmul(skew(v), w) = v x w.
+    pure function skew(v) result(s)
+        real(dp), intent(in) :: v(3)
+        real(dp) :: s(3, 3)
+        s(:, 1) = [0.0_dp, v(3), -v(2)]
+        s(:, 2) = [-v(3), 0.0_dp, v(1)]
+        s(:, 3) = [v(2), -v(1), 0.0_dp]
+    end function skew
+
+    !> Vector product a x b.
+    pure function cross(a, b) result(c)
+        real(dp), intent(in) :: a(3), b(3)
+        real(dp) :: c(3)
+        c = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
+    end function cross
+
+    pure function det3(a) result(d)
+        real(dp), intent(in) :: a(3, 3)
+        real(dp) :: d
+        d = a(1,1)*(a(2,2)*a(3,3) - a(2,3)*a(3,2)) &
+          - a(1,2)*(a(2,1)*a(3,3) - a(2,3)*a(3,1)) &
+          + a(1,3)*(a(2,1)*a(3,2) - a(2,2)*a(3,1))
+    end function det3
+
+    !> Rotation matrix exp([w]x) of the rotation vector w (Rodrigues), with a
+    !> series for small angles so that it is accurate to round-off.
+    pure function rot_exp(w) result(r)
+        real(dp), intent(in) :: w(3)
+        real(dp) :: r(3, 3)
+        real(dp) :: th2, th, a, b, k(3, 3)
+        th2 = dot_product(w, w)
+        th = sqrt(th2)
+        if (th < 1.0e-4_dp) then
+            a = 1.0_dp - th2/6.0_dp + th2*th2/120.0_dp
+            b = 0.5_dp - th2/24.0_dp + th2*th2/720.0_dp
+        else
+            a = sin(th)/th
+            b = (1.0_dp - cos(th))/th2
+        end if
+        k = skew(w)
+        r = eye(3) + a*k + b*matmul(k, k)
+    end function rot_exp
+
+    !> Rotation vector of a proper rotation matrix (logarithm map of SO(3)),
+    !> accurate for small angles (uses the skew part with the exact
+    !> theta/sin(theta) factor) and well defined up to theta < pi.
+    pure function rot_log(r) result(w)
+        real(dp), intent(in) :: r(3, 3)
+        real(dp) :: w(3)
+        real(dp) :: v(3), s, c, th, bmat(3, 3)
+        integer :: k
+        v = 0.5_dp*[r(3,2) - r(2,3), r(1,3) - r(3,1), r(2,1) - r(1,2)]
+        s = norm2(v)                                  ! sin(theta)
+        c = 0.5_dp*(r(1,1) + r(2,2) + r(3,3) - 1.0_dp)  ! cos(theta)
+        th = atan2(s, c)
+        if (s < 1.0e-12_dp) then
+            if (c > 0.0_dp) then
+                w = v*(1.0_dp + th*th/6.0_dp)
+            else
+                ! theta close to pi: (R + I)/2 = n n^T, take its largest column
+                bmat = 0.5_dp*(r + eye(3))
+                k = maxloc([bmat(1,1), bmat(2,2), bmat(3,3)], dim=1)
+                w = th*bmat(:, k)/sqrt(max(bmat(k, k), tiny(1.0_dp)))
+            end if
+        else
+            w = v*(th/s)
+        end if
+    end function rot_log
+
+    !> Inverse of the left Jacobian of SO(3): a left perturbation delta of
+    !> exp([w]x) changes the rotation vector by dw = Jl^-1(w) delta.
+    pure function left_jacobian_inv(w) result(ji)
+        real(dp), intent(in) :: w(3)
+        real(dp) :: ji(3, 3)
+        real(dp) :: th, th2, k(3, 3), c
+        th2 = dot_product(w, w)
+        th = sqrt(th2)
+        k = skew(w)
+        if (th < 1.0e-4_dp) then
+            c = 1.0_dp/12.0_dp + th2/720.0_dp
+        else
+            c = (1.0_dp - th*sin(th)/(2.0_dp*(1.0_dp - cos(th))))/th2
+        end if
+        ji = eye(3) - 0.5_dp*k + c*matmul(k, k)
+    end function left_jacobian_inv
+
+    logical function all_finite_1(x) result(ok)
+        real(dp), intent(in) :: x(:)
+        ok = all(abs(x) <= huge(x))
+    end function all_finite_1
+
+    logical function all_finite_2(x) result(ok)
+        real(dp), intent(in) :: x(:, :)
+        ok = all(abs(x) <= huge(x))
+    end function all_finite_2
+
+    logical function all_finite_3(x) result(ok)
+        real(dp), intent(in) :: x(:, :, :)
+        ok = all(abs(x) <= huge(x))
+    end function all_finite_3
+
+    !> General inverse ainv = a^-1 by LU (dgesv); info = sk_err_singular if
+    !> a is exactly singular.
+    subroutine inverse(a, ainv, info)
+        real(dp), intent(in) :: a(:, :)          !> a[n,n]
+        real(dp), intent(out) :: ainv(:, :)      !> a^-1 [n,n]
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: lu(:, :)
+        integer, allocatable :: ipiv(:)
+        integer :: n, linfo
+        n = size(a, 1)
+        if (size(a, 2) /= n .or. any(shape(ainv) /= [n, n])) then
+            info = sk_err_size
+            return
+        end if
+        lu = a
+        allocate(ipiv(n))
+        ainv = eye(n)
+        call dgesv(n, n, lu, n, ipiv, ainv, n, linfo)
+        if (linfo > 0) then
+            info = sk_err_singular
+        else if (linfo < 0) then
+            info = sk_err_lapack
+        else
+            info = sk_ok
+        end if
+    end subroutine inverse
+
+    !> Thin SVD a = u diag(s) vt of a[m,n], k = min(m,n): u[m,k], s[k], vt[k,n].
+    subroutine svd(a, u, s, vt, info)
+        real(dp), intent(in) :: a(:, :)
+        real(dp), intent(out) :: u(:, :), s(:), vt(:, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: w(:, :), work(:)
+        real(dp) :: q(1)
+        integer :: m, n, k, lwork, linfo
+        m = size(a, 1)
+        n = size(a, 2)
+        k = min(m, n)
+        if (any(shape(u) /= [m, k]) .or. size(s) /= k .or. any(shape(vt) /= [k, n])) then
+            info = sk_err_size
+            return
+        end if
+        w = a
+        call dgesvd('S', 'S', m, n, w, m, s, u, m, vt, k, q, -1, linfo)
+        lwork = max(1, int(q(1)))
+        allocate(work(lwork))
+        call dgesvd('S', 'S', m, n, w, m, s, u, m, vt, k, work, lwork, linfo)
+        if (linfo /= 0) then
+            info = sk_err_lapack
+        else
+            info = sk_ok
+        end if
+    end subroutine svd
+
+    !> Eigen-decomposition of a symmetric a[n,n]: eigenvalues w ascending,
+    !> eigenvectors in the columns of v.
+    subroutine sym_eig(a, w, v, info)
+        real(dp), intent(in) :: a(:, :)
+        real(dp), intent(out) :: w(:), v(:, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: work(:)
+        real(dp) :: q(1)
+        integer :: n, lwork, linfo
+        n = size(a, 1)
+        if (size(a, 2) /= n .or. size(w) /= n .or. any(shape(v) /= [n, n])) then
+            info = sk_err_size
+            return
+        end if
+        v = a
+        call dsyev('V', 'U', n, v, n, w, q, -1, linfo)
+        lwork = max(1, int(q(1)))
+        allocate(work(lwork))
+        call dsyev('V', 'U', n, v, n, w, work, lwork, linfo)
+        info = merge(sk_ok, sk_err_lapack, linfo == 0)
+    end subroutine sym_eig
+
+    !> Inverse of a symmetric positive definite a[n,n] by Cholesky;
+    !> info = sk_err_singular if a is not positive definite.
+    subroutine spd_inverse(a, ainv, info)
+        real(dp), intent(in) :: a(:, :)
+        real(dp), intent(out) :: ainv(:, :)
+        integer(ip), intent(out) :: info
+        integer :: n, linfo, i, j
+        n = size(a, 1)
+        if (size(a, 2) /= n .or. any(shape(ainv) /= [n, n])) then
+            info = sk_err_size
+            return
+        end if
+        ainv = a
+        call dpotrf('U', n, ainv, n, linfo)
+        if (linfo /= 0) then
+            info = merge(sk_err_singular, sk_err_lapack, linfo > 0)
+            return
+        end if
+        call dpotri('U', n, ainv, n, linfo)
+        if (linfo /= 0) then
+            info = merge(sk_err_singular, sk_err_lapack, linfo > 0)
+            return
+        end if
+        do j = 1, n
+            do i = j + 1, n
+                ainv(i, j) = ainv(j, i)
+            end do
+        end do
+        info = sk_ok
+    end subroutine spd_inverse
+
+    !> Moore-Penrose pseudo-inverse ap[n,m] of a[m,n]; singular values below
+    !> rcond*s_max are treated as zero; rank returned.
+    subroutine pinv(a, ap, rcond, rank, info)
+        real(dp), intent(in) :: a(:, :)
+        real(dp), intent(out) :: ap(:, :)
+        real(dp), intent(in) :: rcond
+        integer(ip), intent(out) :: rank, info
+        real(dp), allocatable :: u(:, :), s(:), vt(:, :)
+        integer :: m, n, k, i
+        m = size(a, 1)
+        n = size(a, 2)
+        k = min(m, n)
+        if (any(shape(ap) /= [n, m])) then
+            info = sk_err_size
+            return
+        end if
+        allocate(u(m, k), s(k), vt(k, n))
+        call svd(a, u, s, vt, info)
+        if (info /= sk_ok) return
+        rank = 0
+        ap = 0.0_dp
+        do i = 1, k
+            if (s(i) > rcond*s(1) .and. s(i) > 0.0_dp) then
+                rank = rank + 1
+                ap = ap + spread(vt(i, :), 2, m)*spread(u(:, i), 1, n)/s(i)
+            end if
+        end do
+    end subroutine pinv
+
+end module sk_linalg

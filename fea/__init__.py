@@ -1,0 +1,1 @@
+"""CalculiX decks, runs and result parsing."""

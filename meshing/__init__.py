@@ -1,0 +1,1 @@
+"""Meshing of link CAD with Gmsh and TetGen."""
