@@ -1,0 +1,1 @@
+"""Robot models from URDF + TOML, elastostatic calibration and model diagnosis."""

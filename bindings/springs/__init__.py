@@ -1,0 +1,1 @@
+"""Generalised springs, virtual-joint models of serial and parallel robots, stiffness indices."""
