@@ -73,7 +73,7 @@ demo: install
 	$(VENV)/bin/stiffkit demo
 
 bench: install
-	$(PY) bench/run.py
+	$(PY) bench/run.py $(BENCH)
 
 clean:
 	rm -rf build
