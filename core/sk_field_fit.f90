@@ -42,19 +42,16 @@ contains
         real(dp), intent(in) :: q(:, :)        !> q[3,n]
         real(dp), intent(out) :: c(3), dmat(3, 3)
         integer(ip), intent(out) :: info
-        real(dp) :: qh(3), ev(3), evec(3, 3), s
-        integer :: i, n
+        real(dp) :: ev(3), evec(3, 3), s
+        integer :: n
         n = size(q, 2)
         c = mean_cols(q)
-        dmat = 0.0_dp
-        do i = 1, n
-            qh = q(:, i) - c
-            s = dot_product(qh, qh)
-            dmat = dmat - spread(qh, 2, 3)*spread(qh, 1, 3)
-            dmat(1,1) = dmat(1,1) + s
-            dmat(2,2) = dmat(2,2) + s
-            dmat(3,3) = dmat(3,3) + s
-        end do
+        call second_moment(q, c, dmat)          ! S = sum qh qh^T
+        s = dmat(1,1) + dmat(2,2) + dmat(3,3)
+        dmat = -dmat
+        dmat(1,1) = dmat(1,1) + s
+        dmat(2,2) = dmat(2,2) + s
+        dmat(3,3) = dmat(3,3) + s
         call sym_eig(dmat, ev, evec, info)
         if (info /= sk_ok) return
         if (ev(3) <= 0.0_dp .or. ev(1) <= degenerate_ratio*ev(3)) info = sk_err_degenerate
@@ -75,7 +72,7 @@ contains
         integer(ip), intent(out) :: niter, info
         real(dp) :: c(3), dmat(3, 3), dinv(3, 3), b(3), r(3, 3), cx(3, 3)
         real(dp) :: gbar(3), h(3, 3), u(3, 3), s(3), vt(3, 3), fix(3, 3), y(3)
-        real(dp) :: delta(3), ji(3, 3), dy(3, 3), dyinv(3, 3), rc(3)
+        real(dp) :: delta(3), ji(3, 3), dy(3, 3), dyinv(3, 3), rc(3), qh(3), e(3)
         integer :: i, n, it
         integer, parameter :: max_iter = 100
         n = size(q, 2)
@@ -91,7 +88,9 @@ contains
         ! LIN, centred form (eq. 17): t_c = mean(d), phi = D^-1 sum qh x d
         b = 0.0_dp
         do i = 1, n
-            b = b + cross(q(:, i) - c, d(:, i))
+            b(1) = b(1) + (q(2, i) - c(2))*d(3, i) - (q(3, i) - c(3))*d(2, i)
+            b(2) = b(2) + (q(3, i) - c(3))*d(1, i) - (q(1, i) - c(1))*d(3, i)
+            b(3) = b(3) + (q(1, i) - c(1))*d(2, i) - (q(2, i) - c(2))*d(1, i)
         end do
         phi = matmul(dinv, b)
         t = mean_cols(d) - cross(phi, c)
@@ -109,10 +108,7 @@ contains
         case (method_svd_plus, method_svd_minus, method_svd_pm)
             ! eqs. 7-10: Procrustes on the centred fields
             gbar = mean_cols(q + d)
-            h = 0.0_dp
-            do i = 1, n
-                h = h + spread(q(:, i) - c, 2, 3)*spread(q(:, i) + d(:, i) - gbar, 1, 3)
-            end do
+            call cross_moment(q, c, d, gbar, h)    ! H = sum qh gh^T (eq. 10)
             call svd(h, u, s, vt, info)
             if (info /= sk_ok) return
             ! R = V U^T (eq. 9), a proper rotation (det = +1)
@@ -136,10 +132,15 @@ contains
             do it = 1, max_iter
                 niter = it
                 b = 0.0_dp
-                dy = 0.0_dp
                 do i = 1, n
-                    y = matmul(r, q(:, i) - c)
-                    b = b + cross(y, q(:, i) + d(:, i) - gbar - y)
+                    qh = q(:, i) - c
+                    y(1) = r(1,1)*qh(1) + r(1,2)*qh(2) + r(1,3)*qh(3)
+                    y(2) = r(2,1)*qh(1) + r(2,2)*qh(2) + r(2,3)*qh(3)
+                    y(3) = r(3,1)*qh(1) + r(3,2)*qh(2) + r(3,3)*qh(3)
+                    e = qh + d(:, i) - (gbar - c) - y
+                    b(1) = b(1) + y(2)*e(3) - y(3)*e(2)
+                    b(2) = b(2) + y(3)*e(1) - y(1)*e(3)
+                    b(3) = b(3) + y(1)*e(2) - y(2)*e(1)
                 end do
                 dy = matmul(matmul(r, dmat), transpose(r))
                 call spd_inverse(dy, dyinv, info)
@@ -174,6 +175,39 @@ contains
         ssr = sum(res**2)
         info = sk_ok
     end subroutine fit_rigid
+
+    !> s[3,3] = sum_i (q_i - c)(q_i - c)^T, without temporaries.
+    pure subroutine second_moment(q, c, s)
+        real(dp), intent(in) :: q(:, :), c(3)
+        real(dp), intent(out) :: s(3, 3)
+        real(dp) :: x, y, z
+        integer :: i
+        s = 0.0_dp
+        do i = 1, size(q, 2)
+            x = q(1, i) - c(1); y = q(2, i) - c(2); z = q(3, i) - c(3)
+            s(1,1) = s(1,1) + x*x; s(2,1) = s(2,1) + y*x; s(3,1) = s(3,1) + z*x
+            s(2,2) = s(2,2) + y*y; s(3,2) = s(3,2) + z*y; s(3,3) = s(3,3) + z*z
+        end do
+        s(1,2) = s(2,1); s(1,3) = s(3,1); s(2,3) = s(3,2)
+    end subroutine second_moment
+
+    !> h[3,3] = sum_i (q_i - c)(q_i + d_i - g)^T, without temporaries.
+    pure subroutine cross_moment(q, c, d, g, h)
+        real(dp), intent(in) :: q(:, :), c(3), d(:, :), g(3)
+        real(dp), intent(out) :: h(3, 3)
+        real(dp) :: a(3), b(3)
+        integer :: i, j, k
+        h = 0.0_dp
+        do i = 1, size(q, 2)
+            a = q(:, i) - c
+            b = q(:, i) + d(:, i) - g
+            do k = 1, 3
+                do j = 1, 3
+                    h(j, k) = h(j, k) + a(j)*b(k)
+                end do
+            end do
+        end do
+    end subroutine cross_moment
 
     !> Outlier mask (paper s3.4, s4.5): the ntrim nodes whose largest
     !> absolute residual component is largest are dropped (a node goes if
@@ -278,7 +312,9 @@ contains
         integer :: i
         rm = rmat - eye(3)    ! small: keeps the residual free of q + d - q cancellation
         do i = 1, size(q, 2)
-            res(:, i) = d(:, i) - t - matmul(rm, q(:, i))
+            res(1, i) = d(1, i) - t(1) - (rm(1,1)*q(1, i) + rm(1,2)*q(2, i) + rm(1,3)*q(3, i))
+            res(2, i) = d(2, i) - t(2) - (rm(2,1)*q(1, i) + rm(2,2)*q(2, i) + rm(2,3)*q(3, i))
+            res(3, i) = d(3, i) - t(3) - (rm(3,1)*q(1, i) + rm(3,2)*q(2, i) + rm(3,3)*q(3, i))
         end do
     end subroutine residuals
 
