@@ -87,10 +87,8 @@ contains
         real(dp) :: a, iy, iz, j
         c = 0.0_dp
         a = props(1); iy = props(2); iz = props(3); j = props(4)
-        if (.not. (l > 0.0_dp .and. e > 0.0_dp .and. g > 0.0_dp .and. all(props(1:4) > 0.0_dp))) then
-            info = sk_err_argument
-            return
-        end if
+        info = beam_args(l, e, g, props)
+        if (info /= sk_ok) return
         c(1, 1) = l/(e*a)
         c(2, 2) = l**3/(3.0_dp*e*iz)
         c(3, 3) = l**3/(3.0_dp*e*iy)
@@ -124,10 +122,8 @@ contains
         real(dp) :: a, iy, iz, j
         k = 0.0_dp
         a = props(1); iy = props(2); iz = props(3); j = props(4)
-        if (.not. (l > 0.0_dp .and. e > 0.0_dp .and. g > 0.0_dp .and. all(props(1:4) > 0.0_dp))) then
-            info = sk_err_argument
-            return
-        end if
+        info = beam_args(l, e, g, props)
+        if (info /= sk_ok) return
         k(1, 1) = a
         k(2, 2) = 12.0_dp*iz/l**2
         k(3, 3) = 12.0_dp*iy/l**2
@@ -141,5 +137,13 @@ contains
         k = e/l*k
         info = sk_ok
     end subroutine beam_stiffness_eq24
+
+    !> sk_ok when length, moduli and section properties are all positive.
+    pure integer(ip) function beam_args(l, e, g, props) result(info)
+        real(dp), intent(in) :: l, e, g, props(6)
+        info = sk_ok
+        if (.not. (l > 0.0_dp .and. e > 0.0_dp .and. g > 0.0_dp .and. all(props(1:4) > 0.0_dp))) &
+            info = sk_err_argument
+    end function beam_args
 
 end module sk_beams
