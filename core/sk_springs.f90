@@ -62,6 +62,8 @@ module sk_springs
         real(dp) :: k(6, 6) = 0.0_dp      !> stiffness on motions orthogonal to the rigid wrenches
         real(dp) :: gam(6, 6) = 0.0_dp    !> projector (or sum) onto rigid wrenches
         logical :: has_phi = .false., has_gam = .false.
+        logical :: phi_r1 = .false.       !> phi is the single rank-1 projector phi_vec phi_vec^T
+        real(dp) :: phi_vec(6) = 0.0_dp
         integer :: form = form_c
         integer :: nf = 0, ng = 0         !> numbers of free twists / rigid wrenches (after a switch)
         real(dp) :: ratio = 1.0_dp        !> smallest/largest eigenvalue kept in the last switch
@@ -233,21 +235,105 @@ contains
         end do
     end subroutine split_range
 
+    !> Inverse of a small symmetric positive definite a[n,n] by Cholesky and
+    !> the lower bound 1/(tr(a) tr(a^-1)) of its smallest/largest eigenvalue
+    !> ratio; ok = .false. if a pivot is not positive.
+    pure subroutine spd_inverse_small(n, a, ainv, bound, ok)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n)
+        real(dp), intent(out) :: ainv(n, n), bound
+        logical, intent(out) :: ok
+        real(dp) :: l(n, n), li(n, n), s, tra, tri
+        integer :: i, j, k
+        ok = .false.
+        bound = 0.0_dp
+        ainv = 0.0_dp
+        l = 0.0_dp
+        do j = 1, n
+            s = a(j, j)
+            do k = 1, j - 1
+                s = s - l(j, k)**2
+            end do
+            if (.not. (s > 0.0_dp)) return
+            l(j, j) = sqrt(s)
+            do i = j + 1, n
+                s = a(i, j)
+                do k = 1, j - 1
+                    s = s - l(i, k)*l(j, k)
+                end do
+                l(i, j) = s/l(j, j)
+            end do
+        end do
+        ! li = l^-1 (lower triangular)
+        li = 0.0_dp
+        do j = 1, n
+            li(j, j) = 1.0_dp/l(j, j)
+            do i = j + 1, n
+                s = 0.0_dp
+                do k = j, i - 1
+                    s = s - l(i, k)*li(k, j)
+                end do
+                li(i, j) = s/l(i, i)
+            end do
+        end do
+        ! ainv = li^T li
+        do j = 1, n
+            do i = j, n
+                s = 0.0_dp
+                do k = i, n
+                    s = s + li(k, i)*li(k, j)
+                end do
+                ainv(i, j) = s
+                ainv(j, i) = s
+            end do
+        end do
+        tra = 0.0_dp
+        tri = 0.0_dp
+        do i = 1, n
+            tra = tra + a(i, i)
+            tri = tri + ainv(i, i)
+        end do
+        bound = 1.0_dp/(tra*tri)
+        ok = .true.
+    end subroutine spd_inverse_small
+
     !> Shared body of the two switches: given the dual projector (free
     !> twists for C -> K, rigid wrenches for K -> C) and the matrix m
     !> (C or K), return its inverse on the complement (minv), the new
-    !> degenerate projector (dnew: rigid for C -> K, free for K -> C) with
+    !> degenerate projector (pnew: rigid for C -> K, free for K -> C) with
     !> its rank, the rank of the old one (made an exact projector) and the
-    !> eigenvalue ratio.
-    pure subroutine switch_form(m, pold, has_old, rcond, minv, pnew, nnew, nold, ratio)
-        real(dp), intent(in) :: m(6, 6), rcond
+    !> eigenvalue ratio. A projector known to be the rank-1 vec vec^T
+    !> (r1) is complemented by a Householder reflection. Unless exact, a
+    !> reduced matrix whose Cholesky factor proves every eigenvalue above
+    !> rcond times the largest (1/(tr M tr M^-1) > rcond) is inverted
+    !> directly, with the same rank decision as the eigen-decomposition;
+    !> ratio is then that lower bound. exact: always the eigen-decomposition.
+    pure subroutine switch_form(m, pold, has_old, r1, vec, rcond, exact, minv, pnew, nnew, nold, ratio)
+        real(dp), intent(in) :: m(6, 6), rcond, vec(6)
         real(dp), intent(inout) :: pold(6, 6)
-        logical, intent(in) :: has_old
+        logical, intent(in) :: has_old, r1, exact
         real(dp), intent(out) :: minv(6, 6), pnew(6, 6), ratio
         integer, intent(out) :: nnew, nold
-        real(dp) :: rng(6, 6), cmp(6, 6), mr(6, 6), w(6), u(6, 6), z(6), smax, smin
+        real(dp) :: rng(6, 6), cmp(6, 6), mr(6, 6), mri(6, 6), w(6), u(6, 6), z(6), smax, smin
+        real(dp) :: hv(6), bound
+        logical :: ok
         integer :: nc, i, a, b, kept
-        call split_range(pold, has_old, rcond, rng, nold, cmp, nc)
+        if (has_old .and. r1) then
+            hv = vec/norm2(vec)
+            rng = 0.0_dp
+            rng(:, 1) = hv
+            nold = 1
+            hv(1) = hv(1) + sign(1.0_dp, hv(1))
+            do b = 2, 6
+                do a = 1, 6
+                    cmp(a, b - 1) = -2.0_dp*hv(a)*hv(b)/dot_product(hv, hv)
+                end do
+                cmp(b, b - 1) = cmp(b, b - 1) + 1.0_dp
+            end do
+            nc = 5
+        else
+            call split_range(pold, has_old, rcond, rng, nold, cmp, nc)
+        end if
         if (has_old) pold = matmul(rng(:, 1:nold), transpose(rng(:, 1:nold)))
         minv = 0.0_dp
         pnew = 0.0_dp
@@ -255,6 +341,14 @@ contains
         ratio = 0.0_dp
         if (nc == 0) return
         mr(1:nc, 1:nc) = matmul(transpose(cmp(:, 1:nc)), matmul(m, cmp(:, 1:nc)))
+        if (.not. exact) then
+            call spd_inverse_small(nc, mr(1:nc, 1:nc), mri(1:nc, 1:nc), bound, ok)
+            if (ok .and. bound > rcond) then
+                minv = matmul(cmp(:, 1:nc), matmul(mri(1:nc, 1:nc), transpose(cmp(:, 1:nc))))
+                ratio = bound
+                return
+            end if
+        end if
         call jacobi_eig(nc, mr(1:nc, 1:nc), w(1:nc), u(1:nc, 1:nc))
         smax = w(nc)
         smin = smax
@@ -282,21 +376,26 @@ contains
     end subroutine switch_form
 
     !> Compliance form -> stiffness form (scaled space).
-    pure subroutine c_to_k(s, rcond)
+    pure subroutine c_to_k(s, rcond, exact)
         type(gspring), intent(inout) :: s
         real(dp), intent(in) :: rcond
-        call switch_form(s%c, s%phi, s%has_phi, rcond, s%k, s%gam, s%ng, s%nf, s%ratio)
+        logical, intent(in) :: exact
+        call switch_form(s%c, s%phi, s%has_phi, s%phi_r1, s%phi_vec, rcond, exact, s%k, s%gam, &
+                         s%ng, s%nf, s%ratio)
         s%has_gam = s%ng > 0
         s%has_phi = s%nf > 0
     end subroutine c_to_k
 
     !> Stiffness form -> compliance form (scaled space).
-    pure subroutine k_to_c(s, rcond)
+    pure subroutine k_to_c(s, rcond, exact)
         type(gspring), intent(inout) :: s
         real(dp), intent(in) :: rcond
-        call switch_form(s%k, s%gam, s%has_gam, rcond, s%c, s%phi, s%nf, s%ng, s%ratio)
+        logical, intent(in) :: exact
+        call switch_form(s%k, s%gam, s%has_gam, .false., s%phi_vec, rcond, exact, s%c, s%phi, &
+                         s%nf, s%ng, s%ratio)
         s%has_phi = s%nf > 0
         s%has_gam = s%ng > 0
+        s%phi_r1 = .false.
     end subroutine k_to_c
 
     !> Unit twist of a joint seen at the tool point, scaled: (t/lscale, phi).
@@ -459,16 +558,24 @@ contains
                     end do
                     if (jpassive(arg) /= 0) then
                         stack(top)%phi = m
+                        stack(top)%phi_r1 = .true.
+                        stack(top)%phi_vec = xi
                     else
                         stack(top)%c = m
                     end if
                 case (op_series)
                     n = top - arg + 1
-                    if (stack(n)%form == form_k) call k_to_c(stack(n), rcond)
+                    if (stack(n)%form == form_k) call k_to_c(stack(n), rcond, .false.)
                     do j = n + 1, top
-                        if (stack(j)%form == form_k) call k_to_c(stack(j), rcond)
+                        if (stack(j)%form == form_k) call k_to_c(stack(j), rcond, .false.)
                         stack(n)%c = stack(n)%c + stack(j)%c
                         if (stack(j)%has_phi) then
+                            if (stack(n)%has_phi) then
+                                stack(n)%phi_r1 = .false.
+                            else
+                                stack(n)%phi_r1 = stack(j)%phi_r1
+                                stack(n)%phi_vec = stack(j)%phi_vec
+                            end if
                             stack(n)%phi = stack(n)%phi + stack(j)%phi
                             stack(n)%has_phi = .true.
                         end if
@@ -478,9 +585,9 @@ contains
                     top = n
                 case (op_parallel)
                     n = top - arg + 1
-                    if (stack(n)%form == form_c) call c_to_k(stack(n), rcond)
+                    if (stack(n)%form == form_c) call c_to_k(stack(n), rcond, .false.)
                     do j = n + 1, top
-                        if (stack(j)%form == form_c) call c_to_k(stack(j), rcond)
+                        if (stack(j)%form == form_c) call c_to_k(stack(j), rcond, .false.)
                         stack(n)%k = stack(n)%k + stack(j)%k
                         if (stack(j)%has_gam) then
                             stack(n)%gam = stack(n)%gam + stack(j)%gam
@@ -489,14 +596,15 @@ contains
                     end do
                     stack(n)%form = form_k
                     stack(n)%has_phi = .false.
+                    stack(n)%phi_r1 = .false.
                     top = n
                 end select
             end do
             ! the root in both forms
             if (stack(1)%form == form_c) then
-                call c_to_k(stack(1), rcond)
+                call c_to_k(stack(1), rcond, .true.)
             else
-                call k_to_c(stack(1), rcond)
+                call k_to_c(stack(1), rcond, .true.)
             end if
             ratio(ip_) = stack(1)%ratio
             nfree(ip_) = stack(1)%nf

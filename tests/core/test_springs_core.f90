@@ -72,12 +72,12 @@ contains
     subroutine test_switch_rank()
         type(gspring) :: s
         s%c = diag([1.0_dp, 2.0_dp, 0.0_dp, 4.0_dp, 5.0_dp, 6.0_dp])
-        call c_to_k(s, 1.0e-9_dp)
+        call c_to_k(s, 1.0e-9_dp, .true.)
         call expect(s%ng == 1 .and. s%nf == 0, 'one rigid wrench')
         call expect(abs(s%gam(3, 3) - 1.0_dp) < 10*epsilon(1.0_dp), 'rigid wrench is e3')
         call expect(maxval(abs(s%k - diag([1.0_dp, 0.5_dp, 0.0_dp, 0.25_dp, 0.2_dp, 1.0_dp/6]))) < 10*epsilon(1.0_dp), &
                     'K = pseudo-inverse')
-        call k_to_c(s, 1.0e-9_dp)
+        call k_to_c(s, 1.0e-9_dp, .false.)
         call expect(s%nf == 0 .and. s%ng == 1, 'back: e3 stays rigid, not free')
         call expect(maxval(abs(s%c - diag([1.0_dp, 2.0_dp, 0.0_dp, 4.0_dp, 5.0_dp, 6.0_dp]))) < 10*epsilon(1.0_dp), 'C restored')
     end subroutine test_switch_rank
