@@ -606,6 +606,22 @@ contains
             else
                 call k_to_c(stack(1), rcond, .true.)
             end if
+            ! report each matrix on its own subspace: C on the wrenches orthogonal
+            ! to the free twists, K on the motions orthogonal to the rigid wrenches
+            if (stack(1)%nf > 0) then
+                m = -stack(1)%phi
+                do a = 1, 6
+                    m(a, a) = m(a, a) + 1.0_dp
+                end do
+                stack(1)%c = matmul(m, matmul(stack(1)%c, m))
+            end if
+            if (stack(1)%ng > 0) then
+                m = -stack(1)%gam
+                do a = 1, 6
+                    m(a, a) = m(a, a) + 1.0_dp
+                end do
+                stack(1)%k = matmul(m, matmul(stack(1)%k, m))
+            end if
             ratio(ip_) = stack(1)%ratio
             nfree(ip_) = stack(1)%nf
             nrigid(ip_) = stack(1)%ng
