@@ -230,6 +230,35 @@ class TestSerialVJM:
         assert relerr(res.stiffness[0], np.linalg.inv(C)) < 1e-8
 
 
+    def test_serial_vjm_six_joints_kc_and_wrist_singularity(self):
+        """6 joint springs only: K_C = J^-T k J^-1 where J is square and
+        regular; at a wrist singularity (axes 4 and 6 aligned) K_C does not
+        exist and the rigid wrench is the one with J^T w = 0."""
+        from stiffkit.springs import serial_vjm
+        kj = np.array([3e6, 2e6, 1e6, 4e5, 3e5, 2e5])
+        wc = np.array([0.9, 0.1, 1.2])                       # wrist centre
+        def chain(q5):
+            # wrist: axis 4 along x, axis 5 along y, axis 6 turned by q5 about y
+            axes = np.array([[0, 0, 1], [0, 1, 0], [0, 1, 0], [1, 0, 0],
+                             [0, 1, 0], [np.cos(q5), 0, -np.sin(q5)]], float)
+            pts = np.array([[0, 0, 0.4], [0.1, 0, 0.6], [0.1, 0, 1.2], wc, wc, wc], float)
+            return axes, pts
+        A0, P0 = chain(0.0)                      # axes 4 and 6 both along x: singular
+        A1, P1 = chain(0.7)
+        tool = wc + [0.2, 0.05, -0.1]
+        res = serial_vjm(np.stack([A1, A0]), np.stack([P1, P0]), 1 / kj, np.zeros((0, 6, 6)),
+                         np.zeros((2, 0, 3)), np.zeros((2, 0, 3, 3)), tool)
+        J = np.array([np.r_[np.cross(a / np.linalg.norm(a), tool - p), a / np.linalg.norm(a)]
+                      for a, p in zip(A1, P1)]).T
+        Ji = np.linalg.inv(J)
+        assert list(res.stiffness_exists) == [True, False]
+        assert relerr(res.stiffness[0], Ji.T @ np.diag(kj) @ Ji) < 1e-9
+        J0 = np.array([np.r_[np.cross(a, tool - p), a] for a, p in zip(A0, P0)]).T
+        w = res.rigid_wrenches(1)[:, 0]
+        assert res.nrigid[1] == 1
+        assert np.linalg.norm(J0.T @ w) < 1e-10 * np.linalg.norm(J0) * np.linalg.norm(w)
+
+
 class TestParallelRobots:
     def test_three_cyclic_legs_give_a_cyclic_stiffness(self, beam_c):
         """Three identical legs related by the 120 deg turn about (1,1,1): the

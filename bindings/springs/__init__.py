@@ -10,6 +10,7 @@ gives kappa_t, kappa_r. Example models: ``stiffkit.springs.orthoglide``,
 from .indices import Indices, stiffness_indices
 from .tree import (Joint, Parallel, Series, Spring, TreeResult, evaluate, load_link_compliance,
                    parallel, series)
+from .vjm import serial_vjm
 
 __all__ = ["Spring", "Joint", "Series", "Parallel", "series", "parallel", "evaluate",
-           "TreeResult", "load_link_compliance", "Indices", "stiffness_indices"]
+           "TreeResult", "load_link_compliance", "Indices", "stiffness_indices", "serial_vjm"]

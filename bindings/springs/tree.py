@@ -177,6 +177,16 @@ class TreeResult:
         """Number of elastic directions (6 - nfree - nrigid) per posture."""
         return 6 - self.nfree - self.nrigid
 
+    @property
+    def compliance_exists(self) -> np.ndarray:
+        """(N,) bool: no free motion, the 6x6 compliance is the compliance proper."""
+        return self.nfree == 0
+
+    @property
+    def stiffness_exists(self) -> np.ndarray:
+        """(N,) bool: no rigid direction, the 6x6 stiffness (K_C) is the stiffness proper."""
+        return self.nrigid == 0
+
     def free_twists(self, i: int = 0) -> np.ndarray:
         return self.free[i, :, :self.nfree[i]]
 
