@@ -414,3 +414,9 @@ class TestErrors:
             evaluate(Spring(beam_c), lscale=-1.0)
         with pytest.raises(sk.InputError):
             og.compliance([[0.0, 0.4, 0.0]])       # out of reach
+        with pytest.raises(sk.InputError, match="rotation"):
+            Spring(beam_c, rot=2 * np.eye(3))
+        with pytest.raises(sk.InputError, match="NaN"):
+            evaluate(Spring(beam_c), tool=[np.nan, 0, 0])
+        with pytest.raises(sk.InputError, match="postures"):
+            evaluate(series(Spring(beam_c, pos=np.zeros((3, 3))), Spring(beam_c, pos=np.zeros((4, 3)))))

@@ -91,6 +91,10 @@ class Spring:
         self.matrix = m
         self.pos = _as_pose(np.zeros(3) if self.pos is None else self.pos, (3,), "pos")
         self.rot = _as_pose(np.eye(3) if self.rot is None else self.rot, (3, 3), "rot")
+        err = np.abs(np.swapaxes(self.rot, -1, -2) @ self.rot - np.eye(3)).max() if self.rot.size else 0.0
+        if not err < 1e-6:
+            raise InputError(f"spring {self.name!r}: rot is not a rotation matrix "
+                             f"(|R^T R - I| = {err:.1e}); its columns are the spring's axes")
 
 
 @dataclass
@@ -290,6 +294,10 @@ def evaluate(tree: Node, tool=(0.0, 0.0, 0.0), tool_rot=None, lscale: float | No
     jpoint = _stack([j.point for j in prog.joints], (3,), n).T if nj else np.zeros((3, 1, n), order="F")
     if nj and np.any(np.linalg.norm(jaxis, axis=0) == 0):
         raise InputError("a joint axis is the zero vector")
+    for name, arr in (("spring positions", lpos), ("joint axes", jaxis), ("joint points", jpoint),
+                      ("tool", tool)):
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"{name} contain NaN or Inf")
     tpos = np.broadcast_to(tool, (n, 3)).T
     trot = np.broadcast_to(np.eye(3) if tool_rot is None else np.swapaxes(tool_rot, -1, -2),
                            (n, 3, 3)).T
