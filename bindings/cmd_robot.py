@@ -53,7 +53,8 @@ illustrative, so the curves show the computation of Fig. 10, not its values.
 
 indices (eqs. 31-39): kappa_t, kappa_r in N, made unit-invariant with the
 characteristic length --lscale (default: the proximal bar length, 350 mm);
---lscale 1000 (mm) reproduces the report's formula with lengths in m.
+--lscale 1 is the report's literal formula in SI units (then the numbers
+would change if the same robot were entered in mm).
 
 examples:
   stiffkit robot smg --png smg_indices.png
