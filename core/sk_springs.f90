@@ -321,6 +321,7 @@ contains
         if (has_old .and. r1) then
             hv = vec/norm2(vec)
             rng = 0.0_dp
+            cmp = 0.0_dp
             rng(:, 1) = hv
             nold = 1
             hv(1) = hv(1) + sign(1.0_dp, hv(1))
@@ -334,17 +335,20 @@ contains
         else
             call split_range(pold, has_old, rcond, rng, nold, cmp, nc)
         end if
-        if (has_old) pold = matmul(rng(:, 1:nold), transpose(rng(:, 1:nold)))
+        ! full 6x6 products (unused columns of rng, cmp are zero): fixed-size
+        ! matmuls the compiler inlines
+        if (has_old) pold = matmul(rng, transpose(rng))
         minv = 0.0_dp
         pnew = 0.0_dp
         nnew = 0
         ratio = 0.0_dp
         if (nc == 0) return
-        mr(1:nc, 1:nc) = matmul(transpose(cmp(:, 1:nc)), matmul(m, cmp(:, 1:nc)))
+        mr = matmul(transpose(cmp), matmul(m, cmp))
         if (.not. exact) then
+            mri = 0.0_dp
             call spd_inverse_small(nc, mr(1:nc, 1:nc), mri(1:nc, 1:nc), bound, ok)
             if (ok .and. bound > rcond) then
-                minv = matmul(cmp(:, 1:nc), matmul(mri(1:nc, 1:nc), transpose(cmp(:, 1:nc))))
+                minv = matmul(cmp, matmul(mri, transpose(cmp)))
                 ratio = bound
                 return
             end if
