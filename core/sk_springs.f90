@@ -41,7 +41,7 @@ module sk_springs
     public :: op_spring, op_joint, op_series, op_parallel
     public :: leaf_compliance, leaf_stiffness, joint_revolute, joint_prismatic
     public :: gspring, jacobi_eig, c_to_k, k_to_c, spring_tree_batch
-    public :: congruence_transfer, rotate_blocks
+    public :: congruence_transfer, rotate_blocks, sym_eigvals_small
 
     integer(ip), parameter :: op_spring = 1     !> push leaf spring arg
     integer(ip), parameter :: op_joint = 2      !> push joint arg
@@ -147,6 +147,107 @@ contains
             v(:, j + 1) = tmpv
         end do
     end subroutine jacobi_eig
+
+    !> Eigenvalues only (unsorted) of a small symmetric a[n,n]: Householder
+    !> tridiagonalisation and the implicit QL iteration (tred2/tqli without
+    !> vectors). ok = .false. if QL needs more than 30 iterations.
+    pure subroutine sym_eigvals_small(n, a, d, ok)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n)
+        real(dp), intent(out) :: d(n)
+        logical, intent(out) :: ok
+        real(dp) :: b(n, n), e(n), scale, h, f, g, hh, r, s, c, p, bb, dd
+        integer :: i, j, l, m, iter
+        logical :: early
+        b = a
+        ok = .true.
+        e = 0.0_dp
+        do i = n, 2, -1
+            l = i - 1
+            h = 0.0_dp
+            if (l > 1) then
+                scale = sum(abs(b(i, 1:l)))
+                if (scale == 0.0_dp) then
+                    e(i) = b(i, l)
+                else
+                    b(i, 1:l) = b(i, 1:l)/scale
+                    h = sum(b(i, 1:l)**2)
+                    f = b(i, l)
+                    g = -sign(sqrt(h), f)
+                    e(i) = scale*g
+                    h = h - f*g
+                    b(i, l) = f - g
+                    f = 0.0_dp
+                    do j = 1, l
+                        g = dot_product(b(j, 1:j), b(i, 1:j)) + dot_product(b(j + 1:l, j), b(i, j + 1:l))
+                        e(j) = g/h
+                        f = f + e(j)*b(i, j)
+                    end do
+                    hh = f/(h + h)
+                    do j = 1, l
+                        f = b(i, j)
+                        g = e(j) - hh*f
+                        e(j) = g
+                        b(j, 1:j) = b(j, 1:j) - (f*e(1:j) + g*b(i, 1:j))
+                    end do
+                end if
+            else
+                e(i) = b(i, l)
+            end if
+        end do
+        do i = 1, n
+            d(i) = b(i, i)
+        end do
+        do i = 2, n
+            e(i - 1) = e(i)
+        end do
+        e(n) = 0.0_dp
+        do l = 1, n
+            iter = 0
+            do
+                do m = l, n - 1
+                    dd = abs(d(m)) + abs(d(m + 1))
+                    if (abs(e(m)) + dd == dd) exit
+                end do
+                if (m == l) exit
+                iter = iter + 1
+                if (iter > 30) then
+                    ok = .false.
+                    return
+                end if
+                g = (d(l + 1) - d(l))/(2.0_dp*e(l))
+                r = hypot(g, 1.0_dp)
+                g = d(m) - d(l) + e(l)/(g + sign(r, g))
+                s = 1.0_dp
+                c = 1.0_dp
+                p = 0.0_dp
+                early = .false.
+                do i = m - 1, l, -1
+                    f = s*e(i)
+                    bb = c*e(i)
+                    r = hypot(f, g)
+                    e(i + 1) = r
+                    if (r == 0.0_dp) then
+                        d(i + 1) = d(i + 1) - p
+                        e(m) = 0.0_dp
+                        early = .true.
+                        exit
+                    end if
+                    s = f/r
+                    c = g/r
+                    g = d(i + 1) - p
+                    r = (d(i) - g)*s + 2.0_dp*c*bb
+                    p = s*r
+                    d(i + 1) = g + p
+                    g = c*r - bb
+                end do
+                if (early) cycle
+                d(l) = d(l) - p
+                e(l) = g
+                e(m) = 0.0_dp
+            end do
+        end do
+    end subroutine sym_eigvals_small
 
     !> Rotate a 6x6 (compliance or stiffness) from local axes to world axes:
     !> diag(R,R) m diag(R,R)^T, block by block.
@@ -307,7 +408,9 @@ contains
     !> reduced matrix whose Cholesky factor proves every eigenvalue above
     !> rcond times the largest (1/(tr M tr M^-1) > rcond) is inverted
     !> directly, with the same rank decision as the eigen-decomposition;
-    !> ratio is then that lower bound. exact: always the eigen-decomposition.
+    !> ratio is then that lower bound, or, if exact, the eigenvalue ratio
+    !> (eigenvalues by tridiagonal QL). Otherwise the Jacobi eigenvectors
+    !> decide the rank.
     pure subroutine switch_form(m, pold, has_old, r1, vec, rcond, exact, minv, pnew, nnew, nold, ratio)
         real(dp), intent(in) :: m(6, 6), rcond, vec(6)
         real(dp), intent(inout) :: pold(6, 6)
@@ -344,12 +447,19 @@ contains
         ratio = 0.0_dp
         if (nc == 0) return
         mr = matmul(transpose(cmp), matmul(m, cmp))
-        if (.not. exact) then
-            mri = 0.0_dp
-            call spd_inverse_small(nc, mr(1:nc, 1:nc), mri(1:nc, 1:nc), bound, ok)
-            if (ok .and. bound > rcond) then
-                minv = matmul(cmp, matmul(mri, transpose(cmp)))
-                ratio = bound
+        mri = 0.0_dp
+        call spd_inverse_small(nc, mr(1:nc, 1:nc), mri(1:nc, 1:nc), bound, ok)
+        if (ok .and. bound > rcond) then
+            ! every eigenvalue is above rcond times the largest: full rank
+            minv = matmul(cmp, matmul(mri, transpose(cmp)))
+            ratio = bound
+            if (exact) then
+                call sym_eigvals_small(nc, mr(1:nc, 1:nc), w(1:nc), ok)
+                if (ok) then
+                    ratio = minval(w(1:nc))/maxval(w(1:nc))
+                    return
+                end if
+            else
                 return
             end if
         end if

@@ -36,6 +36,7 @@ contains
     subroutine test_jacobi()
         real(dp) :: q(6, 6), a(6, 6), w(6), v(6, 6), lam(6)
         integer :: i, j
+        logical :: ok
         lam = [1.0e-8_dp, 1.0_dp, 2.0_dp, 3.0_dp, 1.0e4_dp, 5.0e6_dp]
         q = eye(6)
         do i = 1, 6
@@ -47,6 +48,9 @@ contains
         call expect(all(abs(w - lam) <= 50*epsilon(1.0_dp)*lam(6)), 'jacobi eigenvalues')
         call expect(maxval(abs(matmul(transpose(v), v) - eye(6))) < 50*epsilon(1.0_dp), 'jacobi orthogonal')
         call expect(maxval(abs(matmul(a, v) - matmul(v, diag(w)))) < 100*epsilon(1.0_dp)*lam(6), 'A v = v w')
+        call sym_eigvals_small(6, a, w, ok)
+        call sort(w)
+        call expect(ok .and. all(abs(w - lam) <= 100*epsilon(1.0_dp)*lam(6)), 'tridiagonal QL eigenvalues')
     end subroutine test_jacobi
 
     !> congruence_transfer = T C T^T (compliance_move) and W^T K W with W = T(-r).
@@ -138,6 +142,22 @@ contains
             a(i, i) = v(i)
         end do
     end function diag
+
+    subroutine sort(w)
+        real(dp), intent(inout) :: w(:)
+        integer :: i, j
+        real(dp) :: t
+        do i = 2, size(w)
+            t = w(i)
+            j = i - 1
+            do while (j >= 1)
+                if (w(j) <= t) exit
+                w(j + 1) = w(j)
+                j = j - 1
+            end do
+            w(j + 1) = t
+        end do
+    end subroutine sort
 
     subroutine gram_schmidt(q)
         real(dp), intent(inout) :: q(:, :)
