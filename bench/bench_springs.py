@@ -5,10 +5,13 @@ Two models:
        explicit poses (serial VJM, Klimchik et al. eq. 2): tool compliance
        and stiffness with the rank decided per posture;
   SMG  the McGill SMG of Taghvaeipour et al. (eqs. 22-30), MP stiffness.
-For each: the Fortran core (one call for all postures; the time of the call
-alone, and with the Python that builds the poses), a straightforward numpy
-loop over postures, and numpy vectorised over postures (einsum/batched
-linalg). One thread (OMP_NUM_THREADS=1 via make bench).
+For each: the Fortran core (one call for all postures: the call alone,
+evaluate() with its argument packing, and with the Python that builds the
+poses), a straightforward numpy loop over postures, and numpy vectorised over
+postures (einsum/batched linalg), both doing the same job as stiffkit: the
+6R ones get the same prebuilt poses (compared with evaluate()), the SMG
+ones do their own inverse kinematics (compared with evaluate() + pose
+building). One thread (OMP_NUM_THREADS=1 via make bench).
 
     python bench/bench_springs.py [N]        (default N = 100000)
 """
@@ -98,12 +101,11 @@ def rot6_b(R):
     return b
 
 
-def numpy_6r_loop(q, links):
+def numpy_6r_loop(Pall, Rall, links):
     """Straightforward numpy: one posture at a time (VJM sum, then eigh for K)."""
     out = []
-    for i in range(q.shape[0]):
-        P, R = fk(q[i:i + 1])
-        P, R = P[0], R[0]
+    for i in range(Pall.shape[0]):
+        P, R = Pall[i], Rall[i]
         tool = P[6] + 0.25 * R[6, :, 2]
         C = np.zeros((6, 6))
         ends = [P[1]] + [P[j + 1] if j < 5 else P[6] + 0.1 * R[6, :, 2] for j in range(6)]
@@ -122,13 +124,12 @@ def numpy_6r_loop(q, links):
     return out
 
 
-def numpy_6r_vec(q, links):
+def numpy_6r_vec(P, R, links):
     """numpy vectorised over postures."""
-    P, R = fk(q)
     tool = P[:, 6] + 0.25 * R[:, 6, :, 2]
     ends = [P[:, 1]] + [P[:, j + 1] if j < 5 else P[:, 6] + 0.1 * R[:, 6, :, 2] for j in range(6)]
     frames = [R[:, 0]] + [R[:, j + 1] for j in range(6)]
-    C = np.zeros((q.shape[0], 6, 6))
+    C = np.zeros((P.shape[0], 6, 6))
     for c, e, Rl in zip(links, ends, frames):
         M = transfer_b(tool - e) @ rot6_b(Rl)
         C += M @ c @ np.swapaxes(M, -1, -2)
@@ -175,6 +176,26 @@ def numpy_smg_vec(P, theta, links, g):
     return Ktot
 
 
+class _CoreTimer:
+    """Times the f2py call itself inside evaluate() (the rest is argument packing)."""
+
+    def __init__(self):
+        from stiffkit.springs import tree
+        self.mod, self.orig, self.t = tree._springs, tree._springs.sk_spring_tree, 0.0
+
+    def __enter__(self):
+        def timed(*a):
+            t0 = time.perf_counter()
+            out = self.orig(*a)
+            self.t = time.perf_counter() - t0
+            return out
+        self.mod.sk_spring_tree = timed
+        return self
+
+    def __exit__(self, *exc):
+        self.mod.sk_spring_tree = self.orig
+
+
 def timeit(f, reps=3):
     best = np.inf
     for _ in range(reps):
@@ -186,7 +207,7 @@ def timeit(f, reps=3):
 
 def row(name, n, t, ref=None):
     rate = n / t
-    extra = f"   x{ref / rate:8.1f} slower than core call" if ref else ""
+    extra = f"   x{ref / rate:8.1f} slower than stiffkit" if ref else ""
     print(f"  {name:44s} {n:8d} postures {t:9.4f} s {rate:12.0f} /s{extra}")
     return rate
 
@@ -196,17 +217,16 @@ def main():
     links = link_compliances()
     q = rng.uniform(-np.pi, np.pi, (N, 6))
     print(f"6R (6 joint + 7 link springs), N = {N}")
-    t_build, (tree, tool, _, _) = timeit(lambda: model_6r(q, links), 1)
-    t_all, res = timeit(lambda: evaluate(model_6r(q, links)[0], tool=model_6r(q, links)[1], lscale=1.0), 1)
-    # the core call alone: evaluate() on a prebuilt tree minus its own argument packing is
-    # measured by timing evaluate on the prebuilt tree
-    t_core, res = timeit(lambda: evaluate(tree, tool=tool, lscale=1.0), 3)
-    r_core = row("core, one call (prebuilt poses)", N, t_core)
-    row("core + Python pose building", N, t_core + t_build)
-    t_vec, (Cv, Kv) = timeit(lambda: numpy_6r_vec(q, links), 1)
-    r_vec = row("numpy vectorised over postures", N, t_vec, r_core)
-    t_loop, out = timeit(lambda: numpy_6r_loop(q[:N_LOOP], links), 1)
-    r_loop = row("numpy loop over postures (straightforward)", N_LOOP, t_loop, r_core)
+    t_build, (tree, tool, Pf, Rf) = timeit(lambda: model_6r(q, links), 1)
+    with _CoreTimer() as ct:
+        t_core, res = timeit(lambda: evaluate(tree, tool=tool, lscale=1.0), 3)
+    row("Fortran core call alone", N, ct.t)
+    r_core = row("evaluate() on prebuilt poses (one core call)", N, t_core)
+    row("evaluate() + Python pose building (FK)", N, t_core + t_build)
+    t_vec, (Cv, Kv) = timeit(lambda: numpy_6r_vec(Pf, Rf, links), 1)
+    r_vec = row("numpy vectorised, same prebuilt poses", N, t_vec, r_core)
+    t_loop, out = timeit(lambda: numpy_6r_loop(Pf[:N_LOOP], Rf[:N_LOOP], links), 1)
+    r_loop = row("numpy loop over postures, same poses", N_LOOP, t_loop, r_core)
     err = np.abs(res.compliance - Cv).max() / np.abs(Cv).max()
     errk = np.max(np.abs(res.stiffness - Kv).max(axis=(1, 2)) / np.abs(Kv).max(axis=(1, 2)))
     print(f"  agreement core vs numpy: compliance {err:.1e}, stiffness {errk:.1e} (relative); "
@@ -218,14 +238,17 @@ def main():
     tau, P, theta = smg.trajectory(N, g)
     print(f"\nMcGill SMG (2 limbs x 2 Pi-joints x 2 links, 3 passive joints per limb), N = {N}")
     t_build, tree = timeit(lambda: smg.smg_tree(P, theta, sl, g), 1)
-    t_core, res = timeit(lambda: evaluate(tree, tool=P, lscale=g.l1), 3)
-    r_core = row("core, one call (prebuilt poses)", N, t_core)
-    row("core + Python pose building", N, t_core + t_build)
+    with _CoreTimer() as ct:
+        t_core, res = timeit(lambda: evaluate(tree, tool=P, lscale=g.l1), 3)
+    row("Fortran core call alone", N, ct.t)
+    r_core = row("evaluate() on prebuilt poses (one core call)", N, t_core)
+    row("evaluate() + Python pose building", N, t_core + t_build)
+    r_core = N / (t_core + t_build)          # numpy below does its own inverse kinematics
     t_vec, Kv = timeit(lambda: numpy_smg_vec(P, theta, sl, g), 1)
-    r_vec = row("numpy vectorised (eqs. 22-30)", N, t_vec, r_core)
+    r_vec = row("numpy vectorised (eqs. 22-30, with IK)", N, t_vec, r_core)
     m = min(N, N_LOOP)
     t_loop, _ = timeit(lambda: [numpy_smg_vec(P[i:i + 1], theta[i:i + 1], sl, g) for i in range(m)], 1)
-    r_loop = row("numpy loop over postures (eqs. 22-30)", m, t_loop, r_core)
+    r_loop = row("numpy loop over postures (eqs. 22-30, with IK)", m, t_loop, r_core)
     err = np.max(np.abs(res.stiffness - Kv).max(axis=(1, 2)) / np.abs(Kv).max(axis=(1, 2)))
     print(f"  agreement core vs numpy eqs. 22-30: stiffness {err:.1e} (relative)")
     print(f"  speed-up: x{r_core / r_loop:.0f} vs numpy loop, x{r_core / r_vec:.1f} vs numpy vectorised")

@@ -216,7 +216,7 @@ contains
                     return
                 end if
                 g = (d(l + 1) - d(l))/(2.0_dp*e(l))
-                r = hypot(g, 1.0_dp)
+                r = sqrt(g*g + 1.0_dp)
                 g = d(m) - d(l) + e(l)/(g + sign(r, g))
                 s = 1.0_dp
                 c = 1.0_dp
@@ -225,7 +225,7 @@ contains
                 do i = m - 1, l, -1
                     f = s*e(i)
                     bb = c*e(i)
-                    r = hypot(f, g)
+                    r = sqrt(f*f + g*g)
                     e(i + 1) = r
                     if (r == 0.0_dp) then
                         d(i + 1) = d(i + 1) - p
@@ -254,12 +254,18 @@ contains
     pure subroutine rotate_blocks(rot, m)
         real(dp), intent(in) :: rot(3, 3)
         real(dp), intent(inout) :: m(6, 6)
-        real(dp) :: rt(3, 3)
+        real(dp) :: rt(3, 3), a(3, 3), b(3, 3), d(3, 3)
         rt = transpose(rot)
-        m(1:3, 1:3) = matmul(rot, matmul(m(1:3, 1:3), rt))
-        m(1:3, 4:6) = matmul(rot, matmul(m(1:3, 4:6), rt))
-        m(4:6, 4:6) = matmul(rot, matmul(m(4:6, 4:6), rt))
-        m(4:6, 1:3) = transpose(m(1:3, 4:6))
+        a = m(1:3, 1:3)
+        b = m(1:3, 4:6)
+        d = m(4:6, 4:6)
+        a = matmul(rot, matmul(a, rt))
+        b = matmul(rot, matmul(b, rt))
+        d = matmul(rot, matmul(d, rt))
+        m(1:3, 1:3) = a
+        m(1:3, 4:6) = b
+        m(4:6, 4:6) = d
+        m(4:6, 1:3) = transpose(b)
     end subroutine rotate_blocks
 
     !> m <- T m T^T with T = twist_transfer(r) = [[I, -[r]x], [0, I]]
