@@ -1,6 +1,6 @@
 !> Unit tests of sk_springs and sk_indices on small known systems;
 !> tolerances scaled by epsilon.
-program test_springs_core
+program test_springs
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: eye, skew
@@ -170,4 +170,4 @@ contains
         end do
     end subroutine gram_schmidt
 
-end program test_springs_core
+end program test_springs
