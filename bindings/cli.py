@@ -16,6 +16,7 @@ from ._errors import StiffkitError
 # (module, one-line summary); the module's register() builds the parser
 COMMANDS = [
     ("stiffkit.cmd_field", "field: fit (t, phi) of node displacement fields; compliance from six load cases"),
+    ("stiffkit.cmd_robot", "robot: manipulator stiffness from generalised springs (Orthoglide, SMG, your tree)"),
     ("stiffkit.cmd_demo", "demo: the main job on a built-in example"),
 ]
 

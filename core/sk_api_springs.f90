@@ -1,0 +1,42 @@
+!> Entry points of the springs / parallel-robot / indices core that f2py
+!> wraps (bindings/springs/_springs.pyf). Plain external subroutines with
+!> explicit-shape arrays of iso_c_binding kinds and an integer `info`.
+
+!> Spring tree (postfix program prog[2,nops]) at np postures; see
+!> sk_springs::spring_tree_batch for every argument.
+subroutine sk_spring_tree(nops, ns, nj, np, prog, lkind, lmat, lrot, lpos, jtype, jcomp, &
+        jpassive, jaxis, jpoint, tpos, trot, lscale, rcond, c, k, free, nfree, rigid, nrigid, &
+        ratio, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_springs, only: spring_tree_batch
+    implicit none
+    integer(c_int), intent(in) :: nops, ns, nj, np
+    integer(c_int), intent(in) :: prog(2, nops), lkind(ns), jtype(nj), jpassive(nj)
+    real(c_double), intent(in) :: lmat(6, 6, ns), lrot(3, 3, ns, np), lpos(3, ns, np)
+    real(c_double), intent(in) :: jcomp(nj), jaxis(3, nj, np), jpoint(3, nj, np)
+    real(c_double), intent(in) :: tpos(3, np), trot(3, 3, np), lscale, rcond
+    real(c_double), intent(out) :: c(6, 6, np), k(6, 6, np), free(6, 6, np), rigid(6, 6, np)
+    real(c_double), intent(out) :: ratio(np)
+    integer(c_int), intent(out) :: nfree(np), nrigid(np), info
+    call spring_tree_batch(prog, lkind, lmat, lrot, lpos, jtype, jcomp, jpassive, jaxis, &
+        jpoint, tpos, trot, lscale, rcond, c, k, free, nfree, rigid, nrigid, ratio, info)
+end subroutine sk_spring_tree
+
+!> Stiffness indices kappa_t, kappa_r (eqs. 31-39, length scale lscale)
+!> of np stiffness matrices k[6,6,np].
+subroutine sk_stiffness_indices(np, k, lscale, kt, kr, lamf, lamn, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_indices, only: stiffness_indices
+    implicit none
+    integer(c_int), intent(in) :: np
+    real(c_double), intent(in) :: k(6, 6, np), lscale
+    real(c_double), intent(out) :: kt(np), kr(np), lamf(3, np), lamn(3, np)
+    integer(c_int), intent(out) :: info
+    integer :: i
+    info = sk_ok
+    do i = 1, np
+        call stiffness_indices(k(:, :, i), lscale, kt(i), kr(i), lamf(:, i), lamn(:, i), info)
+        if (info /= sk_ok) return
+    end do
+end subroutine sk_stiffness_indices

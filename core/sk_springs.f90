@@ -1,0 +1,783 @@
+!> Generalised springs (Taghvaeipour et al. 2010 s3) and virtual-joint
+!> models (Klimchik et al. eq. 2) as one small algebra, evaluated in batch
+!> over postures.
+!>
+!> A generalised spring between two rigid bodies is held in two dual forms,
+!> both always defined, at one reference point with one set of axes:
+!>   compliance form (C, Phi):  x = C w + F q,  F^T w = 0
+!>       C    6x6 compliance on the wrenches the spring carries (may be
+!>            singular: zero compliance = rigid direction),
+!>       Phi  projector onto the free twists F (passive joints, mechanisms);
+!>   stiffness form (K, Gam):   w = K x + G l,  G^T x = 0
+!>       K    6x6 stiffness on the motions the spring allows (may be
+!>            singular: zero stiffness = free direction),
+!>       Gam  projector onto the rigid (reaction) wrenches G.
+!> A serial array adds compliance forms (eqs. 17-22: with every spring
+!> moved to one point the Schur complement of eq. 22 becomes a sum of
+!> compliances); a parallel array adds stiffness forms (eq. 16). Switching
+!> form is a symmetric eigenproblem on the subspace orthogonal to the
+!> free/rigid directions, so a singular matrix is never inverted: the
+!> directions whose eigenvalue falls below rcond times the largest become
+!> free (or rigid) directions and are reported, which is how the rank drop
+!> at a singular posture shows up.
+!>
+!> Units. Rank decisions compare translations with rotations, so the core
+!> works in a scaled space: lengths divided by a characteristic length
+!> lscale, x~ = D x, w~ = D^-1 w, C~ = D C D, K~ = D^-1 K D^-1 with
+!> D = diag(lscale^-1/2 I, lscale^1/2 I). Orthogonality and eigenvalue
+!> ratios there do not depend on the unit of length. Inputs and outputs are
+!> in the caller's units.
+!>
+!> Everything is expressed at the tool (output) point in world axes from
+!> the start: each leaf is moved there with the transfer matrices of eqs.
+!> 8 and 12, so a tree of series/parallel arrays needs no more geometry.
+!> A tree is a postfix program: push leaf spring, push joint, combine the
+!> top n entries in series, combine them in parallel.
+module sk_springs
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    implicit none
+    private
+    public :: op_spring, op_joint, op_series, op_parallel
+    public :: leaf_compliance, leaf_stiffness, joint_revolute, joint_prismatic
+    public :: gspring, jacobi_eig, c_to_k, k_to_c, spring_tree_batch
+    public :: congruence_transfer, rotate_blocks, sym_eigvals_small
+
+    integer(ip), parameter :: op_spring = 1     !> push leaf spring arg
+    integer(ip), parameter :: op_joint = 2      !> push joint arg
+    integer(ip), parameter :: op_series = 3     !> pop arg entries, push their serial array
+    integer(ip), parameter :: op_parallel = 4   !> pop arg entries, push their parallel array
+
+    integer(ip), parameter :: leaf_compliance = 0   !> leaf matrix is a compliance
+    integer(ip), parameter :: leaf_stiffness = 1    !> leaf matrix is a stiffness
+    integer(ip), parameter :: joint_revolute = 1
+    integer(ip), parameter :: joint_prismatic = 2
+
+    integer, parameter :: form_c = 1, form_k = 2
+
+    !> One generalised spring in both forms (scaled space, tool point).
+    type :: gspring
+        real(dp) :: c(6, 6) = 0.0_dp      !> compliance on wrenches orthogonal to the free twists
+        real(dp) :: phi(6, 6) = 0.0_dp    !> projector (or sum of projectors) onto free twists
+        real(dp) :: k(6, 6) = 0.0_dp      !> stiffness on motions orthogonal to the rigid wrenches
+        real(dp) :: gam(6, 6) = 0.0_dp    !> projector (or sum) onto rigid wrenches
+        logical :: has_phi = .false., has_gam = .false.
+        logical :: phi_r1 = .false.       !> phi is the single rank-1 projector phi_vec phi_vec^T
+        real(dp) :: phi_vec(6) = 0.0_dp
+        integer :: form = form_c
+        integer :: nf = 0, ng = 0         !> numbers of free twists / rigid wrenches (after a switch)
+        real(dp) :: ratio = 1.0_dp        !> smallest/largest eigenvalue kept in the last switch
+    end type gspring
+
+contains
+
+    !> Eigen-decomposition of a small symmetric a[n,n] by cyclic Jacobi
+    !> rotations (relatively accurate for graded matrices, no workspace):
+    !> eigenvalues w ascending, eigenvectors in the columns of v.
+    pure subroutine jacobi_eig(n, a, w, v)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n)
+        real(dp), intent(out) :: w(n), v(n, n)
+        real(dp) :: b(n, n), off, tot, theta, t, c, s, x, y, tmpw, tmpv(n)
+        integer :: sweep, p, q, k, i, j
+        b = a
+        v = 0.0_dp
+        do k = 1, n
+            v(k, k) = 1.0_dp
+        end do
+        do sweep = 1, 60
+            off = 0.0_dp
+            tot = 0.0_dp
+            do q = 1, n
+                do p = 1, q - 1
+                    off = off + b(p, q)**2
+                end do
+                tot = tot + b(q, q)**2
+            end do
+            if (off <= (1.0e-18_dp)**2*(tot + 2*off) .or. off == 0.0_dp) exit
+            do p = 1, n - 1
+                do q = p + 1, n
+                    if (b(p, q) == 0.0_dp) cycle
+                    theta = (b(q, q) - b(p, p))/(2.0_dp*b(p, q))
+                    if (abs(theta) > 1.0e150_dp) then
+                        t = 0.5_dp/theta
+                    else
+                        t = sign(1.0_dp, theta)/(abs(theta) + sqrt(theta*theta + 1.0_dp))
+                    end if
+                    c = 1.0_dp/sqrt(t*t + 1.0_dp)
+                    s = t*c
+                    do k = 1, n
+                        x = b(k, p)
+                        y = b(k, q)
+                        b(k, p) = c*x - s*y
+                        b(k, q) = s*x + c*y
+                    end do
+                    do k = 1, n
+                        x = b(p, k)
+                        y = b(q, k)
+                        b(p, k) = c*x - s*y
+                        b(q, k) = s*x + c*y
+                    end do
+                    b(p, q) = 0.0_dp
+                    b(q, p) = 0.0_dp
+                    do k = 1, n
+                        x = v(k, p)
+                        y = v(k, q)
+                        v(k, p) = c*x - s*y
+                        v(k, q) = s*x + c*y
+                    end do
+                end do
+            end do
+        end do
+        do k = 1, n
+            w(k) = b(k, k)
+        end do
+        ! insertion sort, ascending
+        do i = 2, n
+            tmpw = w(i)
+            tmpv = v(:, i)
+            j = i - 1
+            do while (j >= 1)
+                if (w(j) <= tmpw) exit
+                w(j + 1) = w(j)
+                v(:, j + 1) = v(:, j)
+                j = j - 1
+            end do
+            w(j + 1) = tmpw
+            v(:, j + 1) = tmpv
+        end do
+    end subroutine jacobi_eig
+
+    !> Eigenvalues only (unsorted) of a small symmetric a[n,n]: Householder
+    !> tridiagonalisation and the implicit QL iteration (tred2/tqli without
+    !> vectors). ok = .false. if QL needs more than 30 iterations.
+    pure subroutine sym_eigvals_small(n, a, d, ok)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n)
+        real(dp), intent(out) :: d(n)
+        logical, intent(out) :: ok
+        real(dp) :: b(n, n), e(n), scale, h, f, g, hh, r, s, c, p, bb, dd
+        integer :: i, j, l, m, iter
+        logical :: early
+        b = a
+        ok = .true.
+        e = 0.0_dp
+        do i = n, 2, -1
+            l = i - 1
+            h = 0.0_dp
+            if (l > 1) then
+                scale = sum(abs(b(i, 1:l)))
+                if (scale == 0.0_dp) then
+                    e(i) = b(i, l)
+                else
+                    b(i, 1:l) = b(i, 1:l)/scale
+                    h = sum(b(i, 1:l)**2)
+                    f = b(i, l)
+                    g = -sign(sqrt(h), f)
+                    e(i) = scale*g
+                    h = h - f*g
+                    b(i, l) = f - g
+                    f = 0.0_dp
+                    do j = 1, l
+                        g = dot_product(b(j, 1:j), b(i, 1:j)) + dot_product(b(j + 1:l, j), b(i, j + 1:l))
+                        e(j) = g/h
+                        f = f + e(j)*b(i, j)
+                    end do
+                    hh = f/(h + h)
+                    do j = 1, l
+                        f = b(i, j)
+                        g = e(j) - hh*f
+                        e(j) = g
+                        b(j, 1:j) = b(j, 1:j) - (f*e(1:j) + g*b(i, 1:j))
+                    end do
+                end if
+            else
+                e(i) = b(i, l)
+            end if
+        end do
+        do i = 1, n
+            d(i) = b(i, i)
+        end do
+        do i = 2, n
+            e(i - 1) = e(i)
+        end do
+        e(n) = 0.0_dp
+        do l = 1, n
+            iter = 0
+            do
+                do m = l, n - 1
+                    dd = abs(d(m)) + abs(d(m + 1))
+                    if (abs(e(m)) + dd == dd) exit
+                end do
+                if (m == l) exit
+                iter = iter + 1
+                if (iter > 30) then
+                    ok = .false.
+                    return
+                end if
+                g = (d(l + 1) - d(l))/(2.0_dp*e(l))
+                r = sqrt(g*g + 1.0_dp)
+                g = d(m) - d(l) + e(l)/(g + sign(r, g))
+                s = 1.0_dp
+                c = 1.0_dp
+                p = 0.0_dp
+                early = .false.
+                do i = m - 1, l, -1
+                    f = s*e(i)
+                    bb = c*e(i)
+                    r = sqrt(f*f + g*g)
+                    e(i + 1) = r
+                    if (r == 0.0_dp) then
+                        d(i + 1) = d(i + 1) - p
+                        e(m) = 0.0_dp
+                        early = .true.
+                        exit
+                    end if
+                    s = f/r
+                    c = g/r
+                    g = d(i + 1) - p
+                    r = (d(i) - g)*s + 2.0_dp*c*bb
+                    p = s*r
+                    d(i + 1) = g + p
+                    g = c*r - bb
+                end do
+                if (early) cycle
+                d(l) = d(l) - p
+                e(l) = g
+                e(m) = 0.0_dp
+            end do
+        end do
+    end subroutine sym_eigvals_small
+
+    !> Rotate a 6x6 (compliance or stiffness) from local axes to world axes:
+    !> diag(R,R) m diag(R,R)^T, block by block.
+    pure subroutine rotate_blocks(rot, m)
+        real(dp), intent(in) :: rot(3, 3)
+        real(dp), intent(inout) :: m(6, 6)
+        real(dp) :: rt(3, 3), a(3, 3), b(3, 3), d(3, 3)
+        rt = transpose(rot)
+        a = m(1:3, 1:3)
+        b = m(1:3, 4:6)
+        d = m(4:6, 4:6)
+        a = matmul(rot, matmul(a, rt))
+        b = matmul(rot, matmul(b, rt))
+        d = matmul(rot, matmul(d, rt))
+        m(1:3, 1:3) = a
+        m(1:3, 4:6) = b
+        m(4:6, 4:6) = d
+        m(4:6, 1:3) = transpose(b)
+    end subroutine rotate_blocks
+
+    !> m <- T m T^T with T = twist_transfer(r) = [[I, -[r]x], [0, I]]
+    !> (a compliance moved by r, eq. 8), or, with r -> -r and the transpose,
+    !> a stiffness (eq. 16: W^T K W with W = T(-r)); block form:
+    !> A' = A - S B^T + (B - S D) S, B' = B - S D, D' = D, S = [r]x.
+    pure subroutine congruence_transfer(r, m, stiffness)
+        real(dp), intent(in) :: r(3)
+        real(dp), intent(inout) :: m(6, 6)
+        logical, intent(in) :: stiffness
+        real(dp) :: s(3, 3), a(3, 3), b(3, 3), d(3, 3), sd(3, 3), bb(3, 3)
+        if (stiffness) then
+            ! W^T K W, W = [[I, S],[0, I]] (S = [r]x, r = tool - spring):
+            ! A' = A, B' = A S + B, D' = S^T A S + S^T B + B^T S + D
+            s = skewm(r)
+            a = m(1:3, 1:3)
+            b = m(1:3, 4:6)
+            d = m(4:6, 4:6)
+            bb = matmul(a, s) + b
+            m(1:3, 4:6) = bb
+            m(4:6, 1:3) = transpose(bb)
+            m(4:6, 4:6) = d + matmul(transpose(s), bb) + matmul(transpose(b), s)
+        else
+            s = skewm(r)
+            a = m(1:3, 1:3)
+            b = m(1:3, 4:6)
+            d = m(4:6, 4:6)
+            sd = matmul(s, d)
+            bb = b - sd
+            m(1:3, 1:3) = a - matmul(s, transpose(b)) + matmul(bb, s)
+            m(1:3, 4:6) = bb
+            m(4:6, 1:3) = transpose(bb)
+        end if
+    end subroutine congruence_transfer
+
+    pure function skewm(v) result(s)
+        real(dp), intent(in) :: v(3)
+        real(dp) :: s(3, 3)
+        s(:, 1) = [0.0_dp, v(3), -v(2)]
+        s(:, 2) = [-v(3), 0.0_dp, v(1)]
+        s(:, 3) = [v(2), -v(1), 0.0_dp]
+    end function skewm
+
+    !> Orthonormal bases of range(p) (eigenvalue > tol*max) and of its
+    !> orthogonal complement, for a symmetric PSD p[6,6].
+    pure subroutine split_range(p, has, tol, rng, nr, cmp, nc)
+        real(dp), intent(in) :: p(6, 6), tol
+        logical, intent(in) :: has
+        real(dp), intent(out) :: rng(6, 6), cmp(6, 6)
+        integer, intent(out) :: nr, nc
+        real(dp) :: w(6), v(6, 6), wmax
+        integer :: i
+        rng = 0.0_dp
+        cmp = 0.0_dp
+        nr = 0
+        nc = 0
+        if (.not. has) then
+            do i = 1, 6
+                cmp(i, i) = 1.0_dp
+            end do
+            nc = 6
+            return
+        end if
+        call jacobi_eig(6, p, w, v)
+        wmax = w(6)
+        do i = 1, 6
+            if (wmax > 0.0_dp .and. w(i) > tol*wmax) then
+                nr = nr + 1
+                rng(:, nr) = v(:, i)
+            else
+                nc = nc + 1
+                cmp(:, nc) = v(:, i)
+            end if
+        end do
+    end subroutine split_range
+
+    !> Inverse of a small symmetric positive definite a[n,n] by Cholesky and
+    !> the lower bound 1/(tr(a) tr(a^-1)) of its smallest/largest eigenvalue
+    !> ratio; ok = .false. if a pivot is not positive.
+    pure subroutine spd_inverse_small(n, a, ainv, bound, ok)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n)
+        real(dp), intent(out) :: ainv(n, n), bound
+        logical, intent(out) :: ok
+        real(dp) :: l(n, n), li(n, n), s, tra, tri
+        integer :: i, j, k
+        ok = .false.
+        bound = 0.0_dp
+        ainv = 0.0_dp
+        l = 0.0_dp
+        do j = 1, n
+            s = a(j, j)
+            do k = 1, j - 1
+                s = s - l(j, k)**2
+            end do
+            if (.not. (s > 0.0_dp)) return
+            l(j, j) = sqrt(s)
+            do i = j + 1, n
+                s = a(i, j)
+                do k = 1, j - 1
+                    s = s - l(i, k)*l(j, k)
+                end do
+                l(i, j) = s/l(j, j)
+            end do
+        end do
+        ! li = l^-1 (lower triangular)
+        li = 0.0_dp
+        do j = 1, n
+            li(j, j) = 1.0_dp/l(j, j)
+            do i = j + 1, n
+                s = 0.0_dp
+                do k = j, i - 1
+                    s = s - l(i, k)*li(k, j)
+                end do
+                li(i, j) = s/l(i, i)
+            end do
+        end do
+        ! ainv = li^T li
+        do j = 1, n
+            do i = j, n
+                s = 0.0_dp
+                do k = i, n
+                    s = s + li(k, i)*li(k, j)
+                end do
+                ainv(i, j) = s
+                ainv(j, i) = s
+            end do
+        end do
+        tra = 0.0_dp
+        tri = 0.0_dp
+        do i = 1, n
+            tra = tra + a(i, i)
+            tri = tri + ainv(i, i)
+        end do
+        bound = 1.0_dp/(tra*tri)
+        ok = .true.
+    end subroutine spd_inverse_small
+
+    !> Shared body of the two switches: given the dual projector (free
+    !> twists for C -> K, rigid wrenches for K -> C) and the matrix m
+    !> (C or K), return its inverse on the complement (minv), the new
+    !> degenerate projector (pnew: rigid for C -> K, free for K -> C) with
+    !> its rank, the rank of the old one (made an exact projector) and the
+    !> eigenvalue ratio. A projector known to be the rank-1 vec vec^T
+    !> (r1) is complemented by a Householder reflection. Unless exact, a
+    !> reduced matrix whose Cholesky factor proves every eigenvalue above
+    !> rcond times the largest (1/(tr M tr M^-1) > rcond) is inverted
+    !> directly, with the same rank decision as the eigen-decomposition;
+    !> ratio is then that lower bound, or, if exact, the eigenvalue ratio
+    !> (eigenvalues by tridiagonal QL). Otherwise the Jacobi eigenvectors
+    !> decide the rank.
+    pure subroutine switch_form(m, pold, has_old, r1, vec, rcond, exact, minv, pnew, nnew, nold, ratio)
+        real(dp), intent(in) :: m(6, 6), rcond, vec(6)
+        real(dp), intent(inout) :: pold(6, 6)
+        logical, intent(in) :: has_old, r1, exact
+        real(dp), intent(out) :: minv(6, 6), pnew(6, 6), ratio
+        integer, intent(out) :: nnew, nold
+        real(dp) :: rng(6, 6), cmp(6, 6), mr(6, 6), mri(6, 6), w(6), u(6, 6), z(6), smax, smin
+        real(dp) :: hv(6), bound
+        logical :: ok
+        integer :: nc, i, a, b, kept
+        if (has_old .and. r1) then
+            hv = vec/norm2(vec)
+            rng = 0.0_dp
+            cmp = 0.0_dp
+            rng(:, 1) = hv
+            nold = 1
+            hv(1) = hv(1) + sign(1.0_dp, hv(1))
+            do b = 2, 6
+                do a = 1, 6
+                    cmp(a, b - 1) = -2.0_dp*hv(a)*hv(b)/dot_product(hv, hv)
+                end do
+                cmp(b, b - 1) = cmp(b, b - 1) + 1.0_dp
+            end do
+            nc = 5
+        else
+            call split_range(pold, has_old, rcond, rng, nold, cmp, nc)
+        end if
+        ! full 6x6 products (unused columns of rng, cmp are zero): fixed-size
+        ! matmuls the compiler inlines
+        if (has_old) pold = matmul(rng, transpose(rng))
+        minv = 0.0_dp
+        pnew = 0.0_dp
+        nnew = 0
+        ratio = 0.0_dp
+        if (nc == 0) return
+        mr = matmul(transpose(cmp), matmul(m, cmp))
+        mri = 0.0_dp
+        call spd_inverse_small(nc, mr(1:nc, 1:nc), mri(1:nc, 1:nc), bound, ok)
+        if (ok .and. bound > rcond) then
+            ! every eigenvalue is above rcond times the largest: full rank
+            minv = matmul(cmp, matmul(mri, transpose(cmp)))
+            ratio = bound
+            if (exact) then
+                call sym_eigvals_small(nc, mr(1:nc, 1:nc), w(1:nc), ok)
+                if (ok) then
+                    ratio = minval(w(1:nc))/maxval(w(1:nc))
+                    return
+                end if
+            else
+                return
+            end if
+        end if
+        call jacobi_eig(nc, mr(1:nc, 1:nc), w(1:nc), u(1:nc, 1:nc))
+        smax = w(nc)
+        smin = smax
+        kept = 0
+        do i = 1, nc
+            z = matmul(cmp(:, 1:nc), u(1:nc, i))
+            if (smax > tiny(1.0_dp) .and. w(i) > rcond*smax) then
+                kept = kept + 1
+                smin = min(smin, w(i))
+                do b = 1, 6
+                    do a = 1, 6
+                        minv(a, b) = minv(a, b) + z(a)*z(b)/w(i)
+                    end do
+                end do
+            else
+                nnew = nnew + 1
+                do b = 1, 6
+                    do a = 1, 6
+                        pnew(a, b) = pnew(a, b) + z(a)*z(b)
+                    end do
+                end do
+            end if
+        end do
+        if (kept > 0) ratio = smin/smax
+    end subroutine switch_form
+
+    !> Compliance form -> stiffness form (scaled space).
+    pure subroutine c_to_k(s, rcond, exact)
+        type(gspring), intent(inout) :: s
+        real(dp), intent(in) :: rcond
+        logical, intent(in) :: exact
+        call switch_form(s%c, s%phi, s%has_phi, s%phi_r1, s%phi_vec, rcond, exact, s%k, s%gam, &
+                         s%ng, s%nf, s%ratio)
+        s%has_gam = s%ng > 0
+        s%has_phi = s%nf > 0
+    end subroutine c_to_k
+
+    !> Stiffness form -> compliance form (scaled space).
+    pure subroutine k_to_c(s, rcond, exact)
+        type(gspring), intent(inout) :: s
+        real(dp), intent(in) :: rcond
+        logical, intent(in) :: exact
+        call switch_form(s%k, s%gam, s%has_gam, .false., s%phi_vec, rcond, exact, s%c, s%phi, &
+                         s%nf, s%ng, s%ratio)
+        s%has_phi = s%nf > 0
+        s%has_gam = s%ng > 0
+        s%phi_r1 = .false.
+    end subroutine k_to_c
+
+    !> Unit twist of a joint seen at the tool point, scaled: (t/lscale, phi).
+    pure function joint_twist(jtype, axis, point, tool, lscale) result(xi)
+        integer(ip), intent(in) :: jtype
+        real(dp), intent(in) :: axis(3), point(3), tool(3), lscale
+        real(dp) :: xi(6), u(3), r(3)
+        u = axis/norm2(axis)
+        if (jtype == joint_revolute) then
+            r = tool - point
+            xi(1:3) = [u(2)*r(3) - u(3)*r(2), u(3)*r(1) - u(1)*r(3), u(1)*r(2) - u(2)*r(1)]/lscale
+            xi(4:6) = u
+        else
+            xi(1:3) = u/lscale
+            xi(4:6) = 0.0_dp
+        end if
+    end function joint_twist
+
+    !> Evaluate a spring tree at np postures.
+    !>
+    !> prog[2,nops]: postfix program, (op, arg) per step (op_* codes).
+    !> lkind[ns], lmat[6,6,ns]: leaf springs, compliance or stiffness in
+    !>   their local axes at their own point; lrot[3,3,ns,np], lpos[3,ns,np]:
+    !>   pose of each leaf (columns of lrot = local axes in world) per posture.
+    !> jtype[nj], jcomp[nj], jpassive[nj], jaxis[3,nj,np], jpoint[3,nj,np]:
+    !>   joints, revolute or prismatic, compliance (rad/(N m) or m/N, rank-1
+    !>   spring about/along the axis) or passive (free) if jpassive /= 0.
+    !> tpos[3,np], trot[3,3,np]: tool point and the axes of the results.
+    !> Results per posture: compliance c and stiffness k (each on the
+    !> complement of the free twists / rigid wrenches), free twists
+    !> free[:, 1:nfree] (columns (t, phi), |t/lscale|^2 + |phi|^2 = 1),
+    !> rigid wrenches rigid[:, 1:nrigid] (|f|^2 + |m/lscale|^2 = 1) and the
+    !> smallest/largest stiffness eigenvalue ratio (scaled) of the rest.
+    subroutine spring_tree_batch(prog, lkind, lmat, lrot, lpos, jtype, jcomp, jpassive, &
+            jaxis, jpoint, tpos, trot, lscale, rcond, c, k, free, nfree, rigid, nrigid, ratio, info)
+        integer(ip), intent(in) :: prog(:, :), lkind(:), jtype(:), jpassive(:)
+        real(dp), intent(in) :: lmat(:, :, :), lrot(:, :, :, :), lpos(:, :, :)
+        real(dp), intent(in) :: jcomp(:), jaxis(:, :, :), jpoint(:, :, :)
+        real(dp), intent(in) :: tpos(:, :), trot(:, :, :), lscale, rcond
+        real(dp), intent(out) :: c(:, :, :), k(:, :, :), free(:, :, :), rigid(:, :, :), ratio(:)
+        integer(ip), intent(out) :: nfree(:), nrigid(:), info
+        type(gspring), allocatable :: stack(:)
+        real(dp), allocatable :: lloc(:, :, :)
+        real(dp) :: dsc(6), m(6, 6), xi(6), cs, r(3), w(6), v(6, 6), bas(6, 6)
+        integer :: nops, ns, nj, np, ip_, top, depth, op, arg, i, j, a, b, n
+        nops = size(prog, 2)
+        ns = size(lkind)
+        nj = size(jtype)
+        np = size(tpos, 2)
+        c = 0.0_dp; k = 0.0_dp; free = 0.0_dp; rigid = 0.0_dp; ratio = 0.0_dp
+        nfree = 0; nrigid = 0
+        if (.not. (lscale > 0.0_dp) .or. .not. (rcond >= 0.0_dp .and. rcond < 1.0_dp)) then
+            info = sk_err_argument
+            return
+        end if
+        if (.not. (all(abs(lmat) <= huge(1.0_dp)) .and. all(abs(jcomp) <= huge(1.0_dp)))) then
+            info = sk_err_nonfinite
+            return
+        end if
+        ! validate the program once: indices, stack depth, one result
+        depth = 0
+        do i = 1, nops
+            op = prog(1, i)
+            arg = prog(2, i)
+            select case (op)
+            case (op_spring)
+                if (arg < 1 .or. arg > ns) then
+                    info = sk_err_argument
+                    return
+                end if
+                depth = depth + 1
+            case (op_joint)
+                if (arg < 1 .or. arg > nj) then
+                    info = sk_err_argument
+                    return
+                end if
+                if (jtype(arg) /= joint_revolute .and. jtype(arg) /= joint_prismatic) then
+                    info = sk_err_argument
+                    return
+                end if
+                if (jcomp(arg) < 0.0_dp) then
+                    info = sk_err_argument
+                    return
+                end if
+                depth = depth + 1
+            case (op_series, op_parallel)
+                if (arg < 1 .or. arg > depth) then
+                    info = sk_err_argument
+                    return
+                end if
+                depth = depth - arg + 1
+            case default
+                info = sk_err_argument
+                return
+            end select
+        end do
+        if (depth /= 1 .or. nops < 1) then
+            info = sk_err_argument
+            return
+        end if
+        do i = 1, ns
+            if (lkind(i) /= leaf_compliance .and. lkind(i) /= leaf_stiffness) then
+                info = sk_err_argument
+                return
+            end if
+        end do
+        ! leaves in the scaled space, local axes (posture independent)
+        dsc = [(lscale**(-0.5_dp), i = 1, 3), (lscale**0.5_dp, i = 1, 3)]
+        allocate(lloc(6, 6, max(ns, 1)))
+        do i = 1, ns
+            do b = 1, 6
+                do a = 1, 6
+                    if (lkind(i) == leaf_compliance) then
+                        lloc(a, b, i) = dsc(a)*lmat(a, b, i)*dsc(b)
+                    else
+                        lloc(a, b, i) = lmat(a, b, i)/(dsc(a)*dsc(b))
+                    end if
+                end do
+            end do
+            lloc(:, :, i) = 0.5_dp*(lloc(:, :, i) + transpose(lloc(:, :, i)))
+        end do
+        allocate(stack(nops))
+        do ip_ = 1, np
+            top = 0
+            do i = 1, nops
+                op = prog(1, i)
+                arg = prog(2, i)
+                select case (op)
+                case (op_spring)
+                    top = top + 1
+                    stack(top) = gspring()
+                    m = lloc(:, :, arg)
+                    call rotate_blocks(lrot(:, :, arg, ip_), m)
+                    r = (tpos(:, ip_) - lpos(:, arg, ip_))/lscale
+                    if (lkind(arg) == leaf_compliance) then
+                        call congruence_transfer(r, m, .false.)
+                        stack(top)%c = m
+                        stack(top)%form = form_c
+                    else
+                        call congruence_transfer(r, m, .true.)
+                        stack(top)%k = m
+                        stack(top)%form = form_k
+                    end if
+                case (op_joint)
+                    top = top + 1
+                    stack(top) = gspring()
+                    xi = joint_twist(jtype(arg), jaxis(:, arg, ip_), jpoint(:, arg, ip_), &
+                                     tpos(:, ip_), lscale)
+                    stack(top)%form = form_c
+                    if (jpassive(arg) /= 0) then
+                        cs = 1.0_dp/dot_product(xi, xi)
+                        stack(top)%has_phi = .true.
+                    else
+                        cs = jcomp(arg)*lscale
+                    end if
+                    do b = 1, 6
+                        do a = 1, 6
+                            m(a, b) = cs*xi(a)*xi(b)
+                        end do
+                    end do
+                    if (jpassive(arg) /= 0) then
+                        stack(top)%phi = m
+                        stack(top)%phi_r1 = .true.
+                        stack(top)%phi_vec = xi
+                    else
+                        stack(top)%c = m
+                    end if
+                case (op_series)
+                    n = top - arg + 1
+                    if (stack(n)%form == form_k) call k_to_c(stack(n), rcond, .false.)
+                    do j = n + 1, top
+                        if (stack(j)%form == form_k) call k_to_c(stack(j), rcond, .false.)
+                        stack(n)%c = stack(n)%c + stack(j)%c
+                        if (stack(j)%has_phi) then
+                            if (stack(n)%has_phi) then
+                                stack(n)%phi_r1 = .false.
+                            else
+                                stack(n)%phi_r1 = stack(j)%phi_r1
+                                stack(n)%phi_vec = stack(j)%phi_vec
+                            end if
+                            stack(n)%phi = stack(n)%phi + stack(j)%phi
+                            stack(n)%has_phi = .true.
+                        end if
+                    end do
+                    stack(n)%form = form_c
+                    stack(n)%has_gam = .false.
+                    top = n
+                case (op_parallel)
+                    n = top - arg + 1
+                    if (stack(n)%form == form_c) call c_to_k(stack(n), rcond, .false.)
+                    do j = n + 1, top
+                        if (stack(j)%form == form_c) call c_to_k(stack(j), rcond, .false.)
+                        stack(n)%k = stack(n)%k + stack(j)%k
+                        if (stack(j)%has_gam) then
+                            stack(n)%gam = stack(n)%gam + stack(j)%gam
+                            stack(n)%has_gam = .true.
+                        end if
+                    end do
+                    stack(n)%form = form_k
+                    stack(n)%has_phi = .false.
+                    stack(n)%phi_r1 = .false.
+                    top = n
+                end select
+            end do
+            ! the root in both forms
+            if (stack(1)%form == form_c) then
+                call c_to_k(stack(1), rcond, .true.)
+            else
+                call k_to_c(stack(1), rcond, .true.)
+            end if
+            ! report each matrix on its own subspace: C on the wrenches orthogonal
+            ! to the free twists, K on the motions orthogonal to the rigid wrenches
+            if (stack(1)%nf > 0) then
+                m = -stack(1)%phi
+                do a = 1, 6
+                    m(a, a) = m(a, a) + 1.0_dp
+                end do
+                stack(1)%c = matmul(m, matmul(stack(1)%c, m))
+            end if
+            if (stack(1)%ng > 0) then
+                m = -stack(1)%gam
+                do a = 1, 6
+                    m(a, a) = m(a, a) + 1.0_dp
+                end do
+                stack(1)%k = matmul(m, matmul(stack(1)%k, m))
+            end if
+            ratio(ip_) = stack(1)%ratio
+            nfree(ip_) = stack(1)%nf
+            nrigid(ip_) = stack(1)%ng
+            ! back to the caller's units, then to the tool axes
+            do b = 1, 6
+                do a = 1, 6
+                    c(a, b, ip_) = stack(1)%c(a, b)/(dsc(a)*dsc(b))
+                    k(a, b, ip_) = stack(1)%k(a, b)*dsc(a)*dsc(b)
+                end do
+            end do
+            call rotate_blocks(transpose(trot(:, :, ip_)), c(:, :, ip_))
+            call rotate_blocks(transpose(trot(:, :, ip_)), k(:, :, ip_))
+            if (stack(1)%nf > 0) then
+                call jacobi_eig(6, stack(1)%phi, w, v)
+                bas = 0.0_dp
+                do j = 1, stack(1)%nf
+                    bas(1:3, j) = v(1:3, 7 - j)*lscale
+                    bas(4:6, j) = v(4:6, 7 - j)
+                    bas(1:3, j) = matmul(transpose(trot(:, :, ip_)), bas(1:3, j))
+                    bas(4:6, j) = matmul(transpose(trot(:, :, ip_)), bas(4:6, j))
+                end do
+                free(:, :, ip_) = bas
+            end if
+            if (stack(1)%ng > 0) then
+                call jacobi_eig(6, stack(1)%gam, w, v)
+                bas = 0.0_dp
+                do j = 1, stack(1)%ng
+                    bas(1:3, j) = v(1:3, 7 - j)
+                    bas(4:6, j) = v(4:6, 7 - j)*lscale
+                    bas(1:3, j) = matmul(transpose(trot(:, :, ip_)), bas(1:3, j))
+                    bas(4:6, j) = matmul(transpose(trot(:, :, ip_)), bas(4:6, j))
+                end do
+                rigid(:, :, ip_) = bas
+            end if
+        end do
+        info = sk_ok
+    end subroutine spring_tree_batch
+
+end module sk_springs
