@@ -153,6 +153,9 @@ def logsf_f(f, d1, d2) -> float:
 def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float = ALPHA,
              kinds=None) -> Diagnosis:
     """Fit ``model``, test its adequacy and rank the missing effects (contract s4)."""
+    from .fit import as_inputs
+
+    model, meas = as_inputs(model, meas)
     cands = candidate_tables(model)
     if kinds:
         cands = [c for c in cands if c[0]["kind"] in kinds]

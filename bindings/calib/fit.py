@@ -296,6 +296,20 @@ def coupling_groups(names, v, rank, group, tol=1e-6) -> list[list[str]]:
     return [c for c in comps.values() if len(c) > 1]
 
 
+def as_inputs(model, meas):
+    """Accept paths as well as loaded objects (Python calls mirror the CLI)."""
+    from pathlib import Path
+
+    from .measure import read_measurements
+    from .model import load_model
+
+    if isinstance(model, (str, Path)):
+        model = load_model(model)
+    if isinstance(meas, (str, Path)):
+        meas = read_measurements(meas, model.chain.dof)
+    return model, meas
+
+
 def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 50,
         problem: Problem | None = None, theta0=None) -> FitResult:
     """Identify the free parameters of ``model`` from ``meas`` (contract s4).
@@ -303,6 +317,7 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
     Linear models are solved in one weighted least-squares step; models with
     a free gravity compensator or point offset by Levenberg-Marquardt.
     """
+    model, meas = as_inputs(model, meas)
     pb = problem or Problem(model, meas, sigma_position=sigma_position)
     npar = pb.npar
     nobs = pb.rows * meas.n
@@ -419,3 +434,65 @@ def format_parameters(res: FitResult) -> str:
     for c in res.couplings:
         lines.append(f"coupled (only a combination is identifiable): {', '.join(c)}")
     return "\n".join(lines)
+
+
+def model_tables_with_values(res: FitResult) -> list[dict]:
+    """The model's [[effect]] tables with every identified value (contract s5)."""
+    from .model import SYM
+
+    model = identified_model(res)
+    out = []
+    for i, table in enumerate(model.effects):
+        terms = [t for t in model.terms if t.effect == i]
+        for t in terms:
+            tab = {k: v for k, v in table.items() if k not in ("value", "k_s", "r")}
+            if t.kind in ("joint", "joint_profile", "gravity_compensator"):
+                tab["target"] = t.target
+            if t.kind == "joint":
+                tab["value"] = float(t.value[0])
+            elif t.kind == "joint_profile":
+                tab["value"] = [float(v) for v in t.value]
+            elif t.kind == "gravity_compensator":
+                tab["k_s"] = float(t.value[0])
+            elif t.kind == "point_offset":
+                tab["r"] = [float(v) for v in t.value]
+            else:
+                C = np.zeros((6, 6))
+                for e, v in zip(t.elements, t.value):
+                    a, b = SYM[e]
+                    C[a, b] = C[b, a] = float(v)
+                tab["value"] = C.tolist()
+                tab.pop("rpy", None)
+            out.append(tab)
+    return out
+
+
+def write_model(res: FitResult, path) -> None:
+    """Write the identified model (URDF reference, sigma, effects with values)."""
+    import os
+    from pathlib import Path
+
+    import tomli_w
+
+    path = Path(path)
+    model = res.model
+    robot = dict(model.robot_table) if model.robot_table else {
+        "base_link": model.chain.base_link, "tool_frame": model.chain.tool_frame}
+    urdf = Path(model.chain.urdf).resolve()
+    try:
+        robot["urdf"] = os.path.relpath(urdf, path.resolve().parent)
+    except ValueError:
+        robot["urdf"] = str(urdf)
+    doc = {"robot": robot}
+    meas = {}
+    if model.sigma_position is not None:
+        meas["sigma_position"] = model.sigma_position
+    if model.sigma_rotation is not None:
+        meas["sigma_rotation"] = model.sigma_rotation
+    if meas:
+        doc["measurements"] = meas
+    doc["effect"] = model_tables_with_values(res)
+    head = (f"# identified by stiffkit fit from {res.problem.meas.path}: positional RMS "
+            f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
+            f"# non-identifiable and semi-identifiable parameters hold the minimum-norm solution\n")
+    path.write_text(head + tomli_w.dumps(doc))

@@ -113,7 +113,8 @@ def make_loads(kind, n, rng, force=2500.0, moment=300.0, Rtool=None, mass_offset
 def synthesize(joints, truth: list[dict], n_configs: int = 30, loads: str = "random",
                loads_per_config: int = 3, markers=((0.0, 0.0, 0.25),), sigma: float = 2e-5,
                sigma_rotation: float | None = None, replicates: int = 1, ranges=None,
-               force: float = 2500.0, moment: float = 300.0, seed=0, workdir=None):
+               force: float = 2500.0, moment: float = 300.0, seed=0, workdir=None,
+               tool_frame: str = "tool0"):
     """Measurement rows of ``truth`` on the robot ``joints``.
 
     Returns (chain, truth_model, measurements). Each configuration gets
@@ -129,8 +130,13 @@ def synthesize(joints, truth: list[dict], n_configs: int = 30, loads: str = "ran
     rng = np.random.default_rng(seed)
     tmp = Path(workdir or tempfile.mkdtemp(prefix="stiffkit_synth_"))
     tmp.mkdir(parents=True, exist_ok=True)
-    (tmp / "robot.urdf").write_text(urdf_text("synthetic", joints))
-    chain = load_chain(tmp / "robot.urdf", "base_link", joints[-1]["child"])
+    if isinstance(joints, (str, Path)):          # an existing URDF: copy it
+        text = Path(joints).read_text()
+        (tmp / "robot.urdf").write_text(text)
+        chain = load_chain(tmp / "robot.urdf", "base_link", tool_frame)
+    else:
+        (tmp / "robot.urdf").write_text(urdf_text("synthetic", joints))
+        chain = load_chain(tmp / "robot.urdf", "base_link", joints[-1]["child"])
     dof = chain.dof
     ranges = ranges or [(-math.pi, math.pi)] * dof
     Qc = random_postures(n_configs, ranges, rng)
@@ -202,7 +208,7 @@ def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):
     chain, truth_model, meas = synthesize(joints, truth, workdir=out, **kw)
     sigma = kw.get("sigma", 2e-5)
     sr = kw.get("sigma_rotation")
-    tool = joints[-1]["child"]
+    tool = kw.get("tool_frame", "tool0") if isinstance(joints, (str, Path)) else joints[-1]["child"]
     (out / "model.toml").write_text(model_toml(fit_effects, sigma if declare_sigma else None,
                                                tool_frame=tool, sigma_rotation=sr))
     (out / "truth.toml").write_text(model_toml(truth, sigma, tool_frame=tool, sigma_rotation=sr))

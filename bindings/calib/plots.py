@@ -1,0 +1,121 @@
+"""PNG figures of a fit: residual vectors per configuration, residual
+histograms per axis with the noise level, measured vs predicted."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def point_positions(res) -> np.ndarray:
+    """Measured points in base coordinates (n, 3)."""
+    ch = res.model.chain
+    meas = res.problem.meas
+    out = np.empty((meas.n, 3))
+    cache = {}
+    for i in range(meas.n):
+        key = tuple(meas.q[i])
+        if key not in cache:
+            cache[key] = ch.forward(meas.q[i])
+        R, p = cache[key]
+        out[i] = p + R @ meas.p[i]
+    return out
+
+
+def fit_plots(res, outdir, label: str = "fit") -> list[str]:
+    """Write the three figures of a fit into outdir; returns the file names."""
+    plt = _plt()
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    files = []
+    pos = point_positions(res)
+    before, after = res.measured, res.residuals
+    scale = 0.15 / max(np.linalg.norm(before, axis=1).max(), 1e-300)      # metres of arrow per metre
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
+    for ax, (i, j, name) in zip(axes, [(0, 1, "top view (x, y)"), (0, 2, "side view (x, z)")]):
+        ax.scatter(pos[:, i], pos[:, j], s=8, c="k", zorder=3)
+        ax.quiver(pos[:, i], pos[:, j], before[:, i] * scale, before[:, j] * scale, angles="xy",
+                  scale_units="xy", scale=1, color="0.7", width=0.003, label="measured deflection")
+        ax.quiver(pos[:, i], pos[:, j], after[:, i] * scale, after[:, j] * scale, angles="xy",
+                  scale_units="xy", scale=1, color="C3", width=0.004, label="residual after fit")
+        ax.set_aspect("equal")
+        ax.set_title(name)
+        ax.set_xlabel("xyz"[i] + " (m)")
+        ax.set_ylabel("xyz"[j] + " (m)")
+    axes[0].legend(loc="best", fontsize=8)
+    fig.suptitle(f"{label}: residual vectors per configuration (arrows x {scale:.3g})")
+    fig.tight_layout()
+    f = out / f"{label}_residual_vectors.png"
+    fig.savefig(f, dpi=110)
+    plt.close(fig)
+    files.append(str(f))
+
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    sig = res.sigma
+    for i, ax in enumerate(axes):
+        e = after[:, i] * 1e3
+        ax.hist(e, bins=max(10, min(60, e.size // 8)), density=True, color="C0", alpha=0.7)
+        if np.isfinite(sig) and sig > 0:
+            s = sig * 1e3
+            x = np.linspace(min(e.min(), -4 * s), max(e.max(), 4 * s), 200)
+            ax.plot(x, np.exp(-0.5 * (x / s) ** 2) / (s * np.sqrt(2 * np.pi)), "k-",
+                    label=f"noise N(0, {s:.3g} mm)")
+            ax.axvline(-s, color="k", ls=":")
+            ax.axvline(s, color="k", ls=":")
+            ax.legend(fontsize=8)
+        ax.set_title(f"{'xyz'[i]}: RMS {np.sqrt(np.mean(e ** 2)):.3g} mm")
+        ax.set_xlabel("residual (mm)")
+    fig.suptitle(f"{label}: residual histograms per axis (sigma {'declared' if res.sigma_declared else 'estimated'})")
+    fig.tight_layout()
+    f = out / f"{label}_residual_histograms.png"
+    fig.savefig(f, dpi=110)
+    plt.close(fig)
+    files.append(str(f))
+
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
+    for i, ax in enumerate(axes):
+        m, p = before[:, i] * 1e3, res.predicted[:, i] * 1e3
+        ax.scatter(m, p, s=6)
+        lim = [min(m.min(), p.min()), max(m.max(), p.max())]
+        ax.plot(lim, lim, "k--", lw=1)
+        ax.set_xlabel(f"measured d{'xyz'[i]} (mm)")
+        ax.set_ylabel(f"predicted d{'xyz'[i]} (mm)")
+        ax.set_aspect("equal")
+    fig.suptitle(f"{label}: measured vs predicted deflection")
+    fig.tight_layout()
+    f = out / f"{label}_measured_vs_predicted.png"
+    fig.savefig(f, dpi=110)
+    plt.close(fig)
+    files.append(str(f))
+    return files
+
+
+def error_fall_plot(steps, path, noise_floor=None) -> str:
+    """Bar chart of positional RMS / MAX per calibration step [(label, stats)]."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    labels = [s[0] for s in steps]
+    rms = [s[1]["rms_position_m"] * 1e3 for s in steps]
+    mx = [s[1]["max_position_m"] * 1e3 for s in steps]
+    x = np.arange(len(steps))
+    ax.bar(x - 0.2, mx, 0.4, label="MAX positional")
+    ax.bar(x + 0.2, rms, 0.4, label="RMS positional")
+    if noise_floor:
+        ax.axhline(noise_floor * 1e3, color="k", ls="--", label="noise floor sqrt(3) sigma")
+    ax.set_yscale("log")
+    ax.set_xticks(x)
+    ax.set_xticklabels(labels, rotation=15, ha="right", fontsize=8)
+    ax.set_ylabel("compliance error (mm)")
+    ax.legend(fontsize=8)
+    ax.set_title("calibration loop: error after each model")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return str(path)
