@@ -116,13 +116,19 @@ def candidate_tables(model: Model) -> list[tuple[dict, str]]:
             out.append(({"kind": "joint_profile", "target": j}, HINT_COMPENSATOR.format(j=j)))
     have = {(t.source, t.target, t.template) for t in model.terms if t.kind == "six"}
     for link in ch.links:
+        if ch.link_spring(link)[0] == 4:      # its spring is the tool spring: offered as kind tool
+            continue
         for tpl in ("beam", "diagonal", "full"):
             if ("link", link, tpl) not in have:
                 out.append(({"kind": "link", "target": link, "template": tpl}, ""))
+    last = [ln for ln in ch.links if ch.link_spring(ln)[0] == 4]
     for kind in ("base", "tool"):
         for tpl in ("diagonal", "full"):
-            if (kind, kind, tpl) not in have:
-                out.append(({"kind": kind, "template": tpl}, ""))
+            if (kind, kind, tpl) not in have and not (kind == "tool" and any(
+                    ("link", ln, tpl) in have for ln in last)):
+                hint = (f"the tool spring is also the spring of link {last[0]!r} (same frame)"
+                        if kind == "tool" and last else "")
+                out.append(({"kind": kind, "template": tpl}, hint))
     if not any(t.kind == "point_offset" for t in model.terms):
         out.append(({"kind": "point_offset"}, ""))
     return out

@@ -166,11 +166,12 @@ class Problem:
 
     @staticmethod
     def offset_columns(pred, Rt):
-        """d(point deflection)/dr (3, n, 3) = -[dphi]x R_tool at the prediction."""
+        """d(point deflection)/dr (3, n, 3) = [dphi]x R_tool at the prediction
+        (the point deflection is dt + dphi x R_tool (p + r))."""
         dphi = pred[3:6].T                              # (n, 3)
         out = np.empty((3, dphi.shape[0], 3))
         for i in range(3):
-            out[:, :, i] = -np.cross(dphi, Rt[:, :, i]).T
+            out[:, :, i] = np.cross(dphi, Rt[:, :, i]).T
         return out
 
     def weighted(self, rows6):
@@ -260,15 +261,34 @@ def error_stats(e: np.ndarray) -> dict:
             "axes": axes}
 
 
-def solve_wls(A, b, rcond=RCOND, gtol=GTOL):
-    """Core weighted least squares (rows already weighted)."""
+def equilibrate(A, nonlinear):
+    """Column factors that bring the columns of nonlinear parameters (whose
+    units differ from compliances by many decades, e.g. k_s in N/m) to the
+    largest column norm, so the core's zero-column test (relative to the
+    largest column) only flags structural zeros. Returns f (npar,): solve
+    with A * f, then theta = theta_f * f."""
+    f = np.ones(A.shape[1])
+    if A.shape[1] == 0 or not np.any(nonlinear):
+        return f
+    d = np.linalg.norm(A, axis=0)
+    big = d.max() if d.size else 0.0
+    for k in np.nonzero(nonlinear)[0]:
+        if d[k] > 0 and big > 0:
+            f[k] = big / d[k]
+    return f
+
+
+def solve_wls(A, b, rcond=RCOND, gtol=GTOL, scale=None):
+    """Core weighted least squares (rows already weighted); ``scale``
+    multiplies the columns before the core and the solution after."""
     if A.shape[0] < A.shape[1]:
         raise InputError(f"{A.shape[0]} observations for {A.shape[1]} parameters: fewer rows than "
                          f"parameters (add measurements or remove effects)")
-    theta, stdu, s, v, rank, group, res, info = _calib.sk_wls(np.asfortranarray(A), b, rcond, gtol)
+    f = np.ones(A.shape[1]) if scale is None else scale
+    theta, stdu, s, v, rank, group, res, info = _calib.sk_wls(np.asfortranarray(A * f), b, rcond, gtol)
     _errors.check(info, "weighted least squares (sk_wls)",
                   {8: "fewer observations than parameters"})
-    return theta, stdu, s, v, int(rank), group, res
+    return theta * f, stdu * f, s, v, int(rank), group, res
 
 
 def coupling_groups(names, v, rank, group, tol=1e-6) -> list[list[str]]:
@@ -327,6 +347,7 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
     y = pb.weighted(pb.y)
     theta = np.zeros(npar) if theta0 is None else np.array(theta0, float)
     nonlinear = any(t.free and t.nonlinear for t in pb.terms)
+    nlmask = np.array([t.nonlinear for t in pb.terms if t.free for _ in t.names], dtype=bool)
     lam, it, converged = 0.0, 0, True
     pred, J = pb.evaluate(theta)
     if npar:
@@ -346,14 +367,14 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
                     ba = np.concatenate([b, np.zeros(npar)])
                 else:
                     Aa, ba = A, b
-                delta, *_ = solve_wls(Aa, ba)
+                delta, *_ = solve_wls(Aa, ba, scale=equilibrate(A, nlmask))
                 trial = theta + delta
                 p2, J2 = pb.evaluate(trial)
                 b2 = y - pb.weighted(p2)
                 c2 = float(b2 @ b2)
                 if c2 <= cost:
-                    small = cost - c2 <= 1e-12 * cost + 1e-300 or \
-                        np.all(np.abs(delta) <= 1e-10 * (np.abs(trial) + 1e-300))
+                    small = cost - c2 <= 1e-14 * cost + 1e-300 or \
+                        np.all(np.abs(delta) <= 1e-12 * (np.abs(trial) + 1e-300))
                     theta, pred, J, b, cost = trial, p2, J2, b2, c2
                     A = pb.weighted(J)
                     lam = lam / 10.0 if lam > 1e-12 else 0.0
@@ -368,7 +389,9 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
         pred, J = pb.evaluate(theta)
         A = pb.weighted(J)
         b = y - pb.weighted(pred)
-        _, stdu, s, v, rank, group, _ = solve_wls(A, b)
+        eq = equilibrate(A, nlmask)
+        _, stdu, s, v, rank, group, _ = solve_wls(A, b, scale=eq)
+        A = A * eq           # equilibrated: for the score tests of the diagnosis
     else:
         A = np.zeros((nobs, 0))
         b = y - pb.weighted(pred)
@@ -491,8 +514,9 @@ def write_model(res: FitResult, path) -> None:
         meas["sigma_rotation"] = model.sigma_rotation
     if meas:
         doc["measurements"] = meas
-    doc["effect"] = model_tables_with_values(res)
+    from .synth import effects_toml
+
     head = (f"# identified by stiffkit fit from {res.problem.meas.path}: positional RMS "
             f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
             f"# non-identifiable and semi-identifiable parameters hold the minimum-norm solution\n")
-    path.write_text(head + tomli_w.dumps(doc))
+    path.write_text(head + tomli_w.dumps(doc) + effects_toml(model_tables_with_values(res)))

@@ -187,8 +187,14 @@ def model_toml(effects: list[dict], sigma=None, urdf="robot.urdf", tool_frame="t
         meas["sigma_rotation"] = float(sigma_rotation)
     if meas:
         doc["measurements"] = meas
-    doc["effect"] = [_plain(e) for e in effects]
-    return tomli_w.dumps(doc)
+    return tomli_w.dumps(doc) + effects_toml(effects)
+
+
+def effects_toml(effects) -> str:
+    """[[effect]] tables, always in the appendable array-of-tables form."""
+    import tomli_w
+
+    return "".join("\n[[effect]]\n" + tomli_w.dumps(_plain(e)) for e in effects)
 
 
 def _plain(v):
@@ -209,8 +215,9 @@ def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):
     sigma = kw.get("sigma", 2e-5)
     sr = kw.get("sigma_rotation")
     tool = kw.get("tool_frame", "tool0") if isinstance(joints, (str, Path)) else joints[-1]["child"]
-    (out / "model.toml").write_text(model_toml(fit_effects, sigma if declare_sigma else None,
+    (out / "model.toml").write_text(model_toml(fit_effects, sigma if declare_sigma and sigma > 0 else None,
                                                tool_frame=tool, sigma_rotation=sr))
-    (out / "truth.toml").write_text(model_toml(truth, sigma, tool_frame=tool, sigma_rotation=sr))
+    (out / "truth.toml").write_text(model_toml(truth, sigma if sigma > 0 else None, tool_frame=tool,
+                                               sigma_rotation=sr))
     write_measurements(out / "measurements.csv", meas)
     return out

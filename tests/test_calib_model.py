@@ -1,0 +1,110 @@
+"""Robot model: URDF chain, TOML effects, tool compliance (contract s1, s2, s5)."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import stiffkit
+from stiffkit.calib import synth as S
+from stiffkit.calib.fit import Problem
+from stiffkit.calib.measure import Measurements
+from stiffkit.calib.robot import urdf_text
+
+from _calib_util import data, joints_truth, spd
+
+
+def planar_files(tmp_path, c1=2e-6, c2=5e-6, l1=0.7, l2=0.4):
+    joints = [dict(name="j1", type="revolute", parent="base_link", child="l1", axis=(0, 0, 1)),
+              dict(name="j2", type="revolute", parent="l1", child="l2", xyz=(l1, 0, 0), axis=(0, 0, 1)),
+              dict(name="jt", type="fixed", parent="l2", child="tool0", xyz=(l2, 0, 0))]
+    (tmp_path / "arm.urdf").write_text(urdf_text("arm", joints))
+    (tmp_path / "arm.toml").write_text(f"""
+[robot]
+urdf = "arm.urdf"
+base_link = "base_link"
+tool_frame = "tool0"
+
+[[effect]]
+kind = "joint"
+target = "j1"
+value = {c1!r}
+
+[[effect]]
+kind = "joint"
+target = "j2"
+value = {c2!r}
+""")
+    return tmp_path / "arm.toml"
+
+
+def test_planar_two_link_equals_hand_derived(tmp_path):
+    c1, c2, l1, l2 = 2e-6, 5e-6, 0.7, 0.4
+    m = stiffkit.load_model(planar_files(tmp_path, c1, c2, l1, l2))
+    Q = np.array([[0.3, 0.9], [-1.0, 2.0], [2.5, -0.4], [0.0, 0.0]])
+    C = m.tool_compliance(Q)
+    assert C.shape == (4, 6, 6)
+    for q, Ci in zip(Q, C):
+        x = l1 * math.cos(q[0]) + l2 * math.cos(q[0] + q[1])
+        y = l1 * math.sin(q[0]) + l2 * math.sin(q[0] + q[1])
+        x2, y2 = x - l1 * math.cos(q[0]), y - l1 * math.sin(q[0])
+        # twist of joint i per unit rotation: (z x (p - p_i), z)
+        j1 = np.array([-y, x, 0, 0, 0, 1.0])
+        j2 = np.array([-y2, x2, 0, 0, 0, 1.0])
+        Ch = c1 * np.outer(j1, j1) + c2 * np.outer(j2, j2)
+        np.testing.assert_allclose(Ci, Ch, rtol=0, atol=1e-15)
+    C, K, rank, ok = m.stiffness(Q)
+    assert list(rank) == [2, 2, 2, 2] and not ok.any()      # two springs: no 6x6 stiffness
+
+
+def test_kr270_stiffness_positive_definite_and_inverse():
+    chain, truth, _ = data(joints_truth() + [{"kind": "base", "value": spd(1).tolist()},
+                                             {"kind": "tool", "value": spd(2).tolist()}], n_configs=2)
+    Q = S.random_postures(50, S.KR270_RANGES, np.random.default_rng(0))
+    C, K, rank, ok = truth.stiffness(Q)
+    assert ok.all() and (rank == 6).all()
+    np.testing.assert_allclose(np.einsum("nij,njk->nik", C, K), np.broadcast_to(np.eye(6), C.shape), atol=1e-8)
+
+
+def test_basis_prediction_matches_tool_compliance():
+    """Two code paths of the core: observation basis vs C W moved to the point."""
+    truth = S.kr270_truth(compensator=True) + [{"kind": "joint_profile", "target": "joint_a3",
+                                                "value": [0, 1e-7, -5e-8, 3e-8, 2e-8]}]
+    chain, tm, meas = data(truth, n_configs=10)
+    C = tm.tool_compliance(meas.q)
+    tw = np.einsum("nij,nj->ni", C, meas.w)
+    R = np.array([chain.forward(q)[0] for q in meas.q])
+    v = np.einsum("nij,nj->ni", R, meas.p)
+    d = tw[:, :3] + np.cross(tw[:, 3:], v)
+    np.testing.assert_allclose(meas.d, d, rtol=1e-10, atol=1e-15)
+
+
+def test_link_value_from_json_with_rpy(tmp_path):
+    Ccad = spd(3)
+    (tmp_path / "links").mkdir()
+    (tmp_path / "links" / "arm.json").write_text(json.dumps({"compliance": Ccad.tolist()}))
+    S.write_synth(tmp_path, S.KR270_JOINTS, joints_truth(), [], n_configs=2)
+    base = (tmp_path / "truth.toml").read_text()
+    rpy = [0.1, -0.2, 0.3]
+    (tmp_path / "a.toml").write_text(base + f'\n[[effect]]\nkind = "link"\ntarget = "link_2"\n'
+                                     f'value = "links/arm.json"\nrpy = {rpy}\n')
+    from stiffkit.calib.model import rpy_matrix
+    R = rpy_matrix(rpy)
+    B = np.kron(np.eye(2), R)
+    (tmp_path / "b.toml").write_text(base + f'\n[[effect]]\nkind = "link"\ntarget = "link_2"\n'
+                                     f'value = {(B @ Ccad @ B.T).tolist()}\n')
+    Q = S.random_postures(5, S.KR270_RANGES, np.random.default_rng(1))
+    Ca = stiffkit.load_model(tmp_path / "a.toml").tool_compliance(Q)
+    Cb = stiffkit.load_model(tmp_path / "b.toml").tool_compliance(Q)
+    np.testing.assert_allclose(Ca, Cb, rtol=1e-12, atol=1e-20)
+    C0 = stiffkit.load_model(tmp_path / "truth.toml").tool_compliance(Q)
+    assert np.abs(Ca - C0).max() > 1e-3 * np.abs(C0).max()       # the link counts
+
+
+def test_model_without_values_cannot_be_evaluated(tmp_path):
+    S.write_synth(tmp_path, S.KR270_JOINTS, joints_truth(), [{"kind": "joint", "target": "all"}], n_configs=2)
+    m = stiffkit.load_model(tmp_path / "model.toml")
+    with pytest.raises(stiffkit.InputError, match="no value"):
+        m.tool_compliance(np.zeros((1, 6)))
