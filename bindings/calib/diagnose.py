@@ -116,12 +116,12 @@ def candidate_tables(model: Model) -> list[tuple[dict, str]]:
             out.append(({"kind": "joint_profile", "target": j}, HINT_COMPENSATOR.format(j=j)))
     have = {(t.source, t.target, t.template) for t in model.terms if t.kind == "six"}
     for link in ch.links:
-        if ch.link_spring(link)[0] == 4:      # its spring is the tool spring: offered as kind tool
+        if ch.is_tool_spring(link):           # its spring is the tool spring: offered as kind tool
             continue
         for tpl in ("beam", "diagonal", "full"):
             if ("link", link, tpl) not in have:
                 out.append(({"kind": "link", "target": link, "template": tpl}, ""))
-    last = [ln for ln in ch.links if ch.link_spring(ln)[0] == 4]
+    last = [ln for ln in ch.links if ch.is_tool_spring(ln)]
     for kind in ("base", "tool"):
         for tpl in ("diagonal", "full"):
             if (kind, kind, tpl) not in have and not (kind == "tool" and any(
@@ -213,11 +213,11 @@ def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float
         cols = pb.weighted(J)
         Z.append(cols)
         cstart.append(cstart[-1] + cols.shape[1])
-    Z = np.hstack(Z) if Z else np.zeros((nobs, 1))
     A = res.A if res.A.shape[1] else np.zeros((nobs, 1))
-    stat_c, dof_c, pr, info = _calib.sk_score(np.asfortranarray(A), res.r, np.asfortranarray(Z),
-                                             np.array(cstart, np.int32), 1e-10, ZTOL)
-    _errors.check(info, "score tests (sk_score)")
+    if Z:
+        stat_c, dof_c, pr, info = _calib.sk_score(np.asfortranarray(A), res.r, np.asfortranarray(np.hstack(Z)),
+                                                 np.array(cstart, np.int32), 1e-10, ZTOL)
+        _errors.check(info, "score tests (sk_score)")
     rr = float(res.r @ res.r)
     wp = pb.wrow[0]
     npts = meas.n

@@ -80,6 +80,16 @@ class Chain:
             return 2, self.parents.index(link) + 1
         return 4, 0
 
+    def is_tool_spring(self, link: str) -> bool:
+        """True when the spring of ``link`` sits at the tool frame (the last
+        link, or the parent of a last fixed joint with the tool at its
+        frame): then it is the ``tool`` spring."""
+        stype, k = self.link_spring(link)
+        if stype == 4:
+            return True
+        return (k == len(self.joint_names) and self.qidx[k - 1] == 0
+                and np.allclose(self.trot, np.eye(3)) and not np.any(self.tpos))
+
     def core_arrays(self) -> dict:
         """The chain as Fortran-ordered arrays for the core."""
         nj = len(self.joint_names)

@@ -1,0 +1,108 @@
+"""Diagnosis (contract s4): adequacy test, hidden effects found, honest false-alarm rate."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from stiffkit.calib import synth as S
+from stiffkit.calib.diagnose import diagnose
+from stiffkit.calib.fit import fit
+
+from _calib_util import data, joints_truth, model
+
+SIGMA = 1e-5
+JOINTS = [{"kind": "joint", "target": "all"}]
+DIAG_BASE = np.diag([3e-9, 3e-9, 2e-9, 5e-8, 5e-8, 2e-8]).tolist()
+DIAG_TOOL = np.diag([2e-8, 2e-8, 2e-8, 3e-7, 3e-7, 3e-7]).tolist()
+GEOM = {k: S.KR270_COMPENSATOR[k] for k in ("a", "b", "beta", "s0")}
+
+# hidden kind: (truth extra effects, model effects, expected first (kind, target), effect to add)
+HIDDEN = {
+    "joint": ([{"kind": "base", "value": DIAG_BASE}],
+              [{"kind": "joint", "target": f"joint_a{i}"} for i in (1, 2, 3, 5, 6)]
+              + [{"kind": "base", "template": "diagonal"}],
+              ("joint", "joint_a4"), {"kind": "joint", "target": "joint_a4"}),
+    "link": ([{"kind": "link", "target": "link_2", "value": S.kr270_links()["link_2"].tolist()}], JOINTS,
+             ("link", "link_2"), {"kind": "link", "target": "link_2", "template": "beam"}),
+    "base": ([{"kind": "base", "value": DIAG_BASE}], JOINTS, ("base", "base"),
+             {"kind": "base", "template": "diagonal"}),
+    "tool": ([{"kind": "tool", "value": DIAG_TOOL}], JOINTS, ("tool", "tool"),
+             {"kind": "tool", "template": "diagonal"}),
+    "joint_profile": ([{"kind": "joint_profile", "target": "joint_a2", "value": [0, 6e-8, -4e-8, 3e-8, 2e-8]}],
+                      JOINTS, ("joint_profile", "joint_a2"), {"kind": "joint_profile", "target": "joint_a2"}),
+    "gravity_compensator": ([{"kind": "gravity_compensator", "target": "joint_a2", **S.KR270_COMPENSATOR}],
+                            JOINTS, ("joint_profile", "joint_a2"),
+                            {"kind": "gravity_compensator", "target": "joint_a2", **GEOM}),
+    "point_offset": ([{"kind": "point_offset", "r": [0.03, -0.02, 0.05]}], JOINTS,
+                     ("point_offset", "point_offset"), {"kind": "point_offset"}),
+}
+
+
+@pytest.mark.parametrize("hidden", list(HIDDEN))
+def test_hidden_effect_found_and_error_falls_to_noise(hidden):
+    extra, effects, first, add = HIDDEN[hidden]
+    chain, tm, meas = data(joints_truth() + extra, sigma=SIGMA, seed=11)
+    dg = diagnose(model(chain, effects, sigma=SIGMA), meas)
+    assert dg.verdict == "inadequate"
+    best = dg.candidates[0]
+    assert (best.kind, best.target) == first, [c.label for c in dg.candidates[:5]]
+    if hidden == "gravity_compensator":
+        assert "gravity_compensator" in best.hint
+    floor = math.sqrt(3) * SIGMA
+    assert dg.fit.rms_position > 1.25 * floor
+    res = fit(model(chain, effects + [add], sigma=SIGMA), meas)
+    assert abs(res.rms_position - floor) <= 0.25 * floor, (res.rms_position, floor)
+    # the ranking uses log p: strong effects have p = 0.0 in floating point
+    assert best.log_p < math.log(1e-6)
+
+
+def test_correct_model_adequate_in_at_least_95_of_100_seeds():
+    truth = joints_truth() + [{"kind": "link", "target": "link_2", "value": S.kr270_links()["link_2"].tolist()}]
+    chain, tm, meas = data(truth, sigma=0.0, seed=2)
+    m = model(chain, JOINTS + [{"kind": "link", "target": "link_2", "template": "beam"}], sigma=SIGMA)
+    d0 = meas.d.copy()
+    rng = np.random.default_rng(123)
+    adequate = 0
+    for _ in range(100):
+        meas.d = d0 + SIGMA * rng.normal(size=d0.shape)
+        adequate += diagnose(m, meas, kinds=("joint",)).verdict == "adequate"
+    assert adequate >= 95
+    # and the same test is not blind: a missing link is seen at this noise level
+    assert diagnose(model(chain, JOINTS, sigma=SIGMA), meas).verdict == "inadequate"
+
+
+def test_pure_error_from_replicates_when_sigma_absent():
+    truth = joints_truth() + [{"kind": "link", "target": "link_2", "value": S.kr270_links()["link_2"].tolist()}]
+    chain, tm, meas = data(truth, sigma=SIGMA, seed=4, n_configs=20, replicates=2)
+    ok = diagnose(model(chain, JOINTS + [{"kind": "link", "target": "link_2", "template": "beam"}]), meas)
+    assert ok.verdict == "adequate" and ok.sigma_source == "pure error"
+    assert abs(ok.sigma_position / SIGMA - 1) < 0.15
+    bad = diagnose(model(chain, JOINTS), meas)
+    assert bad.verdict == "inadequate" and (bad.candidates[0].kind, bad.candidates[0].target) == ("link", "link_2")
+
+
+def test_no_sigma_and_no_replicates_is_a_clear_error():
+    chain, tm, meas = data(joints_truth(), sigma=SIGMA, seed=4, n_configs=10)
+    from stiffkit import InputError
+    with pytest.raises(InputError, match="sigma_position"):
+        diagnose(model(chain, JOINTS), meas)
+
+
+def test_coupled_candidates_flagged_and_spanned_ones_not_ranked():
+    chain, tm, meas = data(joints_truth(), sigma=SIGMA, seed=8)
+    effects = [{"kind": "joint", "target": f"joint_a{i}"} for i in (1, 2, 4, 5, 6)]
+    dg = diagnose(model(chain, effects, sigma=SIGMA), meas)
+    best = dg.candidates[0]
+    assert (best.kind, best.target) == ("joint", "joint_a3")
+    # link_2's spring sits at joint_a3's frame: its rotation about y is the same column
+    assert any(lbl.startswith("link:link_2") for lbl in best.indistinguishable_from)
+    # with link_2 full in the model, its smaller templates add nothing
+    dg2 = diagnose(model(chain, JOINTS + [{"kind": "link", "target": "link_2", "template": "full"}],
+                         sigma=SIGMA), meas)
+    spanned = {(c.kind, c.target, c.effect.get("template")) for c in dg2.non_identifiable}
+    assert ("link", "link_2", "beam") in spanned and ("link", "link_2", "diagonal") in spanned
+    assert not any(c.kind == "link" and c.target == "link_2" for c in dg2.candidates)
+    for c in dg2.candidates:
+        assert c.dof >= 1
