@@ -5,7 +5,7 @@ truth.toml (the truth, with values) and measurements.csv into --out.
 
 ROBOT is ``kr270`` (a built-in KR-270-like 6R robot: approximate KUKA
 KR 270 R2700 datasheet dimensions; joint compliances of klimchik's
-magnitude; steel-tube links 2-4; a gravity compensator on A2) or a truth
+magnitude; aluminium-tube links 2-4; a gravity compensator on A2) or a truth
 model TOML whose effects carry values (its URDF is copied).
 """
 from __future__ import annotations

@@ -443,7 +443,7 @@ def format_table(res: FitResult, unit: float = 1e-3, label: str = "") -> str:
         return f"{name:34s}" + "".join(f"{m / unit:7.3f}{r / unit:8.3f}" for m, r in cells)
 
     lines = [head, row("deflections without compensation", before),
-             row(f"after compensation{(' (' + label + ')') if label else ''}", after),
+             row(f"after compensation{(' (' + label + ')') if label else ''}"[:33], after),
              f"compensated fraction {100 * res.compensated_fraction:.1f} %   "
              f"({res.problem.meas.n} rows, {len(res.names)} parameters, rank {res.rank})"]
     return "\n".join(lines)

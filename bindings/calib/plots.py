@@ -37,20 +37,26 @@ def fit_plots(res, outdir, label: str = "fit") -> list[str]:
     files = []
     pos = point_positions(res)
     before, after = res.measured, res.residuals
-    scale = 0.15 / max(np.linalg.norm(before, axis=1).max(), 1e-300)      # metres of arrow per metre
+    span = max(np.ptp(pos, axis=0).max(), 1e-3)
+    scale = 0.08 * span / max(np.linalg.norm(before, axis=1).max(), 1e-300)   # arrow metres per metre
+    rscale = 0.08 * span / max(np.linalg.norm(after, axis=1).max(), 1e-300)
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
     for ax, (i, j, name) in zip(axes, [(0, 1, "top view (x, y)"), (0, 2, "side view (x, z)")]):
         ax.scatter(pos[:, i], pos[:, j], s=8, c="k", zorder=3)
         ax.quiver(pos[:, i], pos[:, j], before[:, i] * scale, before[:, j] * scale, angles="xy",
-                  scale_units="xy", scale=1, color="0.7", width=0.003, label="measured deflection")
-        ax.quiver(pos[:, i], pos[:, j], after[:, i] * scale, after[:, j] * scale, angles="xy",
-                  scale_units="xy", scale=1, color="C3", width=0.004, label="residual after fit")
+                  scale_units="xy", scale=1, color="0.7", width=0.003,
+                  label=f"measured deflection (x {scale:.3g})")
+        ax.quiver(pos[:, i], pos[:, j], after[:, i] * rscale, after[:, j] * rscale, angles="xy",
+                  scale_units="xy", scale=1, color="C3", width=0.004,
+                  label=f"residual after fit (x {rscale:.3g})")
         ax.set_aspect("equal")
         ax.set_title(name)
         ax.set_xlabel("xyz"[i] + " (m)")
         ax.set_ylabel("xyz"[j] + " (m)")
     axes[0].legend(loc="best", fontsize=8)
-    fig.suptitle(f"{label}: residual vectors per configuration (arrows x {scale:.3g})")
+    fig.suptitle(f"{label}: residual vectors per configuration (max residual "
+                 f"{np.linalg.norm(after, axis=1).max() * 1e3:.3g} mm, max deflection "
+                 f"{np.linalg.norm(before, axis=1).max() * 1e3:.3g} mm)")
     fig.tight_layout()
     f = out / f"{label}_residual_vectors.png"
     fig.savefig(f, dpi=110)

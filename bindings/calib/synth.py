@@ -10,7 +10,7 @@ truth.toml (the truth with values) and measurements.csv.
 The built-in example is a KR-270-like 6R robot: dimensions of the public
 KUKA KR 270 R2700 datasheet (approximate: A1 height 675 mm, A1-A2 offset
 350 mm, upper arm 1150 mm, A3 offset 41 mm, forearm 1200 mm, flange
-215 mm), steel-tube link compliances, joint compliances of the magnitude
+215 mm), aluminium-tube link compliances, joint compliances of the magnitude
 klimchik reports, and a gravity compensator on A2.
 """
 from __future__ import annotations
@@ -44,7 +44,7 @@ KR270_COMPENSATOR = dict(a=0.45, b=0.12, beta=0.3, s0=0.25, k_s=5.0e7)
 
 
 def beam_compliance(length, E, nu, outer, inner) -> np.ndarray:
-    """Tip compliance of a steel tube cantilever along x (no shear)."""
+    """Tip compliance of a tube cantilever along x (Euler-Bernoulli, no shear)."""
     A = math.pi / 4 * (outer ** 2 - inner ** 2)
     I = math.pi / 64 * (outer ** 4 - inner ** 4)
     J = 2 * I
@@ -61,8 +61,9 @@ def beam_compliance(length, E, nu, outer, inner) -> np.ndarray:
 
 
 def kr270_links() -> dict[str, np.ndarray]:
-    """Link spring compliances of the KR-270-like robot (steel tubes)."""
-    E, nu = 2.0e11, 0.3
+    """Link spring compliances of the KR-270-like robot (cast aluminium-alloy
+    tubes, E = 70 GPa)."""
+    E, nu = 7.0e10, 0.33
     return {"link_2": beam_compliance(1.150, E, nu, 0.30, 0.26),
             "link_3": beam_compliance(0.600, E, nu, 0.22, 0.18),
             "link_4": beam_compliance(0.600, E, nu, 0.18, 0.15)}
