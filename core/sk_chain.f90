@@ -27,7 +27,7 @@ module sk_chain
     implicit none
     private
     public :: chain_frames, spring_jacobian, spring_ndof, tool_compliance_batch
-    public :: spring_basis_batch, sym_index, nsym
+    public :: spring_basis_batch, sym_index, nsym, spring_jacobians
 
     !> number of independent elements of a symmetric 6x6 matrix
     integer, parameter :: nsym = 21
@@ -257,5 +257,43 @@ contains
         end do
         info = sk_ok
     end subroutine spring_basis_batch
+
+    !> Jacobians of every spring at one posture q: jac[6, nd], the columns of
+    !> spring s (1 for a joint spring, 6 otherwise) one after the other;
+    !> rt[3,3], pt[3] the tool frame.
+    subroutine spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q, jac, rt, pt, info)
+        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3), q(:)
+        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:)
+        real(dp), intent(out) :: jac(:, :), rt(3, 3), pt(3)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: rf(:, :, :), pf(:, :)
+        real(dp) :: jj(6, 6)
+        integer :: s, col, n
+        jac = 0.0_dp
+        call check_chain(jaxis, qidx, size(q, kind=ip), stype, sidx, info)
+        if (info /= sk_ok) return
+        n = 0
+        do s = 1, size(stype)
+            n = n + spring_ndof(stype(s))
+        end do
+        if (size(jac, 1) /= 6 .or. size(jac, 2) /= n) then
+            info = sk_err_size
+            return
+        end if
+        if (.not. all_finite(q)) then
+            info = sk_err_nonfinite
+            return
+        end if
+        allocate(rf(3, 3, size(qidx)), pf(3, size(qidx)))
+        call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rt, pt)
+        col = 0
+        do s = 1, size(stype)
+            n = spring_ndof(stype(s))
+            call spring_jacobian(stype(s), sidx(s), jaxis, rf, pf, rt, pt, jj)
+            jac(:, col + 1:col + n) = jj(:, 1:n)
+            col = col + n
+        end do
+        info = sk_ok
+    end subroutine spring_jacobians
 
 end module sk_chain

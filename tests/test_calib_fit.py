@@ -114,3 +114,28 @@ def test_fewer_rows_than_parameters(tmp_path):
     m = model(chain, [{"kind": "link", "target": ln, "template": "full"} for ln in ("link_2", "link_3")])
     with pytest.raises(stiffkit.InputError, match="fewer rows than parameters"):
         fit(m, meas)
+
+
+def test_rotation_columns_make_the_last_axis_identifiable(tmp_path):
+    """rx, ry, rz measured: one marker on the A6 axis suffices (contract s3, optional rotations)."""
+    S.write_synth(tmp_path, S.KR270_JOINTS, joints_truth(), [{"kind": "joint", "target": "all"}], sigma=1e-5,
+                  sigma_rotation=1e-5, n_configs=20, ranges=S.KR270_RANGES, markers=((0.0, 0.0, 0.25),))
+    assert "rx" in (tmp_path / "measurements.csv").read_text().splitlines()[0]
+    res = fit(tmp_path / "model.toml", tmp_path / "measurements.csv")
+    assert res.nobs == 6 * 60 and all(g == "identifiable" for g in res.groups)
+    z = (res.values - np.array(S.KR270_JOINT_C)) / res.std
+    assert np.abs(z).max() < 5                       # estimates within their standard errors
+
+
+def test_cli_reduce_prints_table_1(tmp_path, capsys):
+    from stiffkit.cli import main
+    truth = joints_truth() + [{"kind": "link", "target": "link_2", "value": S.kr270_links()["link_2"].tolist()}]
+    S.write_synth(tmp_path, S.KR270_JOINTS, truth,
+                  [{"kind": "joint", "target": "all"}] + [{"kind": "link", "target": f"link_{i}", "template": "beam"}
+                                                          for i in range(1, 6)],
+                  sigma=1e-5, n_configs=20, ranges=S.KR270_RANGES, markers=MARKERS)
+    assert main(["fit", str(tmp_path / "model.toml"), str(tmp_path / "measurements.csv"), "--reduce",
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "M1 symmetrisation" in out and "M5a splitting" in out
+    assert "6 joints + 5 6-dof springs" in out and " 186 " in out     # 6 + 5 x 36

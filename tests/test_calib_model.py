@@ -108,3 +108,32 @@ def test_model_without_values_cannot_be_evaluated(tmp_path):
     m = stiffkit.load_model(tmp_path / "model.toml")
     with pytest.raises(stiffkit.InputError, match="no value"):
         m.tool_compliance(np.zeros((1, 6)))
+
+
+def test_spring_jacobians_by_finite_differences():
+    """The link spring's Jacobian against a finite deflection of its frame:
+    F_k -> F_k T(dt) Rot(dphi), both in the spring frame's own axes."""
+    import copy
+
+    from stiffkit.calib.robot import _rot_axis
+
+    chain, tm, _ = data(joints_truth() + [{"kind": "link", "target": "link_3", "value": spd(5).tolist()}],
+                        n_configs=1)
+    q = np.array([0.3, -0.7, 0.4, 1.1, 0.9, -0.5])
+    k = chain.joint_index("joint_a4")              # link_3's spring: frame of joint_a4
+    Jl = tm.jacobians(q)[(2, k + 1)]
+    R0, p0 = chain.forward(q)
+    h = 1e-7
+    for i in range(6):
+        e = np.zeros(6)
+        e[i] = h
+        ch2 = copy.deepcopy(chain)
+        Rk = chain.jrot[k]
+        ch2.jpos[k] = chain.jpos[k] + Rk @ e[:3]
+        if i >= 3:
+            ch2.jrot[k] = Rk @ _rot_axis(e[3:] / h, h)
+        R1, p1 = ch2.forward(q)
+        dR = R1 @ R0.T
+        dphi = np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]]) / 2
+        fd = np.concatenate([p1 - p0, dphi]) / h
+        np.testing.assert_allclose(Jl[:, i], fd, rtol=0, atol=1e-6 * max(1.0, np.abs(Jl).max()))

@@ -158,6 +158,29 @@ class Model:
                 out[t.spring] = out.get(t.spring, np.zeros((6, 6))) + C
         return out
 
+    def jacobians(self, q) -> dict:
+        """Jacobians of every spring of the model at posture q (dof,):
+        {(stype, joint index): (6, 1) or (6, 6)}; the tool twist per spring
+        deflection (base axes, about the tool-frame origin)."""
+        springs = self.springs()
+        if not springs:
+            return {}
+        q = np.asarray(q, dtype=float).reshape(-1)
+        if q.shape != (self.chain.dof,):
+            raise InputError(f"posture must have {self.chain.dof} values, got {q.size}")
+        stype = np.array([s[0] for s in springs], np.int32)
+        sidx = np.array([s[1] for s in springs], np.int32)
+        nd = int(sum(1 if s == SPRING_JOINT else 6 for s in stype))
+        jac, rt, pt, info = _calib.sk_spring_jacobians(nd, **self.chain.core_arrays(), stype=stype,
+                                                       sidx=sidx, q=q)
+        _errors.check(info, "spring Jacobians (sk_spring_jacobians)")
+        out, col = {}, 0
+        for sp in springs:
+            n = 1 if sp[0] == SPRING_JOINT else 6
+            out[sp] = jac[:, col:col + n].copy()
+            col += n
+        return out
+
     def tool_compliance(self, Q, return_stiffness: bool = False):
         """Tool-frame compliance (N, 6, 6) at postures Q (N, dof): base axes,
         about the tool-frame origin, sum_i J_i C_i J_i^T, one core call.

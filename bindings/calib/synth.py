@@ -222,3 +222,12 @@ def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):
                                                sigma_rotation=sr))
     write_measurements(out / "measurements.csv", meas)
     return out
+
+
+def synth_kr270(out, links=True, compensator=True, offset=None, fit_effects=None, **kw):
+    """Python face of ``stiffkit synth kr270``: the KR-270-like truth, data
+    and files in ``out`` (fit_effects default: joints only, the paper's J1)."""
+    kw.setdefault("ranges", KR270_RANGES)
+    truth = kr270_truth(links=links, compensator=compensator, offset=offset)
+    fit_effects = fit_effects if fit_effects is not None else [{"kind": "joint", "target": "all"}]
+    return write_synth(out, KR270_JOINTS, truth, fit_effects, **kw)
