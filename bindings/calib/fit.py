@@ -359,22 +359,36 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
             theta = theta + delta
             it = 1
         else:
+            # compensated joints: iterate on their stiffness 1/c, in which
+            # c_eff = 1 / (1/c + k_s h(q)) has a straight valley, not a curved one
+            comp = {t.joint for t in pb.terms if t.kind == "gravity_compensator"}
+            inv = np.array([t.kind == "joint" and t.joint in comp for t in pb.terms if t.free
+                            for _ in t.names], dtype=bool)
             converged = False
             for it in range(1, max_iter + 1):
+                use = inv & (theta > 0) if it > 1 else np.zeros(npar, bool)
+                Az = A.copy()
+                Az[:, use] = A[:, use] * (-theta[use] ** 2)          # d/d(1/c) = -c^2 d/dc
                 if lam > 0:
-                    d = np.linalg.norm(A, axis=0)
-                    Aa = np.vstack([A, np.sqrt(lam) * np.diag(d)])
+                    d = np.linalg.norm(Az, axis=0)
+                    Aa = np.vstack([Az, np.sqrt(lam) * np.diag(d)])
                     ba = np.concatenate([b, np.zeros(npar)])
                 else:
-                    Aa, ba = A, b
-                delta, *_ = solve_wls(Aa, ba, scale=equilibrate(A, nlmask))
-                trial = theta + delta
+                    Aa, ba = Az, b
+                dz, *_ = solve_wls(Aa, ba, scale=equilibrate(Az, nlmask | use))
+                trial = theta + dz
+                zc = 1.0 / theta[use] + dz[use]
+                trial[use] = np.where(zc > 0, 1.0 / np.where(zc > 0, zc, 1.0), theta[use] * 10.0)
+                delta = trial - theta
                 p2, J2 = pb.evaluate(trial)
                 b2 = y - pb.weighted(p2)
                 c2 = float(b2 @ b2)
                 if c2 <= cost:
-                    small = cost - c2 <= 1e-14 * cost + 1e-300 or \
-                        np.all(np.abs(delta) <= 1e-12 * (np.abs(trial) + 1e-300))
+                    # a relative decrease below 1e-4 is far below one unit of chi2
+                    # at any noise level: stop (the noise-free case converges
+                    # quadratically down to round-off first)
+                    small = cost - c2 <= 1e-4 * cost + 1e-300 or \
+                        np.all(np.abs(delta) <= 1e-10 * (np.abs(trial) + 1e-300))
                     theta, pred, J, b, cost = trial, p2, J2, b2, c2
                     A = pb.weighted(J)
                     lam = lam / 10.0 if lam > 1e-12 else 0.0
