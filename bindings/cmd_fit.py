@@ -21,6 +21,22 @@ inputs:
                sigma_position (m), and [[effect]] tables: kind = joint | link |
                base | tool | joint_profile | gravity_compensator | point_offset
   MEAS.csv     config, q1..qN, fx fy fz mx my mz, [px py pz], dx dy dz, [rx ry rz]
+               (wrench at the tool-frame origin in base axes; point in tool
+               coordinates; deflection in base axes; SI units)
+
+effects (where each virtual spring acts; parameter names as printed):
+  joint             target = joint name or "all": rotation about the axis, c (rad/(N m)) -> J.c
+  link              target = link: 6x6 spring at the link's distal joint frame (before that
+                    joint's rotation); template = full (21) | beam (8, eq. 13; axis = x|y|z)
+                    | diagonal (6) -> link.cIJ, I<=J over (dx dy dz rx ry rz)
+  base / tool       6x6 spring at the base_link origin / the tool frame
+  joint_profile     c(q) = c0 + c1 cos q + c2 sin q + c3 cos 2q + c4 sin 2q
+  gravity_compensator  spring between the bodies of a joint: give a, b, beta, s0 (m, rad);
+                    identifies k_s (N/m); needs a joint effect on the same joint
+  point_offset      the measured points sit at p + r (tool frame): identifies r (m)
+  any effect with value = ... is known, not identified (contract s5)
+  [measurements] sigma_position (m) weights the rows and scales the standard errors
+  (else estimated from the residual); sigma_rotation (rad) for rx ry rz rows.
 
 outputs:
   --json OUT.json        residuals, compensated fraction, parameters (contract s4)

@@ -22,7 +22,7 @@
 module sk_chain
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, skew, cross, rot_exp, sym_eig, all_finite
+    use sk_linalg, only: eye, skew, cross, rot_exp, sym_eig, spd_inverse, all_finite
     use sk_spatial, only: twist_transfer, blockdiag_rot
     implicit none
     private
@@ -125,8 +125,10 @@ contains
     !> Tool compliance c[6,6,np] = sum_s J_s C_s J_s^T at np postures q[ndof,np].
     !> Joint springs take the per-posture compliance cj(s, ip); 6-dof springs
     !> the constant cs[6,6,s]. Stiffness k = c^-1 where c is positive definite
-    !> (kinfo = 0), else k = 0 and kinfo = sk_err_singular; rank(ip) is the
-    !> numerical rank of c (eigenvalues above 1e-12 of the largest).
+    !> (Cholesky succeeds and trace(c) trace(k), a bound on the condition
+    !> number, stays below 1e13: kinfo = 0, rank 6), else k = 0, kinfo =
+    !> sk_err_singular and rank(ip) the numerical rank of c (eigenvalues
+    !> above 1e-12 of the largest).
     subroutine tool_compliance_batch(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, cs, cj, &
             q, c, k, rank, kinfo, info)
         real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3)
@@ -136,7 +138,7 @@ contains
         integer(ip), intent(out) :: rank(:), kinfo(:), info
         real(dp), allocatable :: rf(:, :, :), pf(:, :)
         real(dp) :: rt(3, 3), pt(3), jj(6, 6), ev(6), v(6, 6), cc(6, 6)
-        integer :: ipost, s, nj, ns, i
+        integer :: ipost, s, nj, ns
         integer(ip) :: linfo
         nj = size(qidx)
         ns = size(stype)
@@ -164,20 +166,23 @@ contains
             end do
             cc = 0.5_dp*(cc + transpose(cc))
             c(:, :, ipost) = cc
+            ! positive definite: Cholesky inverse; otherwise the rank from the eigenvalues
+            call spd_inverse(cc, v, linfo)
+            if (linfo == sk_ok) linfo = merge(sk_ok, sk_err_singular, &
+                (cc(1,1) + cc(2,2) + cc(3,3) + cc(4,4) + cc(5,5) + cc(6,6)) &
+                *(v(1,1) + v(2,2) + v(3,3) + v(4,4) + v(5,5) + v(6,6)) < 1.0e13_dp)
+            if (linfo == sk_ok) then
+                k(:, :, ipost) = v
+                rank(ipost) = 6
+                cycle
+            end if
             call sym_eig(cc, ev, v, linfo)
             if (linfo /= sk_ok) then
                 info = linfo
                 return
             end if
             rank(ipost) = count(ev > 1.0e-12_dp*max(maxval(abs(ev)), tiny(1.0_dp)))
-            if (rank(ipost) == 6 .and. ev(1) > 0.0_dp) then
-                do i = 1, 6
-                    v(:, i) = v(:, i)/sqrt(ev(i))
-                end do
-                k(:, :, ipost) = matmul(v, transpose(v))
-            else
-                kinfo(ipost) = sk_err_singular
-            end if
+            kinfo(ipost) = sk_err_singular
         end do
         info = sk_ok
     end subroutine tool_compliance_batch
