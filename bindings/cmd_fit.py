@@ -85,11 +85,13 @@ def run(args) -> int:
     if not args.quiet:
         print()
         print(format_parameters(res))
+    out = res.to_json()
     if args.reduce:
         from .calib.reduce import format_reduction, reduce_model
+        red = reduce_model(model, meas, sigma_position=args.sigma)
         print()
-        print(format_reduction(reduce_model(model, meas, sigma_position=args.sigma)))
-    out = res.to_json()
+        print(format_reduction(red))
+        out["reduction"] = red.to_json()
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=1)

@@ -139,3 +139,21 @@ def test_cli_reduce_prints_table_1(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "M1 symmetrisation" in out and "M5a splitting" in out
     assert "6 joints + 5 6-dof springs" in out and " 186 " in out     # 6 + 5 x 36
+
+
+def test_reduction_of_the_complete_kr270_model_follows_table_1():
+    """6 joints + 7 links: 258 -> 153 (M1) -> 62 (M2 beam) -> 56 (M3), as in
+    klimchik Table 1; with gravity loading M4 finds non-identifiable
+    parameters and M5 leaves exactly rank-many."""
+    chain, tm, meas = data(S.kr270_truth(), sigma=2e-5, seed=1, loads="gravity")
+    links = ["base_link"] + [f"link_{i}" for i in range(1, 7)]
+    m = model(chain, [{"kind": "joint", "target": "all"}]
+              + [{"kind": "link", "target": ln, "template": "beam"} for ln in links], sigma=2e-5)
+    red = reduce_model(m, meas)
+    counts = [r[3] for r in red.rows]
+    assert counts[:4] == [258, 153, 62, 56]
+    assert len(red.aggregated) == 6 and len(red.g2) > 0
+    assert "base_link.c66" in red.g2            # no moment about the vertical axis under gravity
+    assert counts[4] == 56 - len(red.g2)
+    res = fit(m, meas)
+    assert counts[5] == len(red.selected) == res.rank

@@ -16,6 +16,7 @@ program test_chain
     call test_wls_groups()
     call test_score()
     call test_tails()
+    call test_select()
     if (failures > 0) then
         print '(i0, a)', failures, ' check(s) failed'
         error stop 1
@@ -176,5 +177,16 @@ contains
         call expect(abs(chi2_logsf(4000.0_dp, 2.0_dp) + 2000.0_dp) < 1e-9_dp, 'chi2 tail in log space, no underflow')
         call expect(abs(f_logsf(3.0_dp, 2.0_dp, 10.0_dp) + 5*log(1.6_dp)) < 1e-10_dp, 'F tail')
     end subroutine test_tails
+
+    subroutine test_select()
+        real(dp) :: a(4, 3)
+        integer(ip) :: sel(3), info
+        a = 0
+        a(1, 1) = 1; a(1, 2) = 2; a(2, 3) = 1       ! column 2 = 2 x column 1
+        call select_independent(a, [2, 1, 3], 1.0e-8_dp, sel, info)
+        call expect(info == sk_ok .and. all(sel == [0, 1, 1]), 'select: the preferred of a dependent pair')
+        call select_independent(a, [1, 2, 3], 1.0e-8_dp, sel, info)
+        call expect(all(sel == [1, 0, 1]), 'select: order decides')
+    end subroutine test_select
 
 end program test_chain
