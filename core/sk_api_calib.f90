@@ -75,6 +75,18 @@ subroutine sk_score(n, p, nz, nc1, a, r, z, cstart, rcond, ztol, stat, dof, pr, 
     call score_tests(a, r, z, cstart, rcond, ztol, stat, dof, pr, info)
 end subroutine sk_score
 
+!> Sparse relations between coupled parameters (sk_calib%null_relations).
+subroutine sk_null_relations(p, nr, v, nrank, tol, rel, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_calib, only: null_relations
+    implicit none
+    integer(c_int), intent(in) :: p, nr, nrank
+    real(c_double), intent(in) :: v(p, p), tol
+    real(c_double), intent(out) :: rel(nr, p)
+    integer(c_int), intent(out) :: info
+    call null_relations(v, nrank, tol, rel, info)
+end subroutine sk_null_relations
+
 !> Greedy independent columns in a preferred order (sk_calib%select_independent).
 subroutine sk_select(n, p, a, order, tol, selected, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int

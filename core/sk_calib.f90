@@ -17,7 +17,7 @@ module sk_calib
     implicit none
     private
     public :: wls_svd, score_tests, select_independent, chi2_logsf, f_logsf
-    public :: log_gammq, log_betai
+    public :: log_gammq, log_betai, null_relations
 
     integer, parameter, public :: group_identifiable = 1
     integer, parameter, public :: group_non_identifiable = 2
@@ -219,6 +219,53 @@ contains
         end do
         info = sk_ok
     end subroutine select_independent
+
+    !> Sparse relations between coupled parameters (klimchik eq. 21): the
+    !> reduced row echelon form of the null part of V (v[p,p] from wls_svd,
+    !> columns rank+1..p span the null space), by Gauss-Jordan elimination
+    !> with partial pivoting; rel[p-rank, p], each row a null vector with 1 at
+    !> its pivot and zeros at the other pivots, entries below tol set to 0.
+    !> The parameters with a non-zero entry in a row are coupled: only their
+    !> combination is identifiable.
+    subroutine null_relations(v, rank, tol, rel, info)
+        real(dp), intent(in) :: v(:, :), tol
+        integer(ip), intent(in) :: rank
+        real(dp), intent(out) :: rel(:, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: m(:, :), row(:)
+        integer :: p, k, i, col, r, piv
+        p = size(v, 1)
+        k = p - rank
+        rel = 0.0_dp
+        if (size(v, 2) /= p .or. rank < 0 .or. rank > p .or. any(shape(rel) /= [k, p])) then
+            info = sk_err_size
+            return
+        end if
+        if (k == 0) then
+            info = sk_ok
+            return
+        end if
+        m = transpose(v(:, rank + 1:p))
+        r = 1
+        do col = 1, p
+            if (r > k) exit
+            piv = r - 1 + maxloc(abs(m(r:k, col)), dim=1)
+            if (abs(m(piv, col)) <= tol) cycle
+            if (piv /= r) then
+                row = m(r, :)
+                m(r, :) = m(piv, :)
+                m(piv, :) = row
+            end if
+            m(r, :) = m(r, :)/m(r, col)
+            do i = 1, k
+                if (i /= r) m(i, :) = m(i, :) - m(i, col)*m(r, :)
+            end do
+            r = r + 1
+        end do
+        where (abs(m) <= tol) m = 0.0_dp
+        rel = m
+        info = sk_ok
+    end subroutine null_relations
 
     !> log Q(a, x), Q the regularised upper incomplete gamma function:
     !> series for P when x < a + 1, Lentz continued fraction otherwise.

@@ -292,29 +292,40 @@ def solve_wls(A, b, rcond=RCOND, gtol=GTOL, scale=None):
     return theta * f, stdu * f, s, v, int(rank), group, res
 
 
-def coupling_groups(names, v, rank, group, tol=1e-6) -> list[list[str]]:
-    """M5a: semi-identifiable parameters coupled through the null space
-    (|N N^T|_ij > tol), as connected groups."""
+def coupling_relations(names, v, rank, tol=1e-6) -> list[list[str]]:
+    """Sparse linear relations between coupled parameters (eq. 21, core
+    null_relations): each is a set of parameters of which only a combination
+    is identifiable, e.g. a joint compliance and the link spring's rotation
+    about the same axis."""
     n = len(names)
-    N = v[:, rank:]
-    P = N @ N.T
-    semi = [i for i in range(n) if group[i] == 3]
-    parent = {i: i for i in semi}
+    if rank >= n:
+        return []
+    if np.shape(v) != (n, n):
+        raise ValueError(f"V must be ({n}, {n}), got {np.shape(v)}")
+    rel, info = _calib.sk_null_relations(np.asfortranarray(v), int(rank), tol)
+    _errors.check(info, "coupling relations (sk_null_relations)")
+    out = []
+    for row in rel:
+        members = [names[i] for i in np.nonzero(row)[0]]
+        if len(members) > 1 and members not in out:
+            out.append(members)
+    return out
 
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
 
-    for a in semi:
-        for b in semi:
-            if a < b and abs(P[a, b]) > tol:
-                parent[find(a)] = find(b)
-    comps = {}
-    for i in semi:
-        comps.setdefault(find(i), []).append(names[i])
-    return [c for c in comps.values() if len(c) > 1]
+def coupling_groups(names, v, rank, group, tol=1e-6) -> list[list[str]]:
+    """M5a: semi-identifiable parameters coupled through the null space, as
+    connected groups (unions of overlapping relations)."""
+    rels = coupling_relations(names, v, rank, tol)
+    groups: list[set] = []
+    for r in rels:
+        s = set(r)
+        merged = [g for g in groups if g & s]
+        for g in merged:
+            s |= g
+            groups.remove(g)
+        groups.append(s)
+    order = {n: i for i, n in enumerate(names)}
+    return [sorted(g, key=order.get) for g in groups if len(g) > 1]
 
 
 def as_inputs(model, meas):
@@ -422,7 +433,7 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
     names = pb.names
     groups = [GROUP_NAMES.get(int(g), "non-identifiable") for g in group]
     std = np.where(np.asarray(group) == 1, stdu * scale, np.nan)
-    couplings = coupling_groups(names, v, rank, group) if npar else []
+    couplings = coupling_relations(names, v, rank) if npar else []
     return FitResult(names=names, values=theta, std=std, groups=groups, rank=rank, nobs=nobs,
                      measured=meas.d.copy(), predicted=pred[0:3].T.copy(), chi2=chi2, dof=dof,
                      sigma=sigma, sigma_declared=pb.sigma_declared, iterations=it, converged=converged,
@@ -470,7 +481,7 @@ def format_parameters(res: FitResult) -> str:
         sd = f"{s:12.3e}" if np.isfinite(s) else f"{'-':>12s}"
         lines.append(f"{n:24s}{v:14.5e}{sd}  {g}")
     for c in res.couplings:
-        lines.append(f"coupled (only a combination is identifiable): {', '.join(c)}")
+        lines.append(f"coupled (only their combination is identifiable): {', '.join(c)}")
     return "\n".join(lines)
 
 
