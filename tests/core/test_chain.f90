@@ -153,6 +153,13 @@ contains
         call expect(abs(theta(1) - 1.5_dp) < 1e-12_dp, 'wls: identifiable value exact')
         call expect(abs(theta(2) + 2*theta(3) - 0.25_dp) < 1e-12_dp, 'wls: coupled combination exact')
         call expect(maxval(abs(res)) < 1e-12_dp, 'wls: zero residual')
+        block
+            real(dp) :: rel(2, 4)
+            call null_relations(v, rank, 1.0e-9_dp, rel, info)
+            ! scaled columns: col 3 / |col 3| = col 2 / |col 2| -> relation (0, 1, -1, 0) and (0, 0, 0, 1)
+            call expect(info == sk_ok .and. maxval(abs(rel(1, :) - [0.0_dp, 1.0_dp, -1.0_dp, 0.0_dp])) < 1e-9_dp &
+                .and. maxval(abs(rel(2, :) - [0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp])) < 1e-9_dp, 'null relations: sparse rows')
+        end block
         call wls_svd(a(1:3, :), y(1:3), 1.0e-10_dp, 1.0e-6_dp, theta, stdu, s, v, rank, group, res(1:3), info)
         call expect(info == sk_err_too_few, 'wls: fewer rows than parameters')
     end subroutine test_wls_groups
