@@ -69,6 +69,10 @@ def test_hidden_effect_found_and_error_falls_to_noise(hidden, all_kinds):
     assert dg.fit.rms_position > 1.25 * floor
     # the ranking uses log p: strong effects have p = 0.0 in floating point
     assert best.log_p < math.log(1e-6)
+    # the suggested table itself (for the compensator: its generic form) and the true kind
+    for add in ([best.effect, FULL[k]] if best.effect != FULL[k] else [FULL[k]]):
+        res = fit(model(chain, others + [add], sigma=SIGMA), meas)
+        assert abs(res.rms_position - floor) <= 0.25 * floor, (add, res.rms_position, floor)
     res = fit(model(chain, others + [FULL[k]], sigma=SIGMA), meas)
     assert res.converged
     assert abs(res.rms_position - floor) <= 0.25 * floor, (res.rms_position, floor)
