@@ -21,7 +21,7 @@ def load_result(path) -> dict:
     return d
 
 
-def compare(a, b, names=("A", "B")) -> str:
+def compare(a, b, names=("A", "B"), parameters: bool = True) -> str:
     """Table of the residuals and parameters of two fits, before/after."""
     A = load_result(a) if not isinstance(a, dict) else a
     B = load_result(b) if not isinstance(b, dict) else b
@@ -43,6 +43,8 @@ def compare(a, b, names=("A", "B")) -> str:
     lines.append(f"{'parameters':30s}{len(A['parameters']):>{w}d}{len(B['parameters']):>{w}d}")
     if "rank" in A and "rank" in B:
         lines.append(f"{'rank':30s}{A['rank']:>{w}d}{B['rank']:>{w}d}")
+    if not parameters:
+        return "\n".join(lines)
     pa = {p["name"]: p for p in A["parameters"]}
     pb = {p["name"]: p for p in B["parameters"]}
     allnames = list(pa) + [n for n in pb if n not in pa]

@@ -85,6 +85,9 @@ def calibration_demo(out="stiffkit-demo", seed: int = 1, sigma: float = 2e-5, n_
         say(f"   {lab:32s}{npar:12d}{rank:6d}{st['max_position_m'] * 1e3:10.4f}{st['rms_position_m'] * 1e3:10.4f}"
             f"{100 * frac:12.1f} %")
     say(f"   noise floor sqrt(3) sigma: {floor * 1e3:.4f} mm; final verdict: {steps[-1][4].verdict}")
+    from .compare import compare
+    say("\n== stiffkit compare: J1 vs the final model")
+    say(compare(steps[0][4].fit.to_json(), final.to_json(), names=("J1", "final"), parameters=False))
     if plots:
         say(f"   figures: {out / 'plots'}/")
     return {"steps": [(s[0], s[1], s[2], s[3], s[4].verdict) for s in steps], "floor": floor,

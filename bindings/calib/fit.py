@@ -480,6 +480,9 @@ def format_parameters(res: FitResult) -> str:
     for n, v, s, g in zip(res.names, res.values, res.std, res.groups):
         sd = f"{s:12.3e}" if np.isfinite(s) else f"{'-':>12s}"
         lines.append(f"{n:24s}{v:14.5e}{sd}  {g}")
+    counts = {g: res.groups.count(g) for g in ("identifiable", "semi-identifiable", "non-identifiable")}
+    lines.append(f"groups: {counts['identifiable']} identifiable (G1), {counts['semi-identifiable']} "
+                 f"semi-identifiable (G3), {counts['non-identifiable']} non-identifiable (G2); rank {res.rank}")
     for c in res.couplings:
         lines.append(f"coupled (only their combination is identifiable): {', '.join(c)}")
     return "\n".join(lines)
