@@ -137,3 +137,71 @@ def test_spring_jacobians_by_finite_differences():
         dphi = np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]]) / 2
         fd = np.concatenate([p1 - p0, dphi]) / h
         np.testing.assert_allclose(Jl[:, i], fd, rtol=0, atol=1e-6 * max(1.0, np.abs(Jl).max()))
+
+
+def test_random_chain_against_finite_difference_reference(tmp_path):
+    """A chain with random origins (xyz, rpy), random axes and a tilted tool:
+    the core's tool compliance equals sum J C J^T with every Jacobian taken
+    by finite differences of the forward kinematics (joints, a link spring,
+    base and tool springs)."""
+    import copy
+
+    from stiffkit.calib.model import model_from_tables
+    from stiffkit.calib.robot import _rot_axis, load_chain
+
+    rng = np.random.default_rng(42)
+    joints, parent = [], "base_link"
+    for i in range(5):
+        ax = rng.normal(size=3)
+        joints.append(dict(name=f"j{i}", type="revolute", parent=parent, child=f"l{i}",
+                           xyz=rng.uniform(-0.5, 0.5, 3), rpy=rng.uniform(-1, 1, 3), axis=ax / np.linalg.norm(ax)))
+        parent = f"l{i}"
+    joints.append(dict(name="jt", type="fixed", parent=parent, child="tool0", xyz=(0.1, 0.05, 0.2),
+                       rpy=(0.3, -0.4, 0.5)))
+    (tmp_path / "r.urdf").write_text(urdf_text("r", joints))
+    chain = load_chain(tmp_path / "r.urdf")
+    cj = rng.uniform(1e-7, 1e-6, 5)
+    Cl, Cb, Ct = spd(21), spd(22), spd(23)
+    effects = [{"kind": "joint", "target": f"j{i}", "value": float(cj[i])} for i in range(5)]
+    effects += [{"kind": "link", "target": "l1", "value": Cl.tolist()},
+                {"kind": "base", "value": Cb.tolist()}, {"kind": "tool", "value": Ct.tolist()}]
+    m = model_from_tables(chain, effects)
+    Q = rng.uniform(-2, 2, (4, 5))
+    C = m.tool_compliance(Q)
+
+    def twist(R0, p0, R1, p1, h):
+        dR = R1 @ R0.T
+        vee = np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]]) / 2
+        return np.concatenate([p1 - p0, vee]) / h
+
+    def skew(v):
+        return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+    h = 1e-7
+    k = chain.joint_index("j2")                       # l1's spring: frame of j2 (its parent is l1)
+    for q, Cq in zip(Q, C):
+        R0, p0 = chain.forward(q)
+        ref = np.zeros((6, 6))
+        for j in range(5):                            # joint springs: d(pose)/dq_j
+            dq = np.zeros(5)
+            dq[j] = h
+            Rp, pp = chain.forward(q + dq)
+            Jj = twist(R0, p0, Rp, pp, h)
+            ref += cj[j] * np.outer(Jj, Jj)
+        Jl = np.zeros((6, 6))
+        for i in range(6):                            # link spring: deflect F_k in its own axes
+            ch2 = copy.deepcopy(chain)
+            e = np.zeros(6)
+            e[i] = h
+            ch2.jpos[k] = chain.jpos[k] + chain.jrot[k] @ e[:3]
+            if i >= 3:
+                ch2.jrot[k] = chain.jrot[k] @ _rot_axis(e[3:] / h, h)
+            R1, p1 = ch2.forward(q)
+            Jl[:, i] = twist(R0, p0, R1, p1, h)
+        ref += Jl @ Cl @ Jl.T
+        Jb = np.eye(6)
+        Jb[:3, 3:] = -skew(p0)                        # base: t = dt + dphi x p
+        ref += Jb @ Cb @ Jb.T
+        Jt = np.kron(np.eye(2), R0)                    # tool: deflection in tool axes
+        ref += Jt @ Ct @ Jt.T
+        np.testing.assert_allclose(Cq, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
