@@ -37,6 +37,8 @@ def register(sub) -> None:
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of the adequacy test")
     p.add_argument("--sigma", type=float, help="override sigma_position (m)")
     p.add_argument("--top", type=int, default=10, help="candidates to print")
+    p.add_argument("--kinds", help="comma-separated candidate kinds to score (default: every kind), "
+                                   "e.g. joint,link,point_offset")
     p.set_defaults(func=run)
 
 
@@ -48,7 +50,15 @@ def run(args) -> int:
 
     model = load_model(args.model)
     meas = read_measurements(args.measurements, model.chain.dof)
-    dg = diagnose(model, meas, sigma_position=args.sigma, alpha=args.alpha)
+    kinds = None
+    if args.kinds:
+        from ._errors import InputError
+        from .calib.model import KINDS
+        kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
+        bad = [k for k in kinds if k not in KINDS]
+        if bad:
+            raise InputError(f"--kinds: unknown kind(s) {', '.join(bad)}; choose from {', '.join(KINDS)}")
+    dg = diagnose(model, meas, sigma_position=args.sigma, alpha=args.alpha, kinds=kinds)
     print(format_table(dg.fit))
     print()
     print(format_diagnosis(dg, top=args.top))

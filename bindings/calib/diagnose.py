@@ -164,6 +164,7 @@ def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float
     model, meas = as_inputs(model, meas)
     cands = candidate_tables(model)
     if kinds:
+        kinds = set(kinds) | ({"joint_profile"} if "gravity_compensator" in kinds else set())
         cands = [c for c in cands if c[0]["kind"] in kinds]
     n0 = len(model.effects)
     cterms = []
