@@ -68,7 +68,6 @@ def run(args) -> int:
         joints = S.KR270_JOINTS
         kw["ranges"] = S.KR270_RANGES
     else:
-        import tomllib
         path = Path(args.robot)
         if not path.is_file():
             raise InputError(f"{path}: no such truth model (give kr270 or a TOML with values)")
@@ -80,7 +79,6 @@ def run(args) -> int:
                 raise InputError(f"{path}: effect {t.source} on {t.target!r} has no value; a truth needs values")
         joints = Path(m.chain.urdf)
         kw["tool_frame"] = m.chain.tool_frame
-        del tomllib
     fit_effects = [{"kind": "joint", "target": "all"}] if args.fit == "joints" else S.strip_values(truth)
     out = S.write_synth(args.out, joints, truth, fit_effects, declare_sigma=not args.no_sigma, **kw)
     n = args.configs * args.loads_per_config * args.markers * args.replicates

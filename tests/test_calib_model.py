@@ -9,8 +9,6 @@ import pytest
 
 import stiffkit
 from stiffkit.calib import synth as S
-from stiffkit.calib.fit import Problem
-from stiffkit.calib.measure import Measurements
 from stiffkit.calib.robot import urdf_text
 
 from _calib_util import data, joints_truth, spd

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from . import synth as S
 from .diagnose import diagnose, effect_toml
-from .fit import error_stats, fit, format_table
+from .fit import error_stats, format_table
 from .model import model_from_tables
 from .plots import error_fall_plot, fit_plots
 
@@ -35,7 +35,7 @@ def calibration_demo(out="stiffkit-demo", seed: int = 1, sigma: float = 2e-5, n_
     chain = m0.chain
     floor = math.sqrt(3) * sigma
     say("\nstiffkit demo: calibration loop on a KR-270-like robot (synthetic measurements)")
-    say(f"  truth: joint compliances, links 2-4 as aluminium tubes, a gravity compensator on A2;")
+    say("  truth: joint compliances, links 2-4 as aluminium tubes, a gravity compensator on A2;")
     say(f"  {meas.n} rows = {n_configs} configurations x 3 random 2.5 kN loads x 3 markers; "
         f"noise sigma {sigma * 1e3:g} mm per coordinate (noise floor sqrt(3) sigma = {floor * 1e3:.4f} mm)")
     say(f"  data: {out / 'kr270'}/ (robot.urdf, model.toml, truth.toml, measurements.csv)")

@@ -18,7 +18,7 @@ from .. import _errors
 from .._errors import InputError
 from .. import _calib
 from .measure import Measurements
-from .model import SPRING_JOINT, Model, Term, compensator_h, profile_basis
+from .model import SPRING_JOINT, Model, compensator_h, profile_basis
 
 GROUP_NAMES = {1: "identifiable", 2: "non-identifiable", 3: "semi-identifiable"}
 RCOND = 1e-10      # singular values below RCOND * s_max are zero (unit-norm columns)
