@@ -69,6 +69,7 @@ def test_non_number_and_short_row(kr, tmp_path):
     ('kind = "link"\ntarget = "link_2"\ntemplate = "bar"', r"unknown template 'bar'"),
     ('kind = "gravity_compensator"\ntarget = "joint_a2"\na = 0.4', r"missing 'b'"),
     ('kind = "link"\ntarget = "link_2"\nvalue = [[1.0, 2.0], [2.0, 1.0]]', r"must be a 6x6 matrix"),
+    ('kind = "link"\ntarget = "link_2"\ntemplat = "beam"', r"unknown key\(s\) templat for kind 'link'"),
 ])
 def test_bad_effect_tables(kr, tmp_path, effect, msg):
     text = (kr / "model.toml").read_text().replace('urdf = "robot.urdf"', f'urdf = "{kr}/robot.urdf"')

@@ -316,12 +316,28 @@ def _number(table, key, where, positive=False) -> float:
     return v
 
 
+#: keys an [[effect]] table may carry, per kind (a typo is an error, not a silent default)
+KEYS = {
+    "joint": {"target", "value"},
+    "joint_profile": {"target", "value"},
+    "gravity_compensator": {"target", "a", "b", "beta", "s0", "k_s"},
+    "link": {"target", "template", "axis", "value", "rpy"},
+    "base": {"target", "template", "axis", "value", "rpy"},
+    "tool": {"target", "template", "axis", "value", "rpy"},
+    "point_offset": {"target", "r"},
+}
+
+
 def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path(".")) -> list[Term]:
     """Terms of one [[effect]] table (raises InputError naming the table)."""
     where = _where(path, i, table)
     kind = table.get("kind")
     if kind not in KINDS:
         raise InputError(f"{where}: unknown kind {kind!r}; choose one of {', '.join(KINDS)}")
+    unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
+    if unknown:
+        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} for kind {kind!r} "
+                         f"(allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)")
     target = table.get("target", "all" if kind == "joint" else "")
     terms = []
     if kind in ("joint", "joint_profile", "gravity_compensator"):
