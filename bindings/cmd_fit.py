@@ -44,7 +44,9 @@ outputs:
   --write-model OUT.toml the model with every identified value (contract s5),
                          ready for `stiffkit stiffness`
   --compare OLD.json     side-by-side with an earlier fit
-  --reduce               model reduction report M1-M5 (klimchik Table 1)
+  --reduce               model reduction M1-M5 (klimchik Table 1): report, then fit
+                         only the selected independent parameters (the others fixed
+                         at 0), so every reported parameter is identifiable
 
 example (the loop):
   stiffkit synth kr270 --out kr270            # data with hidden effects
@@ -65,7 +67,8 @@ def register(sub) -> None:
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--write-model", metavar="OUT.toml", help="write the model with identified values")
     p.add_argument("--compare", metavar="OLD.json", help="print a comparison with an earlier fit")
-    p.add_argument("--reduce", action="store_true", help="print the model reduction report (M1-M5)")
+    p.add_argument("--reduce", action="store_true",
+                   help="reduce the model (M1-M5), print Table 1, fit the independent subset")
     p.add_argument("--sigma", type=float, help="override sigma_position (m)")
     p.add_argument("--quiet", action="store_true", help="table only, no parameter list")
     p.set_defaults(func=run)
@@ -79,6 +82,15 @@ def run(args) -> int:
     model = load_model(args.model)
     meas = read_measurements(args.measurements, model.chain.dof)
     res = fit(model, meas, sigma_position=args.sigma)
+    red = None
+    if args.reduce:
+        from .calib.reduce import format_reduction, reduce_model, reduced_model
+        red = reduce_model(model, meas, sigma_position=args.sigma)
+        print(format_reduction(red))
+        print()
+        full = res
+        res = fit(reduced_model(model, red), meas, sigma_position=args.sigma)
+        print(f"reduced model: {len(res.names)} free parameters (of {len(full.names)}); the others fixed at 0")
     print(f"model {args.model}: {len(model.effects)} effect(s), {len(res.names)} parameters; "
           f"{meas.n} rows from {args.measurements}")
     print(format_table(res))
@@ -86,11 +98,7 @@ def run(args) -> int:
         print()
         print(format_parameters(res))
     out = res.to_json()
-    if args.reduce:
-        from .calib.reduce import format_reduction, reduce_model
-        red = reduce_model(model, meas, sigma_position=args.sigma)
-        print()
-        print(format_reduction(red))
+    if red is not None:
         out["reduction"] = red.to_json()
     if args.json:
         with open(args.json, "w") as fh:

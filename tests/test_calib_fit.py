@@ -135,8 +135,13 @@ def test_cli_reduce_prints_table_1(tmp_path, capsys):
                                                           for i in range(1, 6)],
                   sigma=1e-5, n_configs=20, ranges=S.KR270_RANGES, markers=MARKERS)
     assert main(["fit", str(tmp_path / "model.toml"), str(tmp_path / "measurements.csv"), "--reduce",
-                 "--quiet"]) == 0
+                 "--quiet", "--json", str(tmp_path / "r.json")]) == 0
     out = capsys.readouterr().out
+    import json
+    js = json.loads((tmp_path / "r.json").read_text())
+    # the reduced model: exactly the selected parameters, all identifiable
+    assert [p["name"] for p in js["parameters"]] == js["reduction"]["selected"]
+    assert all(p["group"] == "identifiable" for p in js["parameters"])
     assert "M1 symmetrisation" in out and "M5a splitting" in out
     assert "6 joints + 5 6-dof springs" in out and " 186 " in out     # 6 + 5 x 36
 

@@ -122,3 +122,31 @@ def format_reduction(r: Reduction) -> str:
     if r.fixed:
         lines.append("fixed (M5c): " + ", ".join(r.fixed))
     return "\n".join(lines)
+
+
+def reduced_model(model, red: Reduction):
+    """The model with only the parameters M5 selected left free: 6-dof
+    springs keep their selected elements, joint compliances not selected
+    (merged into their links by M3, or fixed by M5c) are dropped, i.e. fixed
+    at 0; joints under a gravity compensator and other kinds are kept whole."""
+    import copy
+
+    keep = set(red.selected)
+    comp = {t.joint for t in model.terms if t.kind == "gravity_compensator"}
+    terms = []
+    for t in model.terms:
+        if not t.free or t.kind in ("joint_profile", "gravity_compensator", "point_offset"):
+            terms.append(t)
+        elif t.kind == "joint":
+            if t.names[0] in keep or t.joint in comp:
+                terms.append(t)
+        else:
+            sel = [(e, n) for e, n in zip(t.elements, t.names) if n in keep]
+            if sel:
+                t2 = copy.copy(t)
+                t2.elements = [e for e, _ in sel]
+                t2.names = [n for _, n in sel]
+                terms.append(t2)
+    m = copy.copy(model)
+    m.terms = terms
+    return m
