@@ -1,6 +1,7 @@
 """Measured deflections under known wrenches: the CSV of contract s3.
 
-One row per measured point and load: ``config`` (label), ``q1..qN`` (rad),
+One row per measured point and load: ``config`` (label; optional, rows are
+then labelled by line), ``q1..qN`` (rad),
 ``fx fy fz mx my mz`` (N, N m; at the tool-frame origin, base axes),
 optional ``px py pz`` (m, tool frame; 0 if absent), ``dx dy dz`` (m, base
 axes) and optional ``rx ry rz`` (rad). Extra columns are ignored.
@@ -63,7 +64,7 @@ def read_measurements(path, dof: int) -> Measurements:
         except StopIteration:
             raise InputError(f"{path}: empty file; expected a header with config, "
                              f"{', '.join(qcols)}, {', '.join(WRENCH)}, {', '.join(DEFL)}") from None
-        required = ["config"] + qcols + WRENCH + DEFL
+        required = qcols + WRENCH + DEFL
         missing = [c for c in required if c not in header]
         if missing:
             raise InputError(f"{path}, line 1: missing column(s) {', '.join(missing)} "
@@ -76,13 +77,15 @@ def read_measurements(path, dof: int) -> Measurements:
                 absent = [c for c in group if c not in header]
                 raise InputError(f"{path}, line 1: {name} columns incomplete: missing {', '.join(absent)}")
         numeric = qcols + WRENCH + DEFL + (POINT if has_p else []) + (ROT if has_r else [])
-        idx = {c: header.index(c) for c in numeric + ["config"]}
+        has_config = "config" in header
+        labels = numeric + (["config"] if has_config else [])
+        idx = {c: header.index(c) for c in labels}
         rows, configs, lines = [], [], []
         for lineno, row in enumerate(reader, start=2):
             if not row or all(not x.strip() for x in row):
                 continue
             vals = {}
-            for c in numeric + ["config"]:
+            for c in labels:
                 i = idx[c]
                 if i >= len(row):
                     raise InputError(f"{path}, line {lineno}: field {c!r} is missing "
@@ -98,7 +101,7 @@ def read_measurements(path, dof: int) -> Measurements:
                     raise InputError(f"{path}, line {lineno}: field {c!r} is {text} (must be finite)")
                 vals[c] = v
             rows.append(vals)
-            configs.append(row[idx["config"]].strip())
+            configs.append(row[idx["config"]].strip() if has_config else f"row{lineno}")
             lines.append(lineno)
     if not rows:
         raise InputError(f"{path}: no data rows")
