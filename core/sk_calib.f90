@@ -111,7 +111,8 @@ contains
     !> Score (Lagrange-multiplier) tests of ncand candidates against the
     !> model a[n,p] (weighted) and its weighted residual r[n]. Candidate c
     !> owns the columns z(:, cstart(c):cstart(c+1)-1). Its columns, scaled
-    !> to unit norm, are projected off the column space of a (rank by rcond
+    !> to unit norm (those below 1e-13 of the largest column of a and z are
+    !> round-off and count as zero), are projected off the column space of a (rank by rcond
     !> as in wls_svd); dof(c) is the rank of what is left (singular values
     !> above ztol), stat(c) = |P r|^2 with P the projector on that space,
     !> chi-square with dof(c) degrees of freedom under the model for unit
@@ -124,6 +125,7 @@ contains
         real(dp), allocatable :: as(:, :), u(:, :), s(:), vt(:, :), d(:), zc(:, :), uz(:, :), &
             sz(:), vz(:, :), coef(:)
         logical, allocatable :: zero(:)
+        real(dp) :: zref
         integer :: n, p, ncand, c, rank, i, k0, nc, k
         n = size(a, 1)
         p = size(a, 2)
@@ -147,6 +149,14 @@ contains
             return
         end if
         allocate(d(p), zero(p), as(n, p), u(n, p), s(p), vt(p, p))
+        zref = 0.0_dp
+        do k = 1, size(z, 2)
+            zref = max(zref, norm2(z(:, k)))
+        end do
+        do k = 1, p
+            zref = max(zref, norm2(a(:, k)))
+        end do
+        zref = 1.0e-13_dp*zref
         call column_scales(a, d, zero)
         do k = 1, p
             as(:, k) = merge(0.0_dp, a(:, k)/d(k), zero(k))
@@ -164,7 +174,13 @@ contains
             allocate(zc(n, nc), uz(n, min(n, nc)), sz(min(n, nc)), vz(min(n, nc), nc))
             do k = 1, nc
                 zc(:, k) = z(:, k0 + k - 1)
-                if (norm2(zc(:, k)) > 0.0_dp) zc(:, k) = zc(:, k)/norm2(zc(:, k))
+                ! a column at round-off level (relative to the largest column of
+                ! the model and the candidates) carries no information: zero
+                if (norm2(zc(:, k)) > zref) then
+                    zc(:, k) = zc(:, k)/norm2(zc(:, k))
+                else
+                    zc(:, k) = 0.0_dp
+                end if
             end do
             if (rank > 0) zc = zc - matmul(u(:, 1:rank), matmul(transpose(u(:, 1:rank)), zc))
             call svd(zc, uz, sz, vz, info)

@@ -284,7 +284,8 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
                 lines.append(f"hint: {best.hint}")
     if dg.non_identifiable:
         lines.append("")
-        lines.append("already spanned by the model (non-identifiable additions, not ranked): "
+        lines.append("non-identifiable additions (spanned by the model, or no influence on these data; "
+                     "not ranked): "
                      + ", ".join(c.label for c in dg.non_identifiable))
     return "\n".join(lines)
 
