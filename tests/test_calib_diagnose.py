@@ -127,3 +127,14 @@ def test_coupled_candidates_flagged_and_spanned_ones_not_ranked():
     assert not any(c.kind == "link" and c.target == "link_2" for c in dg2.candidates)
     for c in dg2.candidates:
         assert c.dof >= 1
+
+
+def test_gravity_loading_candidates_without_influence_are_not_ranked():
+    """Weights hung on the A6 axis: no torque about A1 (vertical) nor A6, so
+    the profiles of these joints cannot be seen; they are reported, not ranked."""
+    chain, tm, meas = data(joints_truth(), sigma=SIGMA, seed=9, loads="gravity")
+    dg = diagnose(model(chain, JOINTS, sigma=SIGMA), meas)
+    spanned = {(c.kind, c.target) for c in dg.non_identifiable}
+    assert {("joint_profile", "joint_a1"), ("joint_profile", "joint_a6")} <= spanned
+    assert not any(c.kind == "joint_profile" and c.target in ("joint_a1", "joint_a6") for c in dg.candidates)
+    assert dg.verdict == "adequate"
