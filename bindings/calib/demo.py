@@ -75,7 +75,8 @@ def calibration_demo(out="stiffkit-demo", seed: int = 1, sigma: float = 2e-5, n_
     final = steps[-1][4].fit
     if plots:
         fit_plots(final, out / "plots", label=f"model{len(steps)}_final")
-        error_fall_plot([(s[0], s[1]) for s in steps], out / "plots" / "error_fall.png", noise_floor=floor)
+        error_fall_plot([("no compensation", error_stats(meas.d))] + [(s[0], s[1]) for s in steps],
+                        out / "plots" / "error_fall.png", noise_floor=floor)
     say("\n== the error fall (mm)            parameters  rank   MAX pos   RMS pos   compensated")
     before = error_stats(meas.d)
     say(f"   {'deflections, no compensation':32s}{'':>12s}{'':>6s}{before['max_position_m'] * 1e3:10.4f}"
