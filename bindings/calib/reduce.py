@@ -53,9 +53,9 @@ def reduce_model(model, meas, sigma_position=None) -> Reduction:
     res = fit(model, meas, sigma_position=sigma_position)
     names = res.names
     terms = res.problem.terms
-    nj = sum(1 for t in terms if t.kind == "joint")
-    six = [t for t in terms if t.kind == "six"]
-    other = sum(len(t.names) for t in terms if t.kind not in ("joint", "six"))
+    nj = sum(1 for t in terms if t.kind == "joint" and t.free)
+    six = [t for t in terms if t.kind == "six" and t.free]
+    other = sum(len(t.names) for t in terms if t.kind not in ("joint", "six") and t.free)
     rows = [("", "original", f"{nj} joints + {len(six)} 6-dof springs (36 per spring)"
              + (f" + {other} other" if other else ""), nj + 36 * len(six) + other),
             ("physical", "M1 symmetrisation", "21 per 6-dof spring", nj + 21 * len(six) + other),
