@@ -37,6 +37,7 @@ def register(sub) -> None:
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of the adequacy test")
     p.add_argument("--sigma", type=float, help="override sigma_position (m)")
     p.add_argument("--top", type=int, default=10, help="candidates to print")
+    p.add_argument("--plots", metavar="DIR", help="PNGs: the candidates, and the fit's residual figures")
     p.add_argument("--kinds", help="comma-separated candidate kinds to score (default: every kind), "
                                    "e.g. joint,link,point_offset")
     p.set_defaults(func=run)
@@ -66,4 +67,14 @@ def run(args) -> int:
         with open(args.json, "w") as fh:
             json.dump(dg.to_json(), fh, indent=1)
         print(f"wrote {args.json}")
+    if args.plots:
+        from pathlib import Path
+
+        from .calib.plots import candidates_plot, fit_plots
+        Path(args.plots).mkdir(parents=True, exist_ok=True)
+        files = fit_plots(dg.fit, args.plots, label="diagnose")
+        if dg.candidates:
+            files.append(candidates_plot(dg, Path(args.plots) / "diagnose_candidates.png"))
+        for f in files:
+            print(f"wrote {f}")
     return 0

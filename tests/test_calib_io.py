@@ -115,7 +115,9 @@ def test_cli_fit_diagnose_compare_stiffness(kr, tmp_path, capsys):
     assert out["parameters"][0]["name"] == "joint_a1.c"
     assert len(list((tmp_path / "plots").glob("*.png"))) == 3
     d = tmp_path / "d.json"
-    assert main(["diagnose", str(kr / "model.toml"), str(kr / "measurements.csv"), "--json", str(d)]) == 0
+    assert main(["diagnose", str(kr / "model.toml"), str(kr / "measurements.csv"), "--json", str(d),
+                 "--plots", str(tmp_path / "dplots")]) == 0
+    assert (tmp_path / "dplots" / "diagnose_candidates.png").is_file()
     dg = json.loads(d.read_text())
     assert dg["verdict"] == "inadequate"
     for key in ("sigma_position_m", "rms_position_m", "candidates"):

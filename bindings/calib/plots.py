@@ -125,3 +125,31 @@ def error_fall_plot(steps, path, noise_floor=None) -> str:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return str(path)
+
+
+def candidates_plot(dg, path, top: int = 12) -> str:
+    """Horizontal bars of the leading candidates: -log10 p (statistic
+    against its dof) and the fraction of the residual each explains."""
+    plt = _plt()
+    cands = dg.candidates[:top]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 0.45 * max(len(cands), 4) + 1.5), sharey=True)
+    y = np.arange(len(cands))[::-1]
+    lab = [f"{c.label} ({c.dof} dof)" for c in cands]
+    axes[0].barh(y, [-c.log_p / np.log(10) for c in cands], color="C0")
+    axes[0].axvline(-np.log10(dg.alpha), color="k", ls=":", label=f"alpha = {dg.alpha:g}")
+    axes[0].set_xscale("symlog", linthresh=10)
+    axes[0].set_xlabel("-log10 p (score test)")
+    axes[0].set_yticks(y)
+    axes[0].set_yticklabels(lab, fontsize=8)
+    axes[0].legend(fontsize=8)
+    axes[1].barh(y, [100 * c.explained_fraction for c in cands], color="C2")
+    axes[1].set_xlabel("residual explained (%)")
+    for yi, c in zip(y, cands):
+        if c.indistinguishable_from:
+            axes[1].text(1, yi, "cannot be told apart from " + ", ".join(c.indistinguishable_from[:2]),
+                         fontsize=6, va="center")
+    fig.suptitle(f"diagnose: {dg.verdict} (log10 p = {dg.log_p / np.log(10):.3g}); candidates best first")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return str(path)
