@@ -203,3 +203,25 @@ def test_random_chain_against_finite_difference_reference(tmp_path):
         Jt = np.kron(np.eye(2), R0)                    # tool: deflection in tool axes
         ref += Jt @ Ct @ Jt.T
         np.testing.assert_allclose(Cq, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+
+
+def test_tool_compliance_symmetric_psd_and_batched_like_single_calls():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    chain, tm, _ = data(joints_truth() + [{"kind": "link", "target": "link_2", "value": spd(7).tolist()},
+                                          {"kind": "tool", "value": spd(8).tolist()}], n_configs=1)
+    angles = st.lists(st.floats(-3.1, 3.1, allow_nan=False), min_size=6, max_size=6)
+
+    @settings(max_examples=30, deadline=None)
+    @given(st.lists(angles, min_size=1, max_size=5))
+    def check(qs):
+        Q = np.array(qs)
+        C = tm.tool_compliance(Q)
+        for i, q in enumerate(Q):
+            Ci = tm.tool_compliance(q[None])[0]
+            np.testing.assert_array_equal(C[i], Ci)               # one batched call = N single calls
+            np.testing.assert_allclose(Ci, Ci.T, rtol=0, atol=1e-20)
+            assert np.linalg.eigvalsh(Ci).min() > -1e-12 * np.abs(Ci).max()
+
+    check()
