@@ -158,7 +158,22 @@ def logsf_f(f, d1, d2) -> float:
 
 def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float = ALPHA,
              kinds=None) -> Diagnosis:
-    """Fit ``model``, test its adequacy and rank the missing effects (contract s4)."""
+    """Fit ``model``, test its adequacy and rank the missing effects (contract s4).
+
+    Parameters
+    ----------
+    model, meas : as for :func:`~stiffkit.calib.fit.fit` (objects or paths)
+    sigma_position : overrides the declared noise (m); without any, the pure
+        error of replicated rows is used (lack-of-fit F test)
+    alpha : level of the adequacy test
+    kinds : restrict the candidates to these kinds
+
+    Returns
+    -------
+    Diagnosis : verdict, test statistic and log p-value, the fit, candidates
+        ranked best first (log p of the score test), non-identifiable
+        additions; ``.to_json()`` has the contract keys.
+    """
     from .fit import as_inputs
 
     model, meas = as_inputs(model, meas)

@@ -346,8 +346,24 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
         problem: Problem | None = None, theta0=None) -> FitResult:
     """Identify the free parameters of ``model`` from ``meas`` (contract s4).
 
+    Parameters
+    ----------
+    model : Model or path of a model TOML
+    meas : Measurements or path of a measurement CSV
+    sigma_position : overrides the model's [measurements] sigma_position (m)
+    max_iter : Levenberg-Marquardt iterations (nonlinear effects only)
+
+    Returns
+    -------
+    FitResult : values, standard errors (NaN unless identifiable), groups,
+        couplings, residuals; ``.table()``, ``.to_json()`` (contract keys).
+
     Linear models are solved in one weighted least-squares step; models with
     a free gravity compensator or point offset by Levenberg-Marquardt.
+
+    Raises
+    ------
+    InputError : fewer observations than parameters, inconsistent inputs.
     """
     model, meas = as_inputs(model, meas)
     pb = problem or Problem(model, meas, sigma_position=sigma_position)
