@@ -57,7 +57,7 @@ def read_measurements(path, dof: int) -> Measurements:
     if not path.is_file():
         raise InputError(f"{path}: no such measurement file")
     qcols = [f"q{i}" for i in range(1, dof + 1)]
-    with path.open(newline="") as fh:
+    with path.open(newline="", encoding="utf-8-sig") as fh:     # a spreadsheet's BOM is not a column name
         reader = csv.reader(fh)
         try:
             header = [h.strip() for h in next(reader)]
