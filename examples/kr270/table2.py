@@ -1,4 +1,5 @@
-"""klimchik Table 2 on the KR-270-like robot (synthetic): J1, J2, C1, C2.
+"""klimchik Tables 1 and 2 on the KR-270-like robot (synthetic): the
+reduction of the complete model (M1-M5), then J1, J2, C1, C2.
 
 Gravity-based loading as in the paper (a 2.5 kN weight hung 0.2 m along the
 tool axis: forces along -z only), partial-pose measurements (three markers),
@@ -12,7 +13,7 @@ Run:  python examples/kr270/table2.py   (about 5 s)
 from stiffkit.calib import synth as S
 from stiffkit.calib.fit import error_stats, fit
 from stiffkit.calib.model import model_from_tables
-from stiffkit.calib.reduce import reduce_model, reduced_model
+from stiffkit.calib.reduce import format_reduction, reduce_model, reduced_model
 
 SIGMA = 2e-5
 MARKERS = ((0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2))
@@ -31,6 +32,8 @@ for name, effects, reduce in (("J1", joints, False), ("J2", joints + comp, False
     m = model_from_tables(chain, effects, sigma_position=SIGMA)
     if reduce:
         red = reduce_model(m, meas)
+        if name == "C1":
+            print(format_reduction(red).split("\nM3 merged")[0] + "\n")
         m = reduced_model(m, red)
     res = fit(m, meas)
     rows.append((name, len(res.names), error_stats(res.residuals)))
