@@ -11,11 +11,15 @@ from .field import (METHODS, Compliance, FieldFit, beam_stiffness, cantilever_co
                     compliance_from_experiments, fit_field, fit_fields, normal_quantile,
                     section_properties)
 
+# serial robots: stiffness, calibration and diagnosis (contract: the commands
+# are callable from Python with the same names)
+from .calib import compare, diagnose, fit, load_model  # noqa: E402
+
 __version__ = "0.1.0"
 
 __all__ = [
     "StiffkitError", "InputError", "DegenerateError", "SingularError", "ConvergenceError",
     "METHODS", "FieldFit", "Compliance", "fit_field", "fit_fields",
     "compliance_from_experiments", "section_properties", "cantilever_compliance",
-    "beam_stiffness", "normal_quantile",
+    "beam_stiffness", "normal_quantile", "load_model", "fit", "diagnose", "compare",
 ]

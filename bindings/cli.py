@@ -17,6 +17,11 @@ from ._errors import StiffkitError
 COMMANDS = [
     ("stiffkit.cmd_field", "field: fit (t, phi) of node displacement fields; compliance from six load cases"),
     ("stiffkit.cmd_robot", "robot: manipulator stiffness from generalised springs (Orthoglide, SMG, your tree)"),
+    ("stiffkit.cmd_stiffness", "stiffness: tool compliance/stiffness of a robot model with values"),
+    ("stiffkit.cmd_fit", "fit: identify elastostatic parameters from measured deflections"),
+    ("stiffkit.cmd_diagnose", "diagnose: is the residual noise? rank the missing effects"),
+    ("stiffkit.cmd_compare", "compare: two fit results side by side"),
+    ("stiffkit.cmd_synth", "synth: calibration data with a known truth and hidden effects"),
     ("stiffkit.cmd_demo", "demo: the main job on a built-in example"),
 ]
 
@@ -24,6 +29,9 @@ EPILOG = """\
 examples:
   stiffkit demo                       run the built-in example
   stiffkit field nodes.csv disp1.csv ... disp6.csv --reference 1,0,0 --loads 1000,1,1,1,1,1
+  stiffkit synth kr270 --out kr270    calibration data of a KR-270-like robot
+  stiffkit fit kr270/model.toml kr270/measurements.csv
+  stiffkit diagnose kr270/model.toml kr270/measurements.csv
   stiffkit COMMAND --help             what a command does, its inputs and outputs
 
 All files are SI (m, N, N m, rad)."""

@@ -1,0 +1,400 @@
+!> Elastostatic calibration and model diagnosis (klimchik et al., s2-3):
+!> weighted least squares by a rank-revealing SVD of the column-scaled
+!> observation matrix (eqs. 7-9, 15-20) with the partition of the
+!> parameters into identifiable (G1), non-identifiable (G2) and
+!> semi-identifiable (G3) groups (M4a), greedy selection of an
+!> independent subset (M5b), score (Lagrange-multiplier) tests of candidate
+!> columns projected off the model's column space, and the tail
+!> probabilities (chi-square, F) the tests need, in log space so that
+!> strong effects do not underflow to 0.
+!>
+!> The observation matrix and data are weighted by the caller (rows divided
+!> by the measurement standard deviation), so unit-variance noise is assumed.
+module sk_calib
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_linalg, only: svd, all_finite
+    implicit none
+    private
+    public :: wls_svd, score_tests, select_independent, chi2_logsf, f_logsf
+    public :: log_gammq, log_betai, null_relations
+
+    integer, parameter, public :: group_identifiable = 1
+    integer, parameter, public :: group_non_identifiable = 2
+    integer, parameter, public :: group_semi_identifiable = 3
+
+contains
+
+    !> Column norms of a[n,p]; zero (or negligible) columns get norm 1 and
+    !> zero(k) = .true.
+    pure subroutine column_scales(a, d, zero)
+        real(dp), intent(in) :: a(:, :)
+        real(dp), intent(out) :: d(:)
+        logical, intent(out) :: zero(:)
+        integer :: k
+        do k = 1, size(a, 2)
+            d(k) = norm2(a(:, k))
+        end do
+        zero = d <= 1.0e-14_dp*max(maxval(d, mask=d == d), tiny(1.0_dp))
+        where (zero) d = 1.0_dp
+    end subroutine column_scales
+
+    !> Weighted least squares a theta ~ y (a[n,p], n >= p, rows already
+    !> weighted). The columns are scaled to unit norm, a = U S V^T; singular
+    !> values below rcond*s(1) count as zero (rank r). theta is the
+    !> minimum-norm solution in the scaled parameters (eq. 19); stdu(k) the
+    !> standard deviation of theta(k) for unit noise (eqs. 8; restricted to
+    !> the identifiable subspace for G3); s[p] and v[p,p] the singular
+    !> values and right vectors of the scaled problem; group(k) by M4a with
+    !> tolerance gtol on the rows of V: 1 identifiable (row of the null part
+    !> zero), 2 non-identifiable (row of the range part zero), 3 semi.
+    !> res = y - a theta.
+    subroutine wls_svd(a, y, rcond, gtol, theta, stdu, s, v, rank, group, res, info)
+        real(dp), intent(in) :: a(:, :), y(:), rcond, gtol
+        real(dp), intent(out) :: theta(:), stdu(:), s(:), v(:, :), res(:)
+        integer(ip), intent(out) :: rank, group(:), info
+        real(dp), allocatable :: as(:, :), u(:, :), vt(:, :), d(:), uty(:)
+        logical, allocatable :: zero(:)
+        integer :: n, p, k, i
+        n = size(a, 1)
+        p = size(a, 2)
+        theta = 0.0_dp
+        stdu = 0.0_dp
+        s = 0.0_dp
+        v = 0.0_dp
+        res = 0.0_dp
+        group = 0
+        rank = 0
+        if (p < 1 .or. size(y) /= n .or. size(theta) /= p .or. size(s) /= p) then
+            info = sk_err_size
+            return
+        end if
+        if (n < p) then
+            info = sk_err_too_few
+            return
+        end if
+        if (.not. (all_finite(a) .and. all_finite(y))) then
+            info = sk_err_nonfinite
+            return
+        end if
+        allocate(d(p), zero(p), as(n, p), u(n, p), vt(p, p), uty(p))
+        call column_scales(a, d, zero)
+        do k = 1, p
+            as(:, k) = merge(0.0_dp, a(:, k)/d(k), zero(k))
+        end do
+        call svd(as, u, s, vt, info)
+        if (info /= sk_ok) return
+        v = transpose(vt)
+        do i = 1, p
+            if (s(i) > rcond*s(1) .and. s(i) > 0.0_dp) rank = rank + 1
+        end do
+        uty = matmul(transpose(u(:, 1:rank)), y)
+        do i = 1, rank
+            theta = theta + v(:, i)*(uty(i)/s(i))                 ! eq. 19
+        end do
+        do k = 1, p
+            stdu(k) = sqrt(sum((v(k, 1:rank)/s(1:rank))**2))
+            if (norm2(v(k, rank + 1:p)) < gtol .and. .not. zero(k)) then
+                group(k) = group_identifiable
+            else if (norm2(v(k, 1:rank)) < gtol .or. zero(k)) then
+                group(k) = group_non_identifiable
+            else
+                group(k) = group_semi_identifiable
+            end if
+        end do
+        res = y - matmul(as, theta)
+        theta = theta/d
+        stdu = stdu/d
+        info = sk_ok
+    end subroutine wls_svd
+
+    !> Score (Lagrange-multiplier) tests of ncand candidates against the
+    !> model a[n,p] (weighted) and its weighted residual r[n]. Candidate c
+    !> owns the columns z(:, cstart(c):cstart(c+1)-1). Its columns, scaled
+    !> to unit norm (those below 1e-13 of the largest column of a and z are
+    !> round-off and count as zero), are projected off the column space of a (rank by rcond
+    !> as in wls_svd); dof(c) is the rank of what is left (singular values
+    !> above ztol), stat(c) = |P r|^2 with P the projector on that space,
+    !> chi-square with dof(c) degrees of freedom under the model for unit
+    !> noise; pr(:, c) = P r, the part of the residual the candidate explains.
+    subroutine score_tests(a, r, z, cstart, rcond, ztol, stat, dof, pr, info)
+        real(dp), intent(in) :: a(:, :), r(:), z(:, :), rcond, ztol
+        integer(ip), intent(in) :: cstart(:)
+        real(dp), intent(out) :: stat(:), pr(:, :)
+        integer(ip), intent(out) :: dof(:), info
+        real(dp), allocatable :: as(:, :), u(:, :), s(:), vt(:, :), d(:), zc(:, :), uz(:, :), &
+            sz(:), vz(:, :), coef(:)
+        logical, allocatable :: zero(:)
+        real(dp) :: zref
+        integer :: n, p, ncand, c, rank, i, k0, nc, k
+        n = size(a, 1)
+        p = size(a, 2)
+        ncand = size(cstart) - 1
+        stat = 0.0_dp
+        pr = 0.0_dp
+        dof = 0
+        if (size(r) /= n .or. size(z, 1) /= n .or. size(stat) /= ncand .or. size(dof) /= ncand &
+            .or. any(shape(pr) /= [n, ncand]) .or. n < p) then
+            info = sk_err_size
+            return
+        end if
+        do c = 1, ncand
+            if (cstart(c) < 1 .or. cstart(c + 1) < cstart(c) .or. cstart(c + 1) - 1 > size(z, 2)) then
+                info = sk_err_argument
+                return
+            end if
+        end do
+        if (.not. (all_finite(a) .and. all_finite(r) .and. all_finite(z))) then
+            info = sk_err_nonfinite
+            return
+        end if
+        allocate(d(p), zero(p), as(n, p), u(n, p), s(p), vt(p, p))
+        zref = 0.0_dp
+        do k = 1, size(z, 2)
+            zref = max(zref, norm2(z(:, k)))
+        end do
+        do k = 1, p
+            zref = max(zref, norm2(a(:, k)))
+        end do
+        zref = 1.0e-13_dp*zref
+        call column_scales(a, d, zero)
+        do k = 1, p
+            as(:, k) = merge(0.0_dp, a(:, k)/d(k), zero(k))
+        end do
+        call svd(as, u, s, vt, info)
+        if (info /= sk_ok) return
+        rank = 0
+        do i = 1, p
+            if (s(i) > rcond*s(1) .and. s(i) > 0.0_dp) rank = rank + 1
+        end do
+        do c = 1, ncand
+            k0 = cstart(c)
+            nc = cstart(c + 1) - k0
+            if (nc < 1) cycle
+            allocate(zc(n, nc), uz(n, min(n, nc)), sz(min(n, nc)), vz(min(n, nc), nc))
+            do k = 1, nc
+                zc(:, k) = z(:, k0 + k - 1)
+                ! a column at round-off level (relative to the largest column of
+                ! the model and the candidates) carries no information: zero
+                if (norm2(zc(:, k)) > zref) then
+                    zc(:, k) = zc(:, k)/norm2(zc(:, k))
+                else
+                    zc(:, k) = 0.0_dp
+                end if
+            end do
+            if (rank > 0) zc = zc - matmul(u(:, 1:rank), matmul(transpose(u(:, 1:rank)), zc))
+            call svd(zc, uz, sz, vz, info)
+            if (info /= sk_ok) return
+            dof(c) = count(sz > ztol)
+            if (dof(c) > 0) then
+                coef = matmul(transpose(uz(:, 1:dof(c))), r)
+                pr(:, c) = matmul(uz(:, 1:dof(c)), coef)
+                stat(c) = sum(coef**2)
+            end if
+            deallocate(zc, uz, sz, vz)
+        end do
+        info = sk_ok
+    end subroutine score_tests
+
+    !> Greedy choice of independent columns of a[n,p] taken in the order
+    !> order(1..p) (1-based column numbers): a column, scaled to unit norm,
+    !> is selected (selected(k) = 1) when its part orthogonal to the columns
+    !> already selected is longer than tol (M5b: an identifiable subset).
+    subroutine select_independent(a, order, tol, selected, info)
+        real(dp), intent(in) :: a(:, :), tol
+        integer(ip), intent(in) :: order(:)
+        integer(ip), intent(out) :: selected(:), info
+        real(dp), allocatable :: qb(:, :), x(:)
+        integer :: n, p, k, c, nq, pass
+        n = size(a, 1)
+        p = size(a, 2)
+        selected = 0
+        if (size(order) /= p .or. size(selected) /= p) then
+            info = sk_err_size
+            return
+        end if
+        if (any(order < 1) .or. any(order > p)) then
+            info = sk_err_argument
+            return
+        end if
+        allocate(qb(n, p), x(n))
+        nq = 0
+        do k = 1, p
+            c = order(k)
+            x = a(:, c)
+            if (norm2(x) <= 0.0_dp) cycle
+            x = x/norm2(x)
+            do pass = 1, 2                          ! re-orthogonalise once
+                if (nq > 0) x = x - matmul(qb(:, 1:nq), matmul(transpose(qb(:, 1:nq)), x))
+            end do
+            if (norm2(x) > tol .and. nq < n) then
+                nq = nq + 1
+                qb(:, nq) = x/norm2(x)
+                selected(c) = 1
+            end if
+        end do
+        info = sk_ok
+    end subroutine select_independent
+
+    !> Sparse relations between coupled parameters (klimchik eq. 21): the
+    !> reduced row echelon form of the null part of V (v[p,p] from wls_svd,
+    !> columns rank+1..p span the null space), by Gauss-Jordan elimination
+    !> with partial pivoting; rel[p-rank, p], each row a null vector with 1 at
+    !> its pivot and zeros at the other pivots, entries below tol set to 0.
+    !> The parameters with a non-zero entry in a row are coupled: only their
+    !> combination is identifiable.
+    subroutine null_relations(v, rank, tol, rel, info)
+        real(dp), intent(in) :: v(:, :), tol
+        integer(ip), intent(in) :: rank
+        real(dp), intent(out) :: rel(:, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: m(:, :), row(:)
+        integer :: p, k, i, col, r, piv
+        p = size(v, 1)
+        k = p - rank
+        rel = 0.0_dp
+        if (size(v, 2) /= p .or. rank < 0 .or. rank > p .or. any(shape(rel) /= [k, p])) then
+            info = sk_err_size
+            return
+        end if
+        if (k == 0) then
+            info = sk_ok
+            return
+        end if
+        m = transpose(v(:, rank + 1:p))
+        r = 1
+        do col = 1, p
+            if (r > k) exit
+            piv = r - 1 + maxloc(abs(m(r:k, col)), dim=1)
+            if (abs(m(piv, col)) <= tol) cycle
+            if (piv /= r) then
+                row = m(r, :)
+                m(r, :) = m(piv, :)
+                m(piv, :) = row
+            end if
+            m(r, :) = m(r, :)/m(r, col)
+            do i = 1, k
+                if (i /= r) m(i, :) = m(i, :) - m(i, col)*m(r, :)
+            end do
+            r = r + 1
+        end do
+        where (abs(m) <= tol) m = 0.0_dp
+        rel = m
+        info = sk_ok
+    end subroutine null_relations
+
+    !> log Q(a, x), Q the regularised upper incomplete gamma function:
+    !> series for P when x < a + 1, Lentz continued fraction otherwise.
+    pure function log_gammq(a, x) result(lq)
+        real(dp), intent(in) :: a, x
+        real(dp) :: lq, ap, del, ssum, b, c, dd, h, an, lpre
+        integer :: n
+        if (x <= 0.0_dp) then
+            lq = 0.0_dp
+            return
+        end if
+        lpre = -x + a*log(x) - log_gamma(a)
+        if (x < a + 1.0_dp) then
+            ap = a
+            ssum = 1.0_dp/a
+            del = ssum
+            do n = 1, 100000
+                ap = ap + 1.0_dp
+                del = del*x/ap
+                ssum = ssum + del
+                if (abs(del) < abs(ssum)*1.0e-16_dp) exit
+            end do
+            lq = log(max(1.0_dp - exp(lpre + log(ssum)), tiny(1.0_dp)))
+        else
+            b = x + 1.0_dp - a
+            c = 1.0_dp/tiny(1.0_dp)
+            dd = 1.0_dp/b
+            h = dd
+            do n = 1, 100000
+                an = -n*(n - a)
+                b = b + 2.0_dp
+                dd = an*dd + b
+                if (abs(dd) < tiny(1.0_dp)) dd = tiny(1.0_dp)
+                c = b + an/c
+                if (abs(c) < tiny(1.0_dp)) c = tiny(1.0_dp)
+                dd = 1.0_dp/dd
+                del = dd*c
+                h = h*del
+                if (abs(del - 1.0_dp) < 1.0e-16_dp) exit
+            end do
+            lq = lpre + log(h)
+        end if
+    end function log_gammq
+
+    !> log of the chi-square survival function, k degrees of freedom.
+    pure function chi2_logsf(x, k) result(l)
+        real(dp), intent(in) :: x, k
+        real(dp) :: l
+        l = log_gammq(0.5_dp*k, 0.5_dp*x)
+    end function chi2_logsf
+
+    !> Continued fraction of the incomplete beta function (modified Lentz).
+    pure function betacf(a, b, x) result(h)
+        real(dp), intent(in) :: a, b, x
+        real(dp) :: h, aa, c, d, del, qab, qap, qam
+        integer :: m, m2
+        qab = a + b
+        qap = a + 1.0_dp
+        qam = a - 1.0_dp
+        c = 1.0_dp
+        d = 1.0_dp - qab*x/qap
+        if (abs(d) < tiny(1.0_dp)) d = tiny(1.0_dp)
+        d = 1.0_dp/d
+        h = d
+        do m = 1, 100000
+            m2 = 2*m
+            aa = m*(b - m)*x/((qam + m2)*(a + m2))
+            d = 1.0_dp + aa*d
+            if (abs(d) < tiny(1.0_dp)) d = tiny(1.0_dp)
+            c = 1.0_dp + aa/c
+            if (abs(c) < tiny(1.0_dp)) c = tiny(1.0_dp)
+            d = 1.0_dp/d
+            h = h*d*c
+            aa = -(a + m)*(qab + m)*x/((a + m2)*(qap + m2))
+            d = 1.0_dp + aa*d
+            if (abs(d) < tiny(1.0_dp)) d = tiny(1.0_dp)
+            c = 1.0_dp + aa/c
+            if (abs(c) < tiny(1.0_dp)) c = tiny(1.0_dp)
+            d = 1.0_dp/d
+            del = d*c
+            h = h*del
+            if (abs(del - 1.0_dp) < 1.0e-16_dp) exit
+        end do
+    end function betacf
+
+    !> log I_x(a, b), the regularised incomplete beta function.
+    pure recursive function log_betai(a, b, x) result(l)
+        real(dp), intent(in) :: a, b, x
+        real(dp) :: l, lbt
+        if (x <= 0.0_dp) then
+            l = -huge(1.0_dp)
+            return
+        else if (x >= 1.0_dp) then
+            l = 0.0_dp
+            return
+        end if
+        lbt = log_gamma(a + b) - log_gamma(a) - log_gamma(b) + a*log(x) + b*log(1.0_dp - x)
+        if (x < (a + 1.0_dp)/(a + b + 2.0_dp)) then
+            l = lbt + log(betacf(a, b, x)) - log(a)
+        else
+            l = log(max(1.0_dp - exp(lbt + log(betacf(b, a, 1.0_dp - x)) - log(b)), tiny(1.0_dp)))
+        end if
+    end function log_betai
+
+    !> log of the F(d1, d2) survival function at f.
+    pure function f_logsf(f, d1, d2) result(l)
+        real(dp), intent(in) :: f, d1, d2
+        real(dp) :: l
+        if (f <= 0.0_dp) then
+            l = 0.0_dp
+        else
+            l = log_betai(0.5_dp*d2, 0.5_dp*d1, d2/(d2 + d1*f))
+        end if
+    end function f_logsf
+
+end module sk_calib

@@ -1,0 +1,95 @@
+!> Unit tests of sk_calib: least squares with a duplicated and a zero column
+!> (groups, null-space relations), score tests, greedy selection, and the
+!> chi-square / F tail probabilities in log space.
+program test_calib
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_calib
+    implicit none (type, external)
+    integer :: failures = 0
+
+    call test_wls_groups()
+    call test_score()
+    call test_tails()
+    call test_select()
+    if (failures > 0) then
+        print '(i0, a)', failures, ' check(s) failed'
+        error stop 1
+    end if
+    print '(a)', 'all calib checks passed'
+
+contains
+
+    subroutine expect(ok, what)
+        logical, intent(in) :: ok
+        character(*), intent(in) :: what
+        if (.not. ok) then
+            failures = failures + 1
+            print '(a, a)', 'FAILED: ', what
+        end if
+    end subroutine expect
+
+    subroutine test_wls_groups()
+        real(dp) :: a(8, 4), y(8), theta(4), stdu(4), s(4), v(4, 4), res(8), tt(4)
+        integer(ip) :: rank, group(4), info
+        integer :: i
+        do i = 1, 8
+            a(i, 1) = 1.0_dp
+            a(i, 2) = real(i, dp)
+            a(i, 3) = 2.0_dp*real(i, dp)           ! coupled with column 2
+            a(i, 4) = 0.0_dp                       ! no influence
+        end do
+        tt = [1.5_dp, 0.25_dp, 0.0_dp, 0.0_dp]
+        y = matmul(a, tt)
+        call wls_svd(a, y, 1.0e-10_dp, 1.0e-6_dp, theta, stdu, s, v, rank, group, res, info)
+        call expect(info == sk_ok .and. rank == 2, 'wls: rank 2')
+        call expect(group(1) == group_identifiable, 'wls: intercept identifiable')
+        call expect(group(2) == group_semi_identifiable .and. group(3) == group_semi_identifiable, 'wls: coupled pair semi')
+        call expect(group(4) == group_non_identifiable, 'wls: zero column non-identifiable')
+        call expect(abs(theta(1) - 1.5_dp) < 1e-12_dp, 'wls: identifiable value exact')
+        call expect(abs(theta(2) + 2*theta(3) - 0.25_dp) < 1e-12_dp, 'wls: coupled combination exact')
+        call expect(maxval(abs(res)) < 1e-12_dp, 'wls: zero residual')
+        block
+            real(dp) :: rel(2, 4)
+            call null_relations(v, rank, 1.0e-9_dp, rel, info)
+            ! scaled columns: col 3 / |col 3| = col 2 / |col 2| -> relation (0, 1, -1, 0) and (0, 0, 0, 1)
+            call expect(info == sk_ok .and. maxval(abs(rel(1, :) - [0.0_dp, 1.0_dp, -1.0_dp, 0.0_dp])) < 1e-9_dp &
+                .and. maxval(abs(rel(2, :) - [0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp])) < 1e-9_dp, 'null relations: sparse rows')
+        end block
+        call wls_svd(a(1:3, :), y(1:3), 1.0e-10_dp, 1.0e-6_dp, theta, stdu, s, v, rank, group, res(1:3), info)
+        call expect(info == sk_err_too_few, 'wls: fewer rows than parameters')
+    end subroutine test_wls_groups
+
+    subroutine test_score()
+        real(dp) :: a(6, 1), r(6), z(6, 2), stat(2), pr(6, 2)
+        integer(ip) :: dof(2), info
+        a(:, 1) = [1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp]
+        r = [1.0_dp, -1.0_dp, 2.0_dp, -2.0_dp, 0.5_dp, -0.5_dp]
+        z(:, 1) = 3*a(:, 1)                         ! spanned by the model
+        z(:, 2) = [1.0_dp, -1.0_dp, 2.0_dp, -2.0_dp, 0.5_dp, -0.5_dp] + a(:, 1)
+        call score_tests(a, r, z, [1, 2, 3], 1.0e-10_dp, 1.0e-6_dp, stat, dof, pr, info)
+        call expect(info == sk_ok, 'score: info')
+        call expect(dof(1) == 0 .and. stat(1) == 0, 'score: spanned candidate adds nothing')
+        call expect(dof(2) == 1 .and. abs(stat(2) - dot_product(r, r)) < 1e-12_dp, 'score: candidate explains r')
+    end subroutine test_score
+
+    subroutine test_tails()
+        ! chi2 sf(10, 3) = 0.0185661354..., F sf(3; 2, 10) = 1.6^-5
+        call expect(abs(chi2_logsf(10.0_dp, 3.0_dp) - log(0.018566135463043_dp)) < 1e-9_dp, 'chi2 tail')
+        call expect(abs(chi2_logsf(2.0_dp, 2.0_dp) + 1.0_dp) < 1e-12_dp, 'chi2 tail k=2 is exp(-x/2)')
+        call expect(abs(chi2_logsf(4000.0_dp, 2.0_dp) + 2000.0_dp) < 1e-9_dp, 'chi2 tail in log space, no underflow')
+        call expect(abs(f_logsf(3.0_dp, 2.0_dp, 10.0_dp) + 5*log(1.6_dp)) < 1e-10_dp, 'F tail')
+    end subroutine test_tails
+
+    subroutine test_select()
+        real(dp) :: a(4, 3)
+        integer(ip) :: sel(3), info
+        a = 0
+        a(1, 1) = 1; a(1, 2) = 2; a(2, 3) = 1       ! column 2 = 2 x column 1
+        call select_independent(a, [2, 1, 3], 1.0e-8_dp, sel, info)
+        call expect(info == sk_ok .and. all(sel == [0, 1, 1]), 'select: the preferred of a dependent pair')
+        call select_independent(a, [1, 2, 3], 1.0e-8_dp, sel, info)
+        call expect(all(sel == [1, 0, 1]), 'select: order decides')
+    end subroutine test_select
+
+end program test_calib

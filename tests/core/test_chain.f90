@@ -1,0 +1,130 @@
+!> Unit tests of sk_chain: a planar two-link arm against its hand-derived
+!> compliance, and the observation basis against the tool compliance (two
+!> code paths of the core).
+program test_chain
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_linalg, only: eye, skew
+    use sk_chain
+    implicit none (type, external)
+    integer :: failures = 0
+
+    call test_planar_two_link()
+    call test_basis_matches_compliance()
+    if (failures > 0) then
+        print '(i0, a)', failures, ' check(s) failed'
+        error stop 1
+    end if
+    print '(a)', 'all chain checks passed'
+
+contains
+
+    subroutine expect(ok, what)
+        logical, intent(in) :: ok
+        character(*), intent(in) :: what
+        if (.not. ok) then
+            failures = failures + 1
+            print '(a, a)', 'FAILED: ', what
+        end if
+    end subroutine expect
+
+    !> Planar arm: joints about z at the origin and at (l1,0,0) of link 1,
+    !> tool at l2 along link 2. Tool twist from joint i: [z x (p - p_i); z].
+    subroutine test_planar_two_link()
+        real(dp) :: jrot(3, 3, 3), jpos(3, 3), jaxis(3, 3), q(2, 1), cs(6, 6, 2), cj(2, 1)
+        real(dp) :: c(6, 6, 1), k(6, 6, 1), ch(6, 6), l1, l2, c1, c2, x, y, x2, y2
+        integer(ip) :: qidx(3), stype(2), sidx(2), rank(1), kinfo(1), info
+        l1 = 0.7_dp; l2 = 0.4_dp; c1 = 2.0e-6_dp; c2 = 5.0e-6_dp
+        jrot = 0
+        jrot(:, :, 1) = eye(3); jrot(:, :, 2) = eye(3); jrot(:, :, 3) = eye(3)
+        jpos = 0
+        jpos(1, 2) = l1
+        jpos(1, 3) = l2
+        jaxis = 0
+        jaxis(3, 1) = 1; jaxis(3, 2) = 1
+        qidx = [1, 2, 0]
+        q(:, 1) = [0.3_dp, 0.9_dp]
+        stype = [1, 1]
+        sidx = [1, 2]
+        cs = 0
+        cj(:, 1) = [c1, c2]
+        call tool_compliance_batch(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, &
+            cs, cj, q, c, k, rank, kinfo, info)
+        call expect(info == sk_ok, 'planar: info')
+        ! hand-derived: joint 1 at origin, joint 2 at (l1 cos q1, l1 sin q1)
+        x = l1*cos(q(1, 1)) + l2*cos(q(1, 1) + q(2, 1))
+        y = l1*sin(q(1, 1)) + l2*sin(q(1, 1) + q(2, 1))
+        x2 = x - l1*cos(q(1, 1))
+        y2 = y - l1*sin(q(1, 1))
+        ch = 0
+        ch(1, 1) = c1*y*y + c2*y2*y2
+        ch(1, 2) = -c1*x*y - c2*x2*y2
+        ch(2, 1) = ch(1, 2)
+        ch(2, 2) = c1*x*x + c2*x2*x2
+        ch(1, 6) = -c1*y - c2*y2
+        ch(6, 1) = ch(1, 6)
+        ch(2, 6) = c1*x + c2*x2
+        ch(6, 2) = ch(2, 6)
+        ch(6, 6) = c1 + c2
+        call expect(maxval(abs(c(:, :, 1) - ch)) < 1e-15_dp, 'planar: compliance equals the hand-derived one')
+        call expect(rank(1) == 2 .and. kinfo(1) == sk_err_singular, 'planar: rank 2 (two joints), no stiffness')
+    end subroutine test_planar_two_link
+
+    !> A 3R spatial chain with a joint spring, a link spring and a tool
+    !> spring: the basis times the parameters equals the point deflection
+    !> computed from the tool compliance.
+    subroutine test_basis_matches_compliance()
+        integer, parameter :: nj = 4, nm = 3
+        real(dp) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), q(3, nm), w(6, nm), p(3, nm)
+        real(dp) :: cs(6, 6, 3), cj(3, nm), c(6, 6, nm), k(6, 6, nm), basis(6, nm, 1 + 21 + 21), rt(3, 3, nm)
+        real(dp) :: theta(43), a(6, 6), tw(6), d(3), dpred(6)
+        integer(ip) :: qidx(nj), stype(3), sidx(3), rank(nm), kinfo(nm), info
+        integer :: m, e, i, j, col
+        jrot = 0
+        do m = 1, nj
+            jrot(:, :, m) = eye(3)
+        end do
+        jpos = reshape([0.0_dp, 0.0_dp, 0.5_dp, 0.1_dp, 0.0_dp, 0.0_dp, 0.8_dp, 0.0_dp, 0.05_dp, &
+            0.3_dp, 0.1_dp, 0.0_dp], [3, nj])
+        jaxis = reshape([0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, &
+            0.0_dp, 0.0_dp, 0.0_dp], [3, nj])
+        qidx = [1, 2, 3, 0]
+        q = reshape([0.2_dp, -0.4_dp, 0.7_dp, 1.0_dp, 0.3_dp, -0.2_dp, -0.5_dp, 0.1_dp, 1.2_dp], [3, nm])
+        w = reshape([100.0_dp, -50.0_dp, 30.0_dp, 5.0_dp, -2.0_dp, 7.0_dp, &
+            -20.0_dp, 80.0_dp, -60.0_dp, 1.0_dp, 3.0_dp, -4.0_dp, &
+            10.0_dp, 10.0_dp, 90.0_dp, -6.0_dp, 2.0_dp, 1.0_dp], [6, nm])
+        p = reshape([0.0_dp, 0.0_dp, 0.1_dp, 0.05_dp, -0.02_dp, 0.2_dp, 0.0_dp, 0.1_dp, 0.0_dp], [3, nm])
+        stype = [1, 2, 4]
+        sidx = [2, 3, 0]
+        ! parameters: joint 2 compliance, link spring at joint 3's frame, tool spring
+        theta = 0
+        theta(1) = 3.0e-6_dp
+        cs = 0
+        do e = 1, 21
+            call sym_index(e, i, j)
+            theta(1 + e) = 1.0e-7_dp*(1.0_dp + 0.1_dp*e)*merge(1.0_dp, 0.2_dp, i == j)
+            theta(22 + e) = 2.0e-7_dp*(1.0_dp - 0.03_dp*e)*merge(1.0_dp, 0.1_dp, i == j)
+            cs(i, j, 2) = theta(1 + e); cs(j, i, 2) = theta(1 + e)
+            cs(i, j, 3) = theta(22 + e); cs(j, i, 3) = theta(22 + e)
+        end do
+        cj = theta(1)
+        call tool_compliance_batch(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, &
+            cs, cj, q, c, k, rank, kinfo, info)
+        call expect(info == sk_ok, 'basis: compliance info')
+        call spring_basis_batch(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, &
+            q, w, p, basis, rt, info)
+        call expect(info == sk_ok, 'basis: info')
+        do m = 1, nm
+            a = c(:, :, m)
+            tw = matmul(a, w(:, m))
+            d = tw(1:3) + matmul(-skew(matmul(rt(:, :, m), p(:, m))), tw(4:6))
+            dpred = 0
+            do col = 1, 43
+                dpred = dpred + basis(:, m, col)*theta(col)
+            end do
+            call expect(maxval(abs(dpred(1:3) - d)) < 1e-12_dp*maxval(abs(d)), 'basis: point deflection = (C W) at p')
+            call expect(maxval(abs(dpred(4:6) - tw(4:6))) < 1e-12_dp*maxval(abs(tw(4:6))), 'basis: rotation = C W')
+        end do
+    end subroutine test_basis_matches_compliance
+
+end program test_chain
