@@ -223,6 +223,17 @@ class Model:
         """(C, K, rank, ok) at postures Q; see tool_compliance."""
         return self.tool_compliance(Q, return_stiffness=True)
 
+    def stiffness_indices(self, Q, lscale: float | None = None):
+        """Stiffness indices kappa_t, kappa_r (N) of the tool stiffness at
+        postures Q (Taghvaeipour et al. 2010 eqs. 31-39, core/sk_indices.f90),
+        made unit-invariant with the length ``lscale`` (m; default the chain's
+        characteristic length). Returns (Indices, ok): NaN where the stiffness
+        does not exist (ok False)."""
+        from ..springs.indices import stiffness_indices_where
+        _, K, _, ok = self.stiffness(Q)
+        lscale = self.chain.characteristic_length if lscale is None else float(lscale)
+        return stiffness_indices_where(K, ok, lscale), ok
+
 
 def profile_basis(q: np.ndarray) -> np.ndarray:
     """(N, 5): 1, cos q, sin q, cos 2q, sin 2q (joint_profile)."""

@@ -61,6 +61,16 @@ class Chain:
         """Links of the chain from base_link to the tool frame."""
         return [self.base_link] + list(self.children)
 
+    @property
+    def characteristic_length(self) -> float:
+        """The chain's length scale (m): the sum of the joint-origin offsets
+        and the tool offset along the chain, an upper bound of the reach that
+        does not depend on the posture. The default length of the stiffness
+        indices (it scales with the robot, so the indices do not depend on
+        the unit of length)."""
+        total = float(np.linalg.norm(self.jpos, axis=1).sum() + np.linalg.norm(self.tpos))
+        return total if total > 0 else 1.0
+
     def joint_index(self, name: str) -> int:
         """0-based index in the chain of the joint called ``name``."""
         try:

@@ -16,7 +16,7 @@ import numpy as np
 from .. import _springs
 from .._errors import InputError, check
 
-__all__ = ["Indices", "stiffness_indices"]
+__all__ = ["Indices", "stiffness_indices", "stiffness_indices_where"]
 
 
 @dataclass(frozen=True)
@@ -41,3 +41,26 @@ def stiffness_indices(k, lscale: float) -> Indices:
     check(info, "stiffness_indices (sk_stiffness_indices)",
           {6: f"lscale must be > 0, got {lscale}", 2: "the stiffness contains NaN or Inf"})
     return Indices(kappa_t=kt, kappa_r=kr, lambda_f=lf.T, lambda_n=ln.T, lscale=float(lscale))
+
+
+def stiffness_indices_where(k, ok, lscale: float) -> Indices:
+    """Indices of N stiffness matrices (N,6,6) where ``ok`` (N,) is True, NaN elsewhere.
+
+    Where the stiffness does not exist (a singular compliance: a serial
+    singularity, or too few springs to load every direction) the caller's
+    K is a placeholder (zeros); its indices would be garbage, so they are
+    NaN. The defined postures go to the core in one call.
+    """
+    k = np.asarray(k, dtype=float)
+    ok = np.asarray(ok, dtype=bool).reshape(-1)
+    if k.ndim != 3 or k.shape[1:] != (6, 6) or ok.shape != (k.shape[0],):
+        raise InputError(f"stiffness must be (N,6,6) with ok (N,), got {k.shape} and {ok.shape}")
+    n = k.shape[0]
+    kt, kr = np.full(n, np.nan), np.full(n, np.nan)
+    lf, ln = np.full((n, 3), np.nan), np.full((n, 3), np.nan)
+    if not (np.isfinite(lscale) and lscale > 0):
+        raise InputError(f"lscale must be > 0, got {lscale}")
+    if ok.any():
+        sub = stiffness_indices(k[ok], lscale)
+        kt[ok], kr[ok], lf[ok], ln[ok] = sub.kappa_t, sub.kappa_r, sub.lambda_f, sub.lambda_n
+    return Indices(kappa_t=kt, kappa_r=kr, lambda_f=lf, lambda_n=ln, lscale=float(lscale))
