@@ -19,6 +19,20 @@ subroutine sk_tool_compliance(nj, ndof, ns, np, jrot, jpos, jaxis, qidx, trot, t
         rank, kinfo, info)
 end subroutine sk_tool_compliance
 
+!> Poses of every joint frame F_k and of the tool at np postures (sk_chain).
+subroutine sk_chain_poses(nj, ndof, np, jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rt, pt, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_chain, only: chain_poses_batch
+    implicit none
+    integer(c_int), intent(in) :: nj, ndof, np
+    real(c_double), intent(in) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), trot(3, 3), tpos(3)
+    integer(c_int), intent(in) :: qidx(nj)
+    real(c_double), intent(in) :: q(ndof, np)
+    real(c_double), intent(out) :: rf(3, 3, nj, np), pf(3, nj, np), rt(3, 3, np), pt(3, np)
+    integer(c_int), intent(out) :: info
+    call chain_poses_batch(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rt, pt, info)
+end subroutine sk_chain_poses
+
 !> Observation basis[6,nm,nb] of every spring at nm measurement rows (sk_chain).
 subroutine sk_spring_basis(nj, ndof, ns, nm, nb, jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, &
         q, w, p, basis, rtool, info)

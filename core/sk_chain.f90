@@ -22,12 +22,13 @@
 module sk_chain
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, skew, cross, rot_exp, sym_eig, spd_inverse, all_finite
-    use sk_spatial, only: twist_transfer, blockdiag_rot
+    use sk_linalg, only: eye, skew, rot_exp, sym_eig, spd_inverse, all_finite
+    use sk_spatial, only: twist_transfer, blockdiag_rot, revolute_twist, spring_at, add_rank1, &
+        rotate_blocks, congruence_transfer
     implicit none
     private
     public :: chain_frames, spring_jacobian, spring_ndof, tool_compliance_batch
-    public :: spring_basis_batch, sym_index, nsym, spring_jacobians
+    public :: spring_basis_batch, sym_index, nsym, spring_jacobians, chain_poses_batch
 
     !> number of independent elements of a symmetric 6x6 matrix
     integer, parameter :: nsym = 21
@@ -85,12 +86,9 @@ contains
         integer(ip), intent(in) :: stype, sidx
         real(dp), intent(in) :: jaxis(:, :), rf(:, :, :), pf(:, :), rt(3, 3), pt(3)
         real(dp), intent(out) :: j(:, :)
-        real(dp) :: u(3)
         select case (stype)
         case (1)
-            u = matmul(rf(:, :, sidx), jaxis(:, sidx))
-            j(1:3, 1) = cross(u, pt - pf(:, sidx))
-            j(4:6, 1) = u
+            j(:, 1) = revolute_twist(matmul(rf(:, :, sidx), jaxis(:, sidx)), pf(:, sidx), pt)
         case (2)
             j(:, 1:6) = matmul(twist_transfer(pt - pf(:, sidx)), blockdiag_rot(rf(:, :, sidx)))
         case (3)
@@ -137,7 +135,7 @@ contains
         real(dp), intent(out) :: c(:, :, :), k(:, :, :)
         integer(ip), intent(out) :: rank(:), kinfo(:), info
         real(dp), allocatable :: rf(:, :, :), pf(:, :)
-        real(dp) :: rt(3, 3), pt(3), jj(6, 6), ev(6), v(6, 6), cc(6, 6)
+        real(dp) :: rt(3, 3), pt(3), ev(6), v(6, 6), cc(6, 6), m(6, 6)
         integer :: ipost, s, nj, ns
         integer(ip) :: linfo
         nj = size(qidx)
@@ -155,14 +153,26 @@ contains
         allocate(rf(3, 3, nj), pf(3, nj))
         do ipost = 1, size(q, 2)
             call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, ipost), rf, pf, rt, pt)
+            ! J_s C_s J_s^T term by term with the sk_spatial primitives (the
+            ! block forms of spring_jacobian's J, shared with sk_springs)
             cc = 0.0_dp
             do s = 1, ns
-                call spring_jacobian(stype(s), sidx(s), jaxis, rf, pf, rt, pt, jj)
-                if (stype(s) == 1) then
-                    cc = cc + cj(s, ipost)*matmul(jj(:, 1:1), transpose(jj(:, 1:1)))
-                else
-                    cc = cc + matmul(matmul(jj, cs(:, :, s)), transpose(jj))
-                end if
+                select case (stype(s))
+                case (1)
+                    call add_rank1(cj(s, ipost), revolute_twist(matmul(rf(:, :, sidx(s)), &
+                        jaxis(:, sidx(s))), pf(:, sidx(s)), pt), cc)
+                    cycle
+                case (2)
+                    m = cs(:, :, s)
+                    call spring_at(rf(:, :, sidx(s)), pt - pf(:, sidx(s)), m)
+                case (3)
+                    m = cs(:, :, s)
+                    call congruence_transfer(pt, m, .false.)
+                case default
+                    m = cs(:, :, s)
+                    call rotate_blocks(rt, m)
+                end select
+                cc = cc + m
             end do
             cc = 0.5_dp*(cc + transpose(cc))
             c(:, :, ipost) = cc
@@ -300,5 +310,33 @@ contains
         end do
         info = sk_ok
     end subroutine spring_jacobians
+
+    !> Poses of the chain at np postures q[ndof,np] (chain_frames, batched):
+    !> rf[3,3,nj,np], pf[3,nj,np] every F_k, rt[3,3,np], pt[3,np] the tool
+    !> frame (base axes/coordinates). The one forward kinematics of the
+    !> core; the springs evaluator takes these poses for a URDF robot.
+    subroutine chain_poses_batch(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rt, pt, info)
+        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3), q(:, :)
+        integer(ip), intent(in) :: qidx(:)
+        real(dp), intent(out) :: rf(:, :, :, :), pf(:, :, :), rt(:, :, :), pt(:, :)
+        integer(ip), intent(out) :: info
+        integer :: ipost
+        integer(ip) :: none(0)
+        rf = 0.0_dp
+        pf = 0.0_dp
+        rt = 0.0_dp
+        pt = 0.0_dp
+        call check_chain(jaxis, qidx, size(q, 1, kind=ip), none, none, info)
+        if (info /= sk_ok) return
+        if (.not. all_finite(q)) then
+            info = sk_err_nonfinite
+            return
+        end if
+        do ipost = 1, size(q, 2)
+            call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, ipost), rf(:, :, :, ipost), &
+                pf(:, :, ipost), rt(:, :, ipost), pt(:, ipost))
+        end do
+        info = sk_ok
+    end subroutine chain_poses_batch
 
 end module sk_chain

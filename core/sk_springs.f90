@@ -36,6 +36,7 @@
 module sk_springs
     use sk_kinds, only: dp, ip
     use sk_errors
+    use sk_spatial, only: rotate_blocks, congruence_transfer, revolute_twist
     implicit none
     private
     public :: op_spring, op_joint, op_series, op_parallel
@@ -249,66 +250,6 @@ contains
         end do
     end subroutine sym_eigvals_small
 
-    !> Rotate a 6x6 (compliance or stiffness) from local axes to world axes:
-    !> diag(R,R) m diag(R,R)^T, block by block.
-    pure subroutine rotate_blocks(rot, m)
-        real(dp), intent(in) :: rot(3, 3)
-        real(dp), intent(inout) :: m(6, 6)
-        real(dp) :: rt(3, 3), a(3, 3), b(3, 3), d(3, 3)
-        rt = transpose(rot)
-        a = m(1:3, 1:3)
-        b = m(1:3, 4:6)
-        d = m(4:6, 4:6)
-        a = matmul(rot, matmul(a, rt))
-        b = matmul(rot, matmul(b, rt))
-        d = matmul(rot, matmul(d, rt))
-        m(1:3, 1:3) = a
-        m(1:3, 4:6) = b
-        m(4:6, 4:6) = d
-        m(4:6, 1:3) = transpose(b)
-    end subroutine rotate_blocks
-
-    !> m <- T m T^T with T = twist_transfer(r) = [[I, -[r]x], [0, I]]
-    !> (a compliance moved by r, eq. 8), or, with r -> -r and the transpose,
-    !> a stiffness (eq. 16: W^T K W with W = T(-r)); block form:
-    !> A' = A - S B^T + (B - S D) S, B' = B - S D, D' = D, S = [r]x.
-    pure subroutine congruence_transfer(r, m, stiffness)
-        real(dp), intent(in) :: r(3)
-        real(dp), intent(inout) :: m(6, 6)
-        logical, intent(in) :: stiffness
-        real(dp) :: s(3, 3), a(3, 3), b(3, 3), d(3, 3), sd(3, 3), bb(3, 3)
-        if (stiffness) then
-            ! W^T K W, W = [[I, S],[0, I]] (S = [r]x, r = tool - spring):
-            ! A' = A, B' = A S + B, D' = S^T A S + S^T B + B^T S + D
-            s = skewm(r)
-            a = m(1:3, 1:3)
-            b = m(1:3, 4:6)
-            d = m(4:6, 4:6)
-            bb = matmul(a, s) + b
-            m(1:3, 4:6) = bb
-            m(4:6, 1:3) = transpose(bb)
-            m(4:6, 4:6) = d + matmul(transpose(s), bb) + matmul(transpose(b), s)
-        else
-            s = skewm(r)
-            a = m(1:3, 1:3)
-            b = m(1:3, 4:6)
-            d = m(4:6, 4:6)
-            sd = matmul(s, d)
-            bb = b - sd
-            m(1:3, 1:3) = a - matmul(s, transpose(b)) + matmul(bb, s)
-            m(1:3, 4:6) = bb
-            m(4:6, 1:3) = transpose(bb)
-        end if
-    end subroutine congruence_transfer
-
-    pure function skewm(v) result(s)
-        real(dp), intent(in) :: v(3)
-        real(dp) :: s(3, 3)
-        s(:, 1) = [0.0_dp, v(3), -v(2)]
-        s(:, 2) = [-v(3), 0.0_dp, v(1)]
-        s(:, 3) = [v(2), -v(1), 0.0_dp]
-    end function skewm
-
     !> Orthonormal bases of range(p) (eigenvalue > tol*max) and of its
     !> orthogonal complement, for a symmetric PSD p[6,6].
     pure subroutine split_range(p, has, tol, rng, nr, cmp, nc)
@@ -518,16 +459,16 @@ contains
         s%phi_r1 = .false.
     end subroutine k_to_c
 
-    !> Unit twist of a joint seen at the tool point, scaled: (t/lscale, phi).
+    !> Unit twist of a joint seen at the tool point, scaled: (t/lscale, phi);
+    !> the revolute twist is sk_spatial's (the one sk_chain uses too).
     pure function joint_twist(jtype, axis, point, tool, lscale) result(xi)
         integer(ip), intent(in) :: jtype
         real(dp), intent(in) :: axis(3), point(3), tool(3), lscale
-        real(dp) :: xi(6), u(3), r(3)
+        real(dp) :: xi(6), u(3)
         u = axis/norm2(axis)
         if (jtype == joint_revolute) then
-            r = tool - point
-            xi(1:3) = [u(2)*r(3) - u(3)*r(2), u(3)*r(1) - u(1)*r(3), u(1)*r(2) - u(2)*r(1)]/lscale
-            xi(4:6) = u
+            xi = revolute_twist(u, point, tool)
+            xi(1:3) = xi(1:3)/lscale
         else
             xi(1:3) = u/lscale
             xi(4:6) = 0.0_dp
