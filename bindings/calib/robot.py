@@ -110,6 +110,21 @@ class Chain:
             qidx=np.asarray(self.qidx, dtype=np.int32) if nj else np.zeros(1, np.int32),
             trot=np.asfortranarray(self.trot), tpos=np.asarray(self.tpos, float))
 
+    def poses(self, Q) -> dict:
+        """Frames of the chain at postures Q (N, dof), computed by the core's
+        forward kinematics (sk_chain, one call): ``rf`` (N, nj, 3, 3), ``pf``
+        (N, nj, 3) every joint frame F_k before its rotation, ``rt`` (N, 3, 3),
+        ``pt`` (N, 3) the tool frame; base axes and coordinates."""
+        from .. import _calib, _errors
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        if Q.ndim != 2 or Q.shape[1] != self.dof:
+            raise InputError(f"postures must have shape (N, {self.dof}), got {np.shape(Q)}")
+        rf, pf, rt, pt, info = _calib.sk_chain_poses(**self.core_arrays(), q=np.asfortranarray(Q.T))
+        _errors.check(info, "chain poses (sk_chain_poses)",
+                      {2: "postures contain NaN or Inf", 6: "the chain description is inconsistent"})
+        return {"rf": np.transpose(rf, (3, 2, 0, 1)), "pf": np.transpose(pf, (2, 1, 0)),
+                "rt": np.transpose(rt, (2, 0, 1)), "pt": pt.T.copy()}
+
     def forward(self, q) -> tuple[np.ndarray, np.ndarray]:
         """Tool frame (R (3,3), p (3,)) at posture q (python, for plots and synth)."""
         q = np.asarray(q, float)

@@ -10,8 +10,9 @@ gives kappa_t, kappa_r. Example models: ``stiffkit.springs.orthoglide``,
 from .indices import Indices, stiffness_indices, stiffness_indices_where
 from .tree import (Joint, Parallel, Series, Spring, TreeResult, evaluate, load_link_compliance,
                    parallel, series)
-from .vjm import serial_vjm
+from .vjm import model_tree, model_vjm, serial_vjm
 
 __all__ = ["Spring", "Joint", "Series", "Parallel", "series", "parallel", "evaluate",
            "TreeResult", "load_link_compliance", "Indices", "stiffness_indices",
-           "stiffness_indices_where", "serial_vjm"]
+           "stiffness_indices_where", "serial_vjm",
+           "model_tree", "model_vjm"]

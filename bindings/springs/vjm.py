@@ -1,17 +1,32 @@
-"""Virtual-joint model of a serial chain on explicit poses (Klimchik et al. eq. 2).
+"""Virtual-joint model of a serial chain as a serial array of generalised springs.
 
 The tool compliance of a serial chain of 1-dof joint springs (rank-1
 compliances about/along the joint axes) and 6-dof link springs (6x6
-compliances at given poses) is
+compliances at given poses) is (Klimchik et al. eq. 2; Taghvaeipour et al.
+eqs. 17-22 with every spring moved to the tool)
 
-    C = J_theta k_theta^-1 J_theta^T + sum_i T_i C_i T_i^T,   K_C = C^-1,
+    C = J_theta k_theta^-1 J_theta^T + sum_i T_i C_i T_i^T,   K_C = C^-1.
 
-with J_theta the joint twists seen at the tool and T_i the transfer of link
-i's spring to the tool (eqs. 8, 12). K_C exists only where C has full rank;
-elsewhere (a serial singularity, or too few springs to load every
-direction) the result lists the rigid wrenches instead. Poses come from
-the caller (this module does no kinematics): arrays over N postures, one
-core call for all of them.
+One implementation, two faces:
+
+* the terms J_i C_i J_i^T are computed in core/sk_spatial.f90
+  (``revolute_twist``, ``spring_at``), which both the URDF chain
+  (core/sk_chain.f90, ``stiffkit.load_model(...).tool_compliance``) and the
+  spring-tree evaluator (core/sk_springs.f90, this module) call;
+* the robot's poses come from one forward kinematics, sk_chain's
+  (``Chain.poses``), for a URDF robot: :func:`model_tree` /
+  :func:`model_vjm` build the serial array of a model's springs on those
+  poses.
+
+What the springs face adds, and why :func:`serial_vjm` stays: it is the
+generalised-spring serial array on *explicit* poses, not only a URDF chain
+of revolute joints with compliances: joints may be prismatic or passive
+(free: the chain is a mechanism and the free twists are reported), leaves
+may be stiffness matrices, and it nests inside parallel arrays (the legs
+of a parallel robot). Where K_C does not exist (a serial singularity, or
+too few springs to load every direction) it lists the rigid wrenches,
+where Model.tool_compliance gives the rank. Poses are arrays over N
+postures, one core call for all of them.
 """
 from __future__ import annotations
 
@@ -20,7 +35,7 @@ import numpy as np
 from .._errors import InputError
 from .tree import Joint, Spring, TreeResult, evaluate, series
 
-__all__ = ["serial_vjm"]
+__all__ = ["serial_vjm", "model_tree", "model_vjm"]
 
 
 def serial_vjm(joint_axes, joint_points, joint_compliances, link_compliances, link_points,
@@ -53,3 +68,52 @@ def serial_vjm(joint_axes, joint_points, joint_compliances, link_compliances, li
     if not parts:
         raise InputError("serial_vjm needs at least one joint or link")
     return evaluate(series(*parts), tool=tool, tool_rot=tool_rot, lscale=lscale, rcond=rcond)
+
+
+def model_tree(model, Q):
+    """The serial array of a URDF model's springs at postures Q (N, dof).
+
+    Poses from the core's forward kinematics (sk_chain via Chain.poses);
+    joint springs become revolute Joint leaves about their world axes,
+    link springs 6x6 leaves at their joint frames F_k, the base spring at
+    the base origin, the tool spring at the tool frame (contract s2).
+    Returns (tree, tool (N,3)): evaluate(tree, tool=tool) is the tool
+    compliance in base axes about the tool-frame origin, the same as
+    model.tool_compliance(Q). Joint compliances must not depend on the
+    posture here (joint_profile / gravity_compensator: use the model).
+    """
+    from ..calib.model import SPRING_BASE, SPRING_FRAME, SPRING_JOINT
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    chain = model.chain
+    poses = chain.poses(Q)
+    jc = model.joint_compliances(Q)
+    parts = []
+    for k in sorted(jc):
+        c = jc[k]
+        if np.ptp(c) > 1e-12 * np.abs(c).max():
+            raise InputError(f"joint {chain.joint_names[k]!r}: its compliance depends on the posture; "
+                             f"the spring tree takes constant joint compliances (use Model.tool_compliance)")
+        axis = poses["rf"][:, k] @ chain.jaxis[k]
+        parts.append(Joint("revolute", axis, poses["pf"][:, k], compliance=float(c[0]),
+                           name=chain.joint_names[k]))
+    for (stype, k), C in model.six_values().items():
+        if stype == SPRING_FRAME:
+            parts.append(Spring(C, pos=poses["pf"][:, k - 1], rot=poses["rf"][:, k - 1],
+                                name=f"link at {chain.joint_names[k - 1]}"))
+        elif stype == SPRING_BASE:
+            parts.append(Spring(C, name="base"))
+        elif stype != SPRING_JOINT:
+            parts.append(Spring(C, pos=poses["pt"], rot=poses["rt"], name="tool"))
+    if not parts:
+        raise InputError("the model has no spring with a value")
+    return series(*parts), poses["pt"]
+
+
+def model_vjm(model, Q, lscale=None, rcond: float = 1e-9) -> TreeResult:
+    """Tool compliance/stiffness of a URDF model through the spring-tree
+    evaluator (one core call): the result Model.tool_compliance gives, plus
+    the free twists / rigid wrenches where a matrix does not exist.
+    lscale defaults to the chain's characteristic length."""
+    tree, tool = model_tree(model, Q)
+    lscale = model.chain.characteristic_length if lscale is None else lscale
+    return evaluate(tree, tool=tool, lscale=lscale, rcond=rcond)
