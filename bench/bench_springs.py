@@ -1,17 +1,23 @@
-"""Postures per second of the spring-tree core against numpy, same run.
+"""Postures per second of the core against numpy, same run (issue 5 benchmark).
 
 Two models:
-  6R   a KR-270-like serial robot, 6 joint springs + 7 link springs on
-       explicit poses (serial VJM, Klimchik et al. eq. 2): tool compliance
-       and stiffness with the rank decided per posture;
+  6R   the KR-270-like serial robot (examples/kr270/robot.urdf) with 6 joint
+       + 7 link springs (base_link, link_1 .. link_6: tube cantilevers), a
+       model TOML with values read by stiffkit.load_model: tool compliance
+       and stiffness with the rank decided per posture,
+       load_model(...).tool_compliance(Q) / .stiffness(Q), one core call
+       (sk_chain: forward kinematics, klimchik eq. 2, Cholesky inverse);
+       also the same model through the spring-tree evaluator (model_vjm:
+       poses from sk_chain, sk_springs serial array);
   SMG  the McGill SMG of Taghvaeipour et al. (eqs. 22-30), MP stiffness.
-For each: the Fortran core (one call for all postures: the call alone,
-evaluate() with its argument packing, and with the Python that builds the
-poses), a straightforward numpy loop over postures, and numpy vectorised over
-postures (einsum/batched linalg), both doing the same job as stiffkit: the
-6R ones get the same prebuilt poses (compared with evaluate()), the SMG
-ones do their own inverse kinematics (compared with evaluate() + pose
-building). One thread (OMP_NUM_THREADS=1 via make bench).
+For each: the Fortran core (one call for all postures), a straightforward
+numpy loop over postures and numpy vectorised over postures
+(einsum/batched linalg), doing the same job from the same inputs: for the
+6R the numpy codes do their own forward kinematics from the URDF chain
+arrays, then eq. 2 and K = C^-1; the SMG ones do their own inverse
+kinematics (compared with evaluate() + pose building). Goal (issue 5):
+>= 1e5 postures/s on one core for the 6R and >= 50x numpy. One thread
+(OMP_NUM_THREADS=1 via make bench).
 
     python bench/bench_springs.py [N]        (default N = 100000)
 """
@@ -19,7 +25,9 @@ from __future__ import annotations
 
 import os
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -27,60 +35,48 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import stiffkit as sk  # noqa: E402
-from stiffkit.springs import Joint, Spring, evaluate, series  # noqa: E402
+from stiffkit.calib import synth as S  # noqa: E402
+from stiffkit.springs import evaluate, model_vjm  # noqa: E402
 from stiffkit.springs import smg  # noqa: E402
 
 N = int(sys.argv[1]) if len(sys.argv) > 1 and sys.argv[1].isdigit() else 100_000
 N_LOOP = min(N, 2000)     # the per-posture numpy loop is timed on fewer postures
+URDF = Path(__file__).resolve().parent.parent / "examples" / "kr270" / "robot.urdf"
 
 # ---------------------------------------------------------------- 6R model
-# KR-270-like DH (a, alpha, d), m and rad
-DH = [(0.35, -np.pi / 2, 0.675), (1.15, 0.0, 0.0), (0.041, -np.pi / 2, 0.0),
-      (0.0, np.pi / 2, -1.0), (0.0, -np.pi / 2, 0.0), (0.0, 0.0, -0.215)]
-K_JOINT = np.array([2.0e7, 1.5e7, 8.0e6, 1.5e6, 1.2e6, 6.0e5])   # N m/rad
+#: link springs: (link, length m, outer/inner diameter m, beam axis in the spring frame)
+LINKS = [("base_link", 0.675, 0.50, 0.42, "z"), ("link_1", 0.35, 0.45, 0.38, "x"),
+         ("link_2", 1.15, 0.30, 0.26, "x"), ("link_3", 0.60, 0.22, 0.18, "x"),
+         ("link_4", 0.60, 0.18, 0.15, "x"), ("link_5", 0.10, 0.16, 0.12, "x"),
+         ("link_6", 0.115, 0.14, 0.10, "x")]
 
 
-def link_compliances():
-    steel = 2.0e11, 0.3
-    secs = [("tube", [0.40, 0.34], 0.6), ("tube", [0.30, 0.24], 0.35), ("tube", [0.28, 0.22], 1.15),
-            ("tube", [0.22, 0.17], 0.2), ("tube", [0.16, 0.12], 1.0), ("tube", [0.12, 0.09], 0.15),
-            ("tube", [0.10, 0.07], 0.2)]
-    return [sk.cantilever_compliance(l, *steel, sk.section_properties(s, d, steel[1])) for s, d, l in secs]
+def kr270_effects() -> list[dict]:
+    """6 joint + 7 link springs with values (cast aluminium tubes, E = 70 GPa)."""
+    eff = [{"kind": "joint", "target": j["name"], "value": c}
+           for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)]
+    for link, length, do, di, axis in LINKS:
+        e = {"kind": "link", "target": link, "value": S.beam_compliance(length, 7.0e10, 0.33, do, di).tolist()}
+        if axis == "z":
+            e["rpy"] = [0.0, -np.pi / 2, 0.0]          # beam x -> frame z
+        eff.append(e)
+    return eff
 
 
-def fk(q):
-    """Frames of the 6R at postures q (N,6): origins (N,7,3) and rotations (N,7,3,3)."""
-    n = q.shape[0]
-    R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
-    p = np.zeros((n, 3))
-    Rs, ps = [R.copy()], [p.copy()]
-    for j, (a, al, d) in enumerate(DH):
-        c, s = np.cos(q[:, j]), np.sin(q[:, j])
-        Rz = np.zeros((n, 3, 3))
-        Rz[:, 0, 0], Rz[:, 0, 1], Rz[:, 1, 0], Rz[:, 1, 1], Rz[:, 2, 2] = c, -s, s, c, 1
-        Rx = np.array([[1, 0, 0], [0, np.cos(al), -np.sin(al)], [0, np.sin(al), np.cos(al)]])
-        p = p + R[:, :, 2] * d                      # along z_{j-1} by d
-        R = R @ Rz
-        p = p + R[:, :, 0] * a                      # along x_j by a
-        R = R @ Rx
-        Rs.append(R.copy())
-        ps.append(p.copy())
-    return np.stack(ps, 1), np.stack(Rs, 1)
+def write_kr270(d: Path) -> Path:
+    path = d / "kr270_6j7l.toml"
+    path.write_text(S.model_toml(kr270_effects(), urdf=str(URDF)))
+    return path
 
 
-def model_6r(q, links):
-    """Tree of the 6R: link i ends at frame origin i+1 (link 0: base column)."""
-    P, R = fk(q)
-    parts = [Spring(links[0], pos=P[:, 1], rot=R[:, 0])]
-    for j in range(6):
-        parts.append(Joint("revolute", R[:, j, :, 2], P[:, j], compliance=1.0 / K_JOINT[j]))
-        end = P[:, j + 1] if j < 5 else P[:, 6] + 0.1 * R[:, 6, :, 2]
-        parts.append(Spring(links[j + 1], pos=end, rot=R[:, j + 1]))
-    tool = P[:, 6] + 0.25 * R[:, 6, :, 2]
-    return series(*parts), tool, P, R
+def _rodrigues(u, q):
+    """(N,3,3) rotations about the unit axis u by angles q (N,)."""
+    K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    s, c = np.sin(q)[:, None, None], np.cos(q)[:, None, None]
+    return np.eye(3) + s * K + (1 - c) * (K @ K)
 
 
-def skew_b(v):
+def _skew(v):
     s = np.zeros(v.shape[:-1] + (3, 3))
     s[..., 0, 1], s[..., 0, 2] = -v[..., 2], v[..., 1]
     s[..., 1, 0], s[..., 1, 2] = v[..., 2], -v[..., 0]
@@ -88,9 +84,79 @@ def skew_b(v):
     return s
 
 
+def numpy_inputs(model):
+    """What the numpy codes need: chain arrays, joint compliances, 6x6 springs."""
+    ch = model.chain
+    jc = {k: float(v[0]) for k, v in model.joint_compliances(np.zeros((1, ch.dof))).items()}
+    six = {k - 1: C for (st, k), C in model.six_values().items()}
+    return ch, jc, six
+
+
+def numpy_6r_loop(Q, model):
+    """Straightforward numpy, one posture at a time: URDF forward kinematics,
+    klimchik eq. 2 (J_i C_i J_i^T), K = C^-1."""
+    ch, jc, six = numpy_inputs(model)
+    out_c, out_k = [], []
+    for q in Q:
+        R, p, F = np.eye(3), np.zeros(3), []
+        for k in range(len(ch.joint_names)):
+            p = p + R @ ch.jpos[k]
+            R = R @ ch.jrot[k]
+            F.append((R, p))
+            if ch.qidx[k] > 0:
+                R = R @ _rodrigues(ch.jaxis[k], np.array([q[ch.qidx[k] - 1]]))[0]
+        pt = p + R @ ch.tpos
+        C = np.zeros((6, 6))
+        for k, c in jc.items():
+            u = F[k][0] @ ch.jaxis[k]
+            xi = np.concatenate([np.cross(u, pt - F[k][1]), u])
+            C += c * np.outer(xi, xi)
+        for k, Cs in six.items():
+            Rk, pk = F[k]
+            J = np.eye(6)
+            J[:3, 3:] = -_skew(pt - pk)
+            B = np.zeros((6, 6))
+            B[:3, :3] = B[3:, 3:] = Rk
+            J = J @ B
+            C += J @ Cs @ J.T
+        out_c.append(C)
+        out_k.append(np.linalg.inv(C))
+    return np.array(out_c), np.array(out_k)
+
+
+def numpy_6r_vec(Q, model):
+    """numpy vectorised over postures (batched matmuls, einsum, batched inv)."""
+    ch, jc, six = numpy_inputs(model)
+    n = Q.shape[0]
+    R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    p = np.zeros((n, 3))
+    F = []
+    for k in range(len(ch.joint_names)):
+        p = p + R @ ch.jpos[k]
+        R = R @ ch.jrot[k]
+        F.append((R, p))
+        if ch.qidx[k] > 0:
+            R = R @ _rodrigues(ch.jaxis[k], Q[:, ch.qidx[k] - 1])
+    pt = p + R @ ch.tpos
+    C = np.zeros((n, 6, 6))
+    for k, c in jc.items():
+        u = F[k][0] @ ch.jaxis[k]
+        xi = np.concatenate([np.cross(u, pt - F[k][1]), u], axis=1)
+        C += c * xi[:, :, None] * xi[:, None, :]
+    for k, Cs in six.items():
+        Rk, pk = F[k]
+        J = np.broadcast_to(np.eye(6), (n, 6, 6)).copy()
+        J[:, :3, 3:] = -_skew(pt - pk)
+        B = np.zeros((n, 6, 6))
+        B[:, :3, :3] = B[:, 3:, 3:] = Rk
+        J = J @ B
+        C += J @ Cs @ np.swapaxes(J, -1, -2)
+    return C, np.linalg.inv(C)
+
+
 def transfer_b(r):
     t = np.broadcast_to(np.eye(6), r.shape[:-1] + (6, 6)).copy()
-    t[..., :3, 3:] = -skew_b(r)
+    t[..., :3, 3:] = -_skew(r)
     return t
 
 
@@ -99,47 +165,6 @@ def rot6_b(R):
     b[..., :3, :3] = R
     b[..., 3:, 3:] = R
     return b
-
-
-def numpy_6r_loop(Pall, Rall, links):
-    """Straightforward numpy: one posture at a time (VJM sum, then eigh for K)."""
-    out = []
-    for i in range(Pall.shape[0]):
-        P, R = Pall[i], Rall[i]
-        tool = P[6] + 0.25 * R[6, :, 2]
-        C = np.zeros((6, 6))
-        ends = [P[1]] + [P[j + 1] if j < 5 else P[6] + 0.1 * R[6, :, 2] for j in range(6)]
-        frames = [R[0]] + [R[j + 1] for j in range(6)]
-        for c, e, Rl in zip(links, ends, frames):
-            T = transfer_b(tool - e)
-            B = rot6_b(Rl)
-            C += T @ B @ c @ B.T @ T.T
-        for j in range(6):
-            u = R[j, :, 2]
-            xi = np.concatenate([np.cross(u, tool - P[j]), u])
-            C += np.outer(xi, xi) / K_JOINT[j]
-        w, v = np.linalg.eigh(C)
-        K = (v / w) @ v.T
-        out.append((C, K))
-    return out
-
-
-def numpy_6r_vec(P, R, links):
-    """numpy vectorised over postures."""
-    tool = P[:, 6] + 0.25 * R[:, 6, :, 2]
-    ends = [P[:, 1]] + [P[:, j + 1] if j < 5 else P[:, 6] + 0.1 * R[:, 6, :, 2] for j in range(6)]
-    frames = [R[:, 0]] + [R[:, j + 1] for j in range(6)]
-    C = np.zeros((P.shape[0], 6, 6))
-    for c, e, Rl in zip(links, ends, frames):
-        M = transfer_b(tool - e) @ rot6_b(Rl)
-        C += M @ c @ np.swapaxes(M, -1, -2)
-    for j in range(6):
-        u = R[:, j, :, 2]
-        xi = np.concatenate([np.cross(u, tool - P[:, j]), u], axis=1)
-        C += xi[:, :, None] * xi[:, None, :] / K_JOINT[j]
-    w, v = np.linalg.eigh(C)
-    K = (v / w[:, None, :]) @ np.swapaxes(v, -1, -2)
-    return C, K
 
 
 # ---------------------------------------------------------------- SMG model
@@ -214,24 +239,30 @@ def row(name, n, t, ref=None):
 
 def main():
     rng = np.random.default_rng(0)
-    links = link_compliances()
-    q = rng.uniform(-np.pi, np.pi, (N, 6))
-    print(f"6R (6 joint + 7 link springs), N = {N}")
-    t_build, (tree, tool, Pf, Rf) = timeit(lambda: model_6r(q, links), 1)
-    with _CoreTimer() as ct:
-        t_core, res = timeit(lambda: evaluate(tree, tool=tool, lscale=1.0), 3)
-    row("Fortran core call alone", N, ct.t)
-    r_core = row("evaluate() on prebuilt poses (one core call)", N, t_core)
-    row("evaluate() + Python pose building (FK)", N, t_core + t_build)
-    t_vec, (Cv, Kv) = timeit(lambda: numpy_6r_vec(Pf, Rf, links), 1)
-    r_vec = row("numpy vectorised, same prebuilt poses", N, t_vec, r_core)
-    t_loop, out = timeit(lambda: numpy_6r_loop(Pf[:N_LOOP], Rf[:N_LOOP], links), 1)
-    r_loop = row("numpy loop over postures, same poses", N_LOOP, t_loop, r_core)
-    err = np.abs(res.compliance - Cv).max() / np.abs(Cv).max()
-    errk = np.max(np.abs(res.stiffness - Kv).max(axis=(1, 2)) / np.abs(Kv).max(axis=(1, 2)))
-    print(f"  agreement core vs numpy: compliance {err:.1e}, stiffness {errk:.1e} (relative); "
-          f"rank 6 at {np.mean(res.rank == 6) * 100:.1f} % of postures")
-    print(f"  speed-up: x{r_core / r_loop:.0f} vs numpy loop, x{r_core / r_vec:.1f} vs numpy vectorised")
+    Q = S.random_postures(N, S.KR270_RANGES, rng)
+    with tempfile.TemporaryDirectory() as d:
+        model = sk.load_model(write_kr270(Path(d)))
+    print(f"6R KR-270-like, {len(model.springs())} springs (6 joint + 7 link), load_model(...), N = {N}")
+    t_c, C = timeit(lambda: model.tool_compliance(Q), 5)
+    r_c = row("load_model(...).tool_compliance(Q), one core call", N, t_c)
+    t_s, (C2, K, rank, ok) = timeit(lambda: model.stiffness(Q), 5)
+    r_core = row("load_model(...).stiffness(Q) (C, K, rank)", N, t_s)
+    t_t, res = timeit(lambda: model_vjm(model, Q), 3)
+    row("same model, spring-tree evaluator (model_vjm)", N, t_t)
+    t_vec, (Cv, Kv) = timeit(lambda: numpy_6r_vec(Q, model), 1)
+    r_vec = row("numpy vectorised (FK + eq. 2 + inv)", N, t_vec, r_c)
+    t_loop, (Cl, Kl) = timeit(lambda: numpy_6r_loop(Q[:N_LOOP], model), 1)
+    r_loop = row("numpy loop over postures (FK + eq. 2 + inv)", N_LOOP, t_loop, r_c)
+    err = np.abs(C - Cv).max() / np.abs(Cv).max()
+    errl = np.abs(C[:N_LOOP] - Cl).max() / np.abs(Cl).max()
+    errk = np.max(np.abs(K - Kv).max(axis=(1, 2)) / np.abs(Kv).max(axis=(1, 2)))
+    errt = np.abs(res.compliance - C).max() / np.abs(C).max()
+    print(f"  agreement: compliance core vs numpy {err:.1e} (vectorised), {errl:.1e} (loop); stiffness "
+          f"{errk:.1e}; chain vs spring tree {errt:.1e} (relative); rank 6 at {np.mean(ok) * 100:.1f} %")
+    print(f"  speed-up of tool_compliance: x{r_c / r_loop:.0f} vs numpy loop, x{r_c / r_vec:.1f} vs numpy "
+          f"vectorised; goal >= 1e5 postures/s: {'met' if r_c >= 1e5 else 'NOT met'} ({r_c:.3g}/s), "
+          f">= 50x numpy loop: {'met' if r_c / r_loop >= 50 else 'NOT met'}")
+    print(f"  with K and rank (stiffness): {r_core:.3g}/s, x{r_core / r_loop:.0f} vs numpy loop")
 
     g = smg.SMGGeometry()
     sl = smg.smg_links()
