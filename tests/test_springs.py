@@ -292,6 +292,52 @@ class TestParallelRobots:
         # same order as Table 8 (3.02e-4 mm/N, 2.46e-7 rad/(N mm) from FEA)
         assert 1e-4 < ct[0] * 1e3 < 1e-3 and 1e-8 < cr[0] * 1e-3 < 1e-6
 
+    def test_orthoglide_rigid_bars_and_axles_leave_the_feet(self):
+        """Rigid bars and axles: at the isotropic point the x force goes through
+        the x foot alone (k_tran = foot k11) and a couple about e_z is shared by
+        the x foot (about its hinge normal) and the z foot (about its actuator
+        axis), the y leg being free about e_z: k_rot = (1/c_nn + 1/c_uu)^-1.
+        Distinct diagonal foot entries, so a wrong frame shows."""
+        foot = np.diag([2.0e-7, 3.0e-7, 5.0e-7, 1.1e-4, 1.7e-4, 0.6e-4])
+        links = {"foot": foot, "axle": np.zeros((6, 6)), "bar": np.zeros((6, 6))}
+        res = og.compliance(og.isotropic_point()[None], links)
+        C = res.compliance[0]
+        assert res.rank[0] == 6
+        e = np.eye(3)
+        for i in range(3):
+            Rf = og.foot_axes(i)
+            a = e[(i + 1) % 3]
+            cfoot = Rf @ foot[3:, 3:] @ Rf.T          # foot rotational compliance, world axes
+            n = np.cross(a, e[i])                      # hinge normal at the isotropic point
+            assert Rf[:, 0] @ e[i] == 1.0 and abs(Rf[:, 2] @ a) == 1.0
+            # the axis about which leg i's foot yields under a couple about n = e_k
+            k = int(np.argmax(np.abs(n)))
+            j = k                                      # the leg whose actuator axis is e_k
+            Rj = og.foot_axes(j)
+            c_uu = (Rj @ foot[3:, 3:] @ Rj.T)[k, k]
+            c_nn = cfoot[k, k]
+            assert C[3 + k, 3 + k] == pytest.approx(1 / (1 / c_nn + 1 / c_uu), rel=1e-10)
+            assert C[i, i] == pytest.approx(foot[0, 0], rel=1e-10)
+        # the foot's z (its stiffest rotation, 0.6e-4) is on the R joint's axis: it never shows
+        assert_allclose(np.diag(C)[3:], 1 / (1 / 1.1e-4 + 1 / 1.7e-4), rtol=1e-10)
+
+    def test_orthoglide_against_table8(self):
+        """Isotropic point with the Table 7 FEA links against Table 8 (FEA,
+        parabolic mesh: 3.02e-4 mm/N, 2.46e-7 rad/(N mm)) and, with rigid
+        axles, against the paper's lumped model with rigid axis (3.10, 2.31)."""
+        def iso(links):
+            C = og.compliance(og.isotropic_point()[None], links).compliance[0]
+            return C[0, 0] * 1e3 / 1e-4, C[3, 3] * 1e-3 / 1e-7
+        fea = og.link_compliances("fea")
+        kt, kr = iso(fea)
+        ft, fr = og.TABLE8["FEA (parabolic mesh)"]
+        assert abs(kt / ft - 1) < 0.10 and abs(kr / fr - 1) < 0.05
+        kt, kr = iso(dict(fea, axle=np.zeros((6, 6))))
+        rt, rr = og.TABLE8["lump model with 6-dof springs with rigid axis"]
+        assert abs(kt / rt - 1) < 0.05 and abs(kr / rr - 1) < 0.05
+        # the translational part is the foot along the actuator plus two bars in parallel
+        assert kt == pytest.approx((fea["foot"][0, 0] + fea["bar"][0, 0] / 2) * 1e3 / 1e-4, rel=1e-10)
+
     def test_orthoglide_rank_drop_near_parallel_singularity(self):
         """At P = t(1,1,1), t -> L/sqrt(3), the three bars become parallel: two
         translations normal to them lose their stiffness (det = (s+2t)(s-t)^2)."""

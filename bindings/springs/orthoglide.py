@@ -20,10 +20,51 @@ The serial chain of a leg, as springs (s) and joints (j):
   R j (a_i at C_i) - platform.
 This is the paper's leg with its passive joints; its assumptions beyond the
 paper (which gives no frames for Table 7): the foot compliance acts at
-B_i in axes (e_i, a_i, e_i x a_i); bars and half-axles are cantilevers
-along their own x (eq. 22, the off-diagonal terms rebuilt from the diagonal
-of Table 7, which is consistent with L = 310 mm and d/2 = 50 mm), bar y in
-the parallelogram plane.
+B_i in the constant axes (e_i, a_i x e_i, a_i) (``foot_axes``: foot x along
+the actuator, foot z along the proximal R joint's axis); bars and half-axles
+are cantilevers along their own x (eq. 22, the off-diagonal terms rebuilt
+from the diagonal of Table 7, which is consistent with L = 310 mm and
+d/2 = 50 mm: k22/k66 = k33/k55 = L^2/3 to 0.3 %), bar z along the hinge
+pins, bar y in the parallelogram plane; actuators rigid unless
+``actuator_compliance`` is given.
+
+Rotational compliance at the isotropic point (Table 8): why the foot's z is
+the R joint's axis. An earlier version put the foot axes as (e_i, a_i,
+e_i x a_i), i.e. foot z along the hinge normal n_i, and got k_rot =
+1.03e-7 rad/(N mm) against 2.46e-7 (FEA) while k_tran agreed within 8 %.
+What decides k_rot: a couple about e_z is carried by the x leg as a couple
+about its hinge normal n_x = -e_z (the parallelogram takes it as push-pull
+of its bars over the lever d, very stiff, so the foot's rotation about n_x
+is what yields) and by the z leg as a torsion about its bar direction
+(the bars bend out of plane: soft, with the Table 7 bars it adds little);
+the y leg is free about e_z (its R joints). So k_rot is close to the foot's
+rotational compliance about the hinge normal, and which Table 7 diagonal
+entry that is depends only on the foot's axes. With rigid bars and axles
+the model gives exactly k_tran = foot k11 and k_rot = (1/c_nn + 1/c_uu)^-1
+(foot about the hinge normal, about the actuator axis), a test checks it.
+  The foot's Table 7 pattern is that of a plate with normal z: the two
+in-plane translations equal and stiffer (k11 = k22 = 3.45e-4 mm/N), the
+out-of-plane translation 5x softer (k33 = 18.1e-4), the two out-of-plane
+rotations equal (k44 = k55 = 2.10e-7) and the in-plane rotation, about the
+normal, the stiffest (k66 = 0.91e-7). It is not a beam along z (that would
+make k33 its tiny axial term, and torsion k66 can not be below bending k44
+for an isotropic prismatic beam). An R joint's shaft passes through the
+plate that carries its bearing, i.e. along the plate normal: foot z = a_i.
+The actuator force along e_i is in-plane (foot x): the translational
+results confirm it independently (foot k11 + bars k11/2 = 3.64 beam, 3.00
+FEA, against Majou's 3.68 and FEA 3.02; foot k22 along e_i would give 4.4).
+With foot z = n_i, the stiffest foot rotation (k66) sat on the axis that
+matters and k_rot came out ~k66 (1.03); with foot z = a_i it sits on the
+R joint's axis, where it does not matter, and the foot yields with k55
+about n_i. Nothing else changed (no number was adjusted); the axle
+handedness (a_i = e_{i+1} or e_{i+2}) gives identical isotropic values.
+Results at the isotropic point (k_tran 1e-4 mm/N, k_rot 1e-7 rad/(N mm)):
+  links "beam" 3.90, 2.01;  links "fea" 3.26, 2.44;  Table 8 FEA (parabolic)
+  3.02, 2.46; with rigid axles, links "fea" 3.00, 2.34 against the paper's
+  "6-dof springs with rigid axis" 3.10, 2.31.
+The remaining k_tran gap (+8 % with FEA links) is the half-axles' bending
+under the bar forces (0.26e-4 mm/N; it vanishes with rigid axles) and the
+diagonal-only FEA matrices (Table 7 gives no off-diagonal terms).
 
 Units: SI inside (m, N, rad); Table 7 is in mm and is converted.
 """
@@ -36,7 +77,7 @@ import numpy as np
 from .._errors import InputError
 from .tree import Joint, Spring, TreeResult, evaluate, load_link_compliance, parallel, series
 
-__all__ = ["OrthoglideGeometry", "TABLE7", "TABLE8", "link_compliances", "leg_tree",
+__all__ = ["OrthoglideGeometry", "TABLE7", "TABLE8", "link_compliances", "leg_tree", "foot_axes",
            "orthoglide_tree", "compliance", "workspace_grid", "isotropic_point"]
 
 # Table 7, diagonal compliances k11..k66 in mm/N and rad/(N mm)
@@ -118,6 +159,16 @@ def isotropic_point() -> np.ndarray:
     return np.zeros(3)
 
 
+def foot_axes(i: int) -> np.ndarray:
+    """Axes (columns) of leg i's foot compliance: x = e_i (actuator), y =
+    a_i x e_i (the parallelogram hinge normal at the isotropic point), z =
+    a_i (the proximal R joint's axis, normal to the foot plate). Constant:
+    the foot rides the carriage without turning. See the module docstring."""
+    e = np.eye(3)
+    ei, ai = e[i], e[(i + 1) % 3]
+    return np.stack([ei, np.cross(ai, ei), ai], axis=-1)
+
+
 def _frame(x, y) -> np.ndarray:
     """(N,3,3) rotation with columns x, y, x cross y (inputs unit, orthogonal)."""
     return np.stack([x, y, np.cross(x, y)], axis=-1)
@@ -143,8 +194,7 @@ def leg_tree(i: int, P: np.ndarray, links: dict, g: OrthoglideGeometry,
     u = (C - B) / g.L                                   # bar direction
     hinge = _unit(np.cross(np.broadcast_to(ai, (n, 3)), u))   # parallelogram hinge axis
     A = np.broadcast_to(ai, (n, 3))
-    foot = Spring(links["foot"], pos=B, rot=np.eye(3)[:, [i, (i + 1) % 3, (i + 2) % 3]],
-                  name=f"foot{i}")
+    foot = Spring(links["foot"], pos=B, rot=foot_axes(i), name=f"foot{i}")
     branches = []
     for s in (+1.0, -1.0):
         Bs, Cs = B + s * g.d / 2 * ai, C + s * g.d / 2 * ai
