@@ -126,15 +126,10 @@ class Chain:
                 "rt": np.transpose(rt, (2, 0, 1)), "pt": pt.T.copy()}
 
     def forward(self, q) -> tuple[np.ndarray, np.ndarray]:
-        """Tool frame (R (3,3), p (3,)) at posture q (python, for plots and synth)."""
-        q = np.asarray(q, float)
-        R, p = np.eye(3), np.zeros(3)
-        for k in range(len(self.joint_names)):
-            p = p + R @ self.jpos[k]
-            R = R @ self.jrot[k]
-            if self.qidx[k] > 0:
-                R = R @ _rot_axis(self.jaxis[k], q[self.qidx[k] - 1])
-        return R @ self.trot, p + R @ self.tpos
+        """Tool frame (R (3,3), p (3,)) at posture q (the core's forward
+        kinematics, as every other pose of the chain)."""
+        P = self.poses(np.asarray(q, float).reshape(1, -1))
+        return P["rt"][0], P["pt"][0]
 
 
 def _rot_axis(axis, angle) -> np.ndarray:

@@ -1,16 +1,19 @@
 !> Unit tests of sk_chain: a planar two-link arm against its hand-derived
-!> compliance, and the observation basis against the tool compliance (two
-!> code paths of the core).
+!> compliance, the observation basis against the tool compliance (two
+!> code paths of the core), and the block-form terms of the tool compliance
+!> (sk_spatial, shared with sk_springs) against J C J^T of the Jacobians.
 program test_chain
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: eye, skew
     use sk_chain
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     implicit none (type, external)
     integer :: failures = 0
 
     call test_planar_two_link()
     call test_basis_matches_compliance()
+    call test_block_terms_equal_jacobian_products()
     if (failures > 0) then
         print '(i0, a)', failures, ' check(s) failed'
         error stop 1
@@ -126,5 +129,84 @@ contains
             call expect(maxval(abs(dpred(4:6) - tw(4:6))) < 1e-12_dp*maxval(abs(tw(4:6))), 'basis: rotation = C W')
         end do
     end subroutine test_basis_matches_compliance
+
+    !> Every spring type (joint, frame, base, tool) with full 6x6 springs on
+    !> a 4R chain with rotated joint origins: tool_compliance_batch (the
+    !> sk_spatial block forms) equals sum J_s C_s J_s^T with the Jacobians
+    !> of spring_jacobians, and chain_poses_batch equals chain_frames.
+    subroutine test_block_terms_equal_jacobian_products()
+        integer, parameter :: nj = 5, np = 4, ns = 6
+        real(dp) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), q(4, np), trot(3, 3), tpos(3)
+        real(dp) :: cs(6, 6, ns), cj(ns, np), c(6, 6, np), k(6, 6, np), ref(6, 6), jac(6, 1 + 1 + 24)
+        real(dp) :: rf(3, 3, nj, np), pf(3, nj, np), rtb(3, 3, np), ptb(3, np)
+        real(dp) :: rf1(3, 3, nj), pf1(3, nj), rt(3, 3), pt(3), g(6, 6)
+        integer(ip) :: qidx(nj), stype(ns), sidx(ns), rank(np), kinfo(np), info
+        integer :: m, s, col, a, b
+        do m = 1, nj
+            jrot(:, :, m) = rotz(0.3_dp*m)
+            jrot(:, :, m) = matmul(jrot(:, :, m), roty(-0.2_dp*m))
+            jpos(:, m) = [0.1_dp*m, -0.05_dp*m, 0.3_dp]
+        end do
+        jaxis = 0
+        jaxis(3, 1) = 1; jaxis(2, 2) = 1; jaxis(2, 3) = 1; jaxis(1, 4) = 1
+        qidx = [1, 2, 3, 4, 0]
+        trot = roty(0.7_dp)
+        tpos = [0.05_dp, 0.02_dp, 0.15_dp]
+        do m = 1, np
+            q(:, m) = [0.4_dp*m, -0.3_dp + 0.1_dp*m, 0.9_dp - 0.2_dp*m, 1.1_dp*m]
+        end do
+        stype = [1, 1, 2, 2, 3, 4]
+        sidx = [1, 4, 2, 5, 0, 0]
+        cs = 0
+        do s = 3, ns
+            do b = 1, 6
+                do a = 1, 6
+                    g(a, b) = sin(1.7_dp*a + 0.9_dp*b + s)
+                end do
+            end do
+            cs(:, :, s) = 1.0e-7_dp*(matmul(g, transpose(g)) + 2*eye(6))
+        end do
+        cj = 0
+        cj(1, :) = 2.0e-6_dp
+        cj(2, :) = [1.0e-6_dp, 2.0e-6_dp, 3.0e-6_dp, 4.0e-6_dp]
+        call tool_compliance_batch(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, cs, cj, q, c, k, &
+            rank, kinfo, info)
+        call expect(info == sk_ok, 'block terms: info')
+        call chain_poses_batch(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rtb, ptb, info)
+        call expect(info == sk_ok, 'poses: info')
+        do m = 1, np
+            call spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q(:, m), jac, rt, pt, info)
+            call expect(info == sk_ok, 'block terms: jacobians info')
+            ref = cj(1, m)*matmul(jac(:, 1:1), transpose(jac(:, 1:1))) &
+                + cj(2, m)*matmul(jac(:, 2:2), transpose(jac(:, 2:2)))
+            col = 2
+            do s = 3, ns
+                ref = ref + matmul(matmul(jac(:, col + 1:col + 6), cs(:, :, s)), transpose(jac(:, col + 1:col + 6)))
+                col = col + 6
+            end do
+            call expect(maxval(abs(c(:, :, m) - ref)) < 1e-13_dp*maxval(abs(ref)), &
+                'block terms: tool compliance = sum J C J^T')
+            call expect(rank(m) == 6 .and. kinfo(m) == sk_ok, 'block terms: rank 6')
+            call expect(maxval(abs(matmul(c(:, :, m), k(:, :, m)) - eye(6))) < 1e-8_dp, 'block terms: K = C^-1')
+            call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, m), rf1, pf1, rt, pt)
+            call expect(all(rf(:, :, :, m) == rf1) .and. all(pf(:, :, m) == pf1) .and. &
+                all(rtb(:, :, m) == rt) .and. all(ptb(:, m) == pt), 'poses: batch = chain_frames')
+        end do
+        q(2, 3) = ieee_value(1.0_dp, ieee_positive_inf)
+        call chain_poses_batch(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rtb, ptb, info)
+        call expect(info == sk_err_nonfinite, 'poses: Inf posture refused')
+    end subroutine test_block_terms_equal_jacobian_products
+
+    pure function rotz(t) result(r)
+        real(dp), intent(in) :: t
+        real(dp) :: r(3, 3)
+        r = reshape([cos(t), sin(t), 0.0_dp, -sin(t), cos(t), 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+    end function rotz
+
+    pure function roty(t) result(r)
+        real(dp), intent(in) :: t
+        real(dp) :: r(3, 3)
+        r = reshape([cos(t), 0.0_dp, -sin(t), 0.0_dp, 1.0_dp, 0.0_dp, sin(t), 0.0_dp, cos(t)], [3, 3])
+    end function roty
 
 end program test_chain
