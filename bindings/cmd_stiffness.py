@@ -25,8 +25,12 @@ examples:
   stiffkit stiffness identified.toml --posture 0,-0.5,0.3,0,1.2,0
   stiffkit stiffness identified.toml --trajectory Q.csv --npz C.npz --plot C.png
   Q.csv: header q1,...,qN, one posture per row (rad)
-"""
 
+indices: kappa_t, kappa_r in N (eqs. 31-39 with G_f = [l K11 S_s, K12 S_theta],
+G_n = [K12^T H_s, K22/l H_theta]); the same robot entered in another unit of
+length gives the same numbers when l is given in that unit (the default, the
+chain length, follows the URDF). --lscale 1 is the paper's literal formula in SI.
+"""
 
 
 def _kappa(C, K, ok, lscale) -> dict:
@@ -67,8 +71,9 @@ def register(sub) -> None:
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--posture", help="q1,q2,...,qN (rad)")
     g.add_argument("--trajectory", help="CSV with columns q1..qN")
-    p.add_argument("--json", help="write compliance, stiffness, rank per posture to JSON")
-    p.add_argument("--npz", help="write arrays q, compliance, stiffness, rank, ok to NPZ")
+    p.add_argument("--json", help="write compliance, stiffness, rank, indices per posture to JSON")
+    p.add_argument("--npz", help="write arrays q, compliance, stiffness, rank, ok, kappa_t, kappa_r, "
+                                 "indices_ok, lscale to NPZ")
     p.add_argument("--plot", help="PNG of the principal compliances and the indices along the postures")
     p.add_argument("--lscale", type=float,
                    help="characteristic length of the indices, m (default: the chain's length)")
