@@ -63,8 +63,12 @@ Results at the isotropic point (k_tran 1e-4 mm/N, k_rot 1e-7 rad/(N mm)):
   3.02, 2.46; with rigid axles, links "fea" 3.00, 2.34 against the paper's
   "6-dof springs with rigid axis" 3.10, 2.31.
 The remaining k_tran gap (+8 % with FEA links) is the half-axles' bending
-under the bar forces (0.26e-4 mm/N; it vanishes with rigid axles) and the
-diagonal-only FEA matrices (Table 7 gives no off-diagonal terms).
+under the bar forces (0.26e-4 mm/N; it vanishes with rigid axles). The
+paper's whole-robot FEA (3.02) is below its own rigid-axis model (3.10), so
+Table 7's axle compliance applied as two 50 mm cantilevers from the R joint
+(what the single-beam numbers imply: k22/k66 = (50 mm)^2/3) overstates the
+axles' share; Table 7 does not say how the axle was supported, and its FEA
+matrices are diagonals only, so this part is left as it is.
 
 Units: SI inside (m, N, rad); Table 7 is in mm and is converted.
 """
