@@ -31,6 +31,9 @@
 !> Everything is expressed at the tool (output) point in world axes from
 !> the start: each leaf is moved there with the transfer matrices of eqs.
 !> 8 and 12, so a tree of series/parallel arrays needs no more geometry.
+!> Those leaf terms (rotate_blocks, congruence_transfer, revolute_twist)
+!> are sk_spatial's, the same code sk_chain sums for a URDF serial chain:
+!> one implementation of the virtual-joint terms in the core.
 !> A tree is a postfix program: push leaf spring, push joint, combine the
 !> top n entries in series, combine them in parallel.
 module sk_springs
