@@ -9,7 +9,8 @@ relative and the same stiffness to 1e-9; both equal an independent numpy
 evaluation of klimchik eq. 2 (URDF forward kinematics written out here,
 J from cross products); the core's forward kinematics (Chain.poses) equals
 the Python one; at a wrist singularity both report rank 5 and the springs
-path's rigid wrench is the null vector of the compliance.
+path's rigid wrench is the null vector of the compliance; base and tool
+springs (tilted tool frame) agree too.
 """
 from __future__ import annotations
 
@@ -151,3 +152,25 @@ def test_spring_tree_leaves_reuse_the_chain_terms():
     B = np.zeros((6, 6))
     B[:3, :3] = B[3:, 3:] = R
     assert relerr(res.compliance[0], 3e-6 * np.outer(xi, xi) + T @ B @ c6 @ B.T @ T.T) < 1e-13
+
+
+def test_base_and_tool_springs_agree(robot):
+    """The base spring (base origin, base axes) and the tool spring (tool
+    frame) through both paths, with a tilted tool frame (rpy in the URDF)."""
+    chain, model = robot
+    eff = list(model.effects) + [{"kind": "base", "value": spd(201).tolist()},
+                                 {"kind": "tool", "value": spd(202).tolist()}]
+    m = model_from_tables(chain, eff)
+    Q = S.random_postures(50, S.KR270_RANGES, np.random.default_rng(6))
+    C = m.tool_compliance(Q)
+    res = model_vjm(m, Q)
+    assert relerr(res.compliance, C) < 1e-12
+    for i in range(0, 50, 10):
+        ref = numpy_eq2(chain, model, Q[i])
+        F, (Rt, pt) = numpy_frames(chain, Q[i])
+        T = np.eye(6)
+        T[:3, 3:] = -np.array([[0, -pt[2], pt[1]], [pt[2], 0, -pt[0]], [-pt[1], pt[0], 0]])
+        B = np.zeros((6, 6))
+        B[:3, :3] = B[3:, 3:] = Rt
+        ref = ref + T @ spd(201) @ T.T + B @ spd(202) @ B.T
+        assert relerr(C[i], ref) < 1e-12
