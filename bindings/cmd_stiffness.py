@@ -166,12 +166,14 @@ def _plot(path, Q, C, ok, indices, units, lscale) -> None:
     ax[2].set_yscale("log")
     ax[2].set_ylabel(f"stiffness index ({', '.join(sorted(set(units.values())))}), "
                      f"l = {lscale:.3g} m")
-    bad = np.flatnonzero(~ok)
+    # runs of consecutive postures without a stiffness, one grey band each
+    edges = np.diff(np.r_[0, (~ok).astype(int), 0])
+    runs = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
     for a in ax:
         a.set_xlabel("posture")
-        for b in bad:
-            a.axvspan(x[b] - 0.5, x[b] + 0.5, color="0.85", lw=0)
-    if bad.size:
+        for b0, b1 in runs:
+            a.axvspan(x[b0] - 0.5, x[b1 - 1] + 0.5, color="0.85", lw=0)
+    if runs:
         ax[2].plot([], [], color="0.85", lw=6, label="no stiffness (indices undefined)")
     ax[0].legend(fontsize=8)
     ax[2].legend(fontsize=8)
