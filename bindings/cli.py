@@ -16,12 +16,16 @@ from ._errors import StiffkitError
 # (module, one-line summary); the module's register() builds the parser
 COMMANDS = [
     ("stiffkit.cmd_field", "field: fit (t, phi) of node displacement fields; compliance from six load cases"),
+    ("stiffkit.cmd_link", "link: a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)"),
+    ("stiffkit.cmd_convergence", "convergence: mesh-convergence study of a link (Table 5)"),
     ("stiffkit.cmd_demo", "demo: the main job on a built-in example"),
 ]
 
 EPILOG = """\
 examples:
   stiffkit demo                       run the built-in example
+  stiffkit link examples/beam.toml --json beam.json
+  stiffkit convergence examples/beam.toml --orders 1,2 --sizes 5,3,2 -j 2
   stiffkit field nodes.csv disp1.csv ... disp6.csv --reference 1,0,0 --loads 1000,1,1,1,1,1
   stiffkit COMMAND --help             what a command does, its inputs and outputs
 
