@@ -222,6 +222,7 @@ int sk_c_cholmod_solve(int n, long nnz, const int *rows, const int *cols,
     cholmod_l_start(&cm);
     cm.print = 0;
     cm.error_handler = NULL;
+    cm.supernodal = CHOLMOD_SUPERNODAL;   /* LL^T: an indefinite K is reported */
     int status = SK_OK;
     cholmod_triplet *T = NULL;
     cholmod_sparse *A = NULL;

@@ -34,7 +34,7 @@ contains
         integer(ip), intent(out) :: info
         real(dp), parameter :: a1 = 0.445948490915965_dp, b1 = 0.108103018168070_dp, &
             a2 = 0.091576213509771_dp, b2 = 0.816847572980459_dp, &
-            w1 = 0.223381589678011_dp/2, w2 = 0.109951035162291_dp/2
+            w1 = 0.223381589678011_dp/2, w2 = 0.109951743655322_dp/2
         real(dp), parameter :: qs(6) = [a1, a1, b1, a2, a2, b2], qt(6) = [a1, b1, a1, a2, b2, a2], &
             qw(6) = [w1, w1, w1, w2, w2, w2]
         real(dp) :: nsh(6), ds(6), dt(6), p(3, 6), js(3), jt(3), jac, s, t, l

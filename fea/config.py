@@ -124,7 +124,7 @@ def _get(tbl: dict, key: str, where: str, path: str, kind=None, default=...):
 
 def _choice(v, choices, where, key, path):
     if v not in choices:
-        raise ConfigError(f"{path}: [{where}] {key} = {v!r}: choose one of {', '.join(choices)}")
+        raise ConfigError(f"{path}: [{where}] {key} = {v!r}: choose one of {', '.join(map(str, choices))}")
     return v
 
 

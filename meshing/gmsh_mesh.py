@@ -142,12 +142,19 @@ def mesh_part(geometry: dict, units: str, scale: float, order: int = 2, size: fl
                 axis = "xyz".index(name[0])
                 planes.append((axis, lo_hi[axis] if name.endswith("min") else lo_hi[axis + 3]))
             _refinement(gmsh, size, refine, refine_radius or 4 * size, refine_points or [], planes)
+        where = geometry.get("step", geometry.get("shape"))
         if mesher == "gmsh":
             gmsh.option.setNumber("Mesh.ElementOrder", order)
-            gmsh.model.mesh.generate(3)
+            try:
+                gmsh.model.mesh.generate(3)
+            except Exception as exc:
+                raise MeshError(f"{where}: gmsh cannot mesh it at size {size:g} ({exc})") from None
             mesh = _collect_gmsh(gmsh, order, scale)
         else:
-            gmsh.model.mesh.generate(2)
+            try:
+                gmsh.model.mesh.generate(2)
+            except Exception as exc:
+                raise MeshError(f"{where}: gmsh cannot mesh its surface at size {size:g} ({exc})") from None
             with tempfile.TemporaryDirectory(dir=workdir) as tmp:
                 stl = Path(tmp) / "surface.stl"
                 gmsh.write(str(stl))
