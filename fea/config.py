@@ -61,6 +61,7 @@ class LinkJob:
     route: str
     plane_tolerance: float | None     # m
     ccx_timeout: float
+    approximation: dict | None = None  # single-beam approximation: length (m), section, dims (m)
     raw: dict = field(default_factory=dict)
 
     @property
@@ -76,8 +77,12 @@ class LinkJob:
         return job
 
     def closed_form_shape(self):
-        """(length m, section name, dims m) when the job is a built-in
-        straight cantilever loaded at its free end centre, else None."""
+        """(length m, section name, dims m) of the beam to compare with: the
+        [approximation] given in LINK.toml (a single-beam approximation), or
+        the built-in straight cantilever loaded at its free end centre; else None."""
+        if self.approximation is not None:
+            a = self.approximation
+            return a["length"], a["section"], a["dims"]
         g = self.geometry
         if self.support_plane != "x-min" or self.load_plane != "x-max":
             return None
@@ -140,7 +145,8 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     for section in ("geometry", "material", "support", "load"):
         if section not in data or not isinstance(data[section], dict):
             raise ConfigError(f"{path}: section [{section}] is missing")
-    known = {"geometry", "material", "support", "load", "field", "mesh", "fit", "solver"}
+    known = {"geometry", "material", "support", "load", "field", "mesh", "fit", "solver",
+             "approximation"}
     unknown = set(data) - known
     if unknown:
         raise ConfigError(f"{path}: unknown section(s) {', '.join(sorted(unknown))}; "
@@ -236,6 +242,16 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
                           "(the rigid coupling runs through ccx: route = 'ccx' or 'auto')")
     timeout = _positive(_get(so, "timeout", "solver", path, float, 3600.0), "solver", "timeout", path)
     tol = _get(data["support"], "tolerance", "support", path, float, None) if "tolerance" in data["support"] else None
+    approx = None
+    if "approximation" in data:
+        ap = data["approximation"]
+        sec = _choice(_get(ap, "section", "approximation", path, str), ("rectangle", "square", "tube", "circle"),
+                      "approximation", "section", path)
+        dims = _get(ap, "dims", "approximation", path, list)
+        if not dims or min(dims) < 0:
+            raise ConfigError(f"{path}: [approximation] dims = {dims!r}: section sizes in {units}")
+        length = _positive(_get(ap, "length", "approximation", path, float), "approximation", "length", path)
+        approx = {"length": length * scale, "section": sec, "dims": [d * scale for d in dims]}
     return LinkJob(source=path, geometry=geometry, units=units, scale=scale, E=E, nu=nu,
                    density=density, support_plane=sup, load_plane=lplane,
                    reference_point=[v * scale for v in ref], coupling=coupling, amplitudes=amps,
@@ -243,7 +259,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
                    size=msize, refine=refine, refine_radius=rr, method=method, trim=trim,
                    confidence=conf, symmetrize=sym, route=route,
                    plane_tolerance=None if tol is None else tol * scale, ccx_timeout=timeout,
-                   raw=data)
+                   approximation=approx, raw=data)
 
 
 def load_link(path) -> LinkJob:

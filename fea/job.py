@@ -408,7 +408,9 @@ class LinkResult:
         }
         if self.closed_form is not None:
             err = self.closed_form_errors()
-            out["closed_form"] = {"compliance": self.closed_form.tolist(),
+            out["closed_form"] = {"kind": "single-beam approximation" if self.job.approximation
+                                  else "Euler-Bernoulli cantilever (eq. 22)",
+                                  "compliance": self.closed_form.tolist(),
                                   "relative_error": [[None if np.isnan(v) else float(v) for v in row]
                                                      for row in err],
                                   "max_abs_relative_error": float(np.nanmax(np.abs(err)))}
@@ -425,12 +427,13 @@ class LinkResult:
                          f"({100 * (c.matrix[i, i] / rc - 1) if rc else float('nan'):+.4f} %)")
         if self.closed_form is not None:
             err = self.closed_form_errors()
-            lines.append("closed form (eq. 22, Euler-Bernoulli cantilever): relative error of the "
-                         "non-zero elements")
+            lines.append(("single-beam approximation ([approximation], eq. 22)" if self.job.approximation
+                          else "closed form (eq. 22, Euler-Bernoulli cantilever)")
+                         + ": relative error of the FE result for the non-zero elements")
             for i in range(6):
                 for j in range(6):
                     if self.closed_form[i, j] != 0 and (i <= j):
-                        lines.append(f"  k{i + 1}{j + 1}  {c.matrix[i, j]: .6e}  closed form "
+                        lines.append(f"  k{i + 1}{j + 1}  {c.matrix[i, j]: .6e}  {'beam' if self.job.approximation else 'closed form'} "
                                      f"{self.closed_form[i, j]: .6e}  error {100 * err[i, j]:+.4f} %")
             zeros = self.closed_form == 0
             lines.append(f"  zero elements flagged non-significant: {int((~c.significant & zeros).sum())}"

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from stiffkit.fea.ccx import CcxError, run_ccx
@@ -171,3 +172,18 @@ def test_help_teaches():
     assert proc.returncode == 0 and "LINK.toml" in proc.stdout and "example" in proc.stdout
     proc = stiffkit("convergence", "--help")
     assert proc.returncode == 0 and "--orders" in proc.stdout
+
+
+def test_orthoglide_axle_example_from_step(tmp_path):
+    """A CAD file through the whole pipeline (STEP import in mm), compared
+    with its single-beam approximation ([approximation] of the example)."""
+    from stiffkit.fea import load_link, run_link
+    root = Path(__file__).resolve().parents[1] / "examples"
+    job = load_link(root / "orthoglide_axle.toml").with_mesh(size=4.0)
+    r = run_link(job, cache_dir=tmp_path)
+    assert r.mesh.order == 2 and r.solution.route == "matrix"
+    lo, hi = r.mesh.bbox()
+    assert np.allclose(hi - lo, [0.050, 0.040, 0.040], rtol=1e-3)       # mm -> m
+    d, beam = np.diag(r.compliance.matrix), np.diag(r.closed_form)
+    assert np.abs(d / beam - 1).max() < 0.15                           # a flanged tube ~ a tube
+    assert r.to_json()["closed_form"]["kind"] == "single-beam approximation"
