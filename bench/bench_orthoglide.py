@@ -30,7 +30,7 @@ def row(name, d):
 
 
 def main():
-    print(f"  {"method":40s}" + "".join(f"{h:>11s}" for h in
+    print(f"  {'method':40s}" + "".join(f"{h:>11s}" for h in
                                        ("k11 mm/N", "k22 mm/N", "k33 mm/N", "k44", "k55", "k66")))
     with tempfile.TemporaryDirectory(prefix="bench-og-") as cache:
         for title, toml in LINKS:
