@@ -290,3 +290,160 @@ out:
     cholmod_l_finish(&cm);
     return status;
 }
+
+/*
+ * Rigid coupling of a face to a reference point, solved on the assembled K:
+ * the nc coupled nodes move as u_i = t + phi x r_i (r_i = node - reference),
+ * so with the transformation T from the reduced unknowns (free equations,
+ * then t, phi) to all n equations, K' = T^T K T is factorised once and the
+ * six unit wrenches at the reference point are solved for.
+ * ceq[3*i+d]: 1-based equation of node i, direction d (0: constrained).
+ * Outputs u (n x 6, all equations, column j = unit wrench j) and q (6 x 6,
+ * the reference-point motion = compliance of the rigidly coupled face).
+ */
+int sk_c_cholmod_rigid(int n, long nnz, const int *rows, const int *cols, const double *vals,
+                       int nc, const int *ceq, const double *r, double *u, double *q,
+                       double *times, double *stats)
+{
+    if (n < 1 || nnz < 1 || nc < 1) return SK_ERR_SIZE;
+    for (long k = 0; k < nnz; k++) {
+        if (rows[k] < 1 || cols[k] < 1 || rows[k] > n || cols[k] > n || rows[k] > cols[k])
+            return SK_ERR_SIZE;
+    }
+    int status = SK_OK;
+    long *colmap = malloc(sizeof(long) * (size_t)n);
+    if (!colmap) return SK_ERR_NOMEM;
+    for (int e = 0; e < n; e++) colmap[e] = 0;
+    for (int i = 0; i < 3 * nc; i++) {
+        int e = ceq[i];
+        if (e < 0 || e > n) {
+            free(colmap);
+            return SK_ERR_SIZE;
+        }
+        if (e > 0) {
+            if (colmap[e - 1] == -1) {     /* a node listed twice */
+                free(colmap);
+                return SK_ERR_SIZE;
+            }
+            colmap[e - 1] = -1;
+        }
+    }
+    long nfree = 0;
+    for (int e = 0; e < n; e++)
+        if (colmap[e] == 0) colmap[e] = nfree++;
+        else colmap[e] = -1;
+    long m = nfree + 6;
+
+    cholmod_common cm;
+    cholmod_l_start(&cm);
+    cm.print = 0;
+    cm.error_handler = NULL;
+    cm.supernodal = CHOLMOD_SUPERNODAL;
+    cholmod_triplet *Tk = NULL, *Tt3 = NULL;
+    cholmod_sparse *K = NULL, *T = NULL, *KT = NULL, *Ttr = NULL, *Kp = NULL;
+    cholmod_factor *L = NULL;
+    cholmod_dense *B = NULL, *X = NULL;
+    double t0 = sk_now(), t1, t2, t3;
+
+    /* full (unsymmetric storage) K */
+    long nfull = 2 * nnz;
+    Tk = cholmod_l_allocate_triplet((size_t)n, (size_t)n, (size_t)nfull, 0, CHOLMOD_REAL, &cm);
+    if (!Tk) { status = SK_ERR_NOMEM; goto out; }
+    {
+        SuiteSparse_long *ti = Tk->i, *tj = Tk->j;
+        double *tx = Tk->x;
+        long p = 0;
+        for (long k = 0; k < nnz; k++) {
+            ti[p] = rows[k] - 1; tj[p] = cols[k] - 1; tx[p] = vals[k]; p++;
+            if (rows[k] != cols[k]) { ti[p] = cols[k] - 1; tj[p] = rows[k] - 1; tx[p] = vals[k]; p++; }
+        }
+        Tk->nnz = (size_t)p;
+    }
+    K = cholmod_l_triplet_to_sparse(Tk, Tk->nnz, &cm);
+    cholmod_l_free_triplet(&Tk, &cm);
+    if (!K) { status = SK_ERR_NOMEM; goto out; }
+
+    /* T: n x m */
+    Tt3 = cholmod_l_allocate_triplet((size_t)n, (size_t)m, (size_t)(nfree + 9 * (long)nc), 0,
+                                     CHOLMOD_REAL, &cm);
+    if (!Tt3) { status = SK_ERR_NOMEM; goto out; }
+    {
+        SuiteSparse_long *ti = Tt3->i, *tj = Tt3->j;
+        double *tx = Tt3->x;
+        long p = 0;
+        for (int e = 0; e < n; e++)
+            if (colmap[e] >= 0) { ti[p] = e; tj[p] = colmap[e]; tx[p] = 1.0; p++; }
+        for (int i = 0; i < nc; i++) {
+            double rx = r[3 * i], ry = r[3 * i + 1], rz = r[3 * i + 2];
+            /* u = t + phi x r: rows d = 0, 1, 2; columns t (0-2), phi (3-5) */
+            double c[3][6] = {{1, 0, 0, 0, rz, -ry}, {0, 1, 0, -rz, 0, rx}, {0, 0, 1, ry, -rx, 0}};
+            for (int d = 0; d < 3; d++) {
+                int e = ceq[3 * i + d];
+                if (e == 0) continue;
+                for (int k = 0; k < 6; k++) {
+                    if (c[d][k] == 0.0) continue;
+                    ti[p] = e - 1; tj[p] = nfree + k; tx[p] = c[d][k]; p++;
+                }
+            }
+        }
+        Tt3->nnz = (size_t)p;
+    }
+    T = cholmod_l_triplet_to_sparse(Tt3, Tt3->nnz, &cm);
+    cholmod_l_free_triplet(&Tt3, &cm);
+    if (!T) { status = SK_ERR_NOMEM; goto out; }
+    KT = cholmod_l_ssmult(K, T, 0, 1, 0, &cm);
+    cholmod_l_free_sparse(&K, &cm);
+    Ttr = cholmod_l_transpose(T, 1, &cm);
+    if (!KT || !Ttr) { status = SK_ERR_NOMEM; goto out; }
+    Kp = cholmod_l_ssmult(Ttr, KT, 1, 1, 1, &cm);
+    cholmod_l_free_sparse(&KT, &cm);
+    cholmod_l_free_sparse(&Ttr, &cm);
+    if (!Kp) { status = SK_ERR_NOMEM; goto out; }
+
+    L = cholmod_l_analyze(Kp, &cm);
+    t1 = sk_now();
+    if (!L) { status = cm.status == CHOLMOD_OUT_OF_MEMORY ? SK_ERR_NOMEM : SK_ERR_SIZE; goto out; }
+    cholmod_l_factorize(Kp, L, &cm);
+    t2 = sk_now();
+    if (cm.status == CHOLMOD_NOT_POSDEF || L->minor < (size_t)m) { status = SK_ERR_SINGULAR; goto out; }
+    if (cm.status < CHOLMOD_OK) { status = cm.status == CHOLMOD_OUT_OF_MEMORY ? SK_ERR_NOMEM : SK_ERR_SIZE; goto out; }
+    B = cholmod_l_zeros((size_t)m, 6, CHOLMOD_REAL, &cm);
+    if (!B) { status = SK_ERR_NOMEM; goto out; }
+    for (int j = 0; j < 6; j++) ((double *)B->x)[(size_t)j * (size_t)m + (size_t)(nfree + j)] = 1.0;
+    X = cholmod_l_solve(CHOLMOD_A, L, B, &cm);
+    t3 = sk_now();
+    if (!X) { status = SK_ERR_NOMEM; goto out; }
+    {
+        const double *x = X->x;
+        for (int j = 0; j < 6; j++)
+            for (int k = 0; k < 6; k++) q[j * 6 + k] = x[(size_t)j * (size_t)m + (size_t)(nfree + k)];
+        for (int j = 0; j < 6; j++) {
+            double *uj = u + (size_t)j * (size_t)n;
+            for (int e = 0; e < n; e++) uj[e] = colmap[e] >= 0 ? x[(size_t)j * (size_t)m + (size_t)colmap[e]] : 0.0;
+            for (int i = 0; i < nc; i++) {
+                double rx = r[3 * i], ry = r[3 * i + 1], rz = r[3 * i + 2];
+                const double *qq = q + j * 6;
+                double v[3] = {qq[0] + qq[4] * rz - qq[5] * ry, qq[1] + qq[5] * rx - qq[3] * rz,
+                               qq[2] + qq[3] * ry - qq[4] * rx};
+                for (int d = 0; d < 3; d++)
+                    if (ceq[3 * i + d] > 0) uj[ceq[3 * i + d] - 1] = v[d];
+            }
+        }
+    }
+    times[0] = t1 - t0;
+    times[1] = t2 - t1;
+    times[2] = t3 - t2;
+    stats[0] = cm.lnz;
+out:
+    if (X) cholmod_l_free_dense(&X, &cm);
+    if (B) cholmod_l_free_dense(&B, &cm);
+    if (L) cholmod_l_free_factor(&L, &cm);
+    if (Kp) cholmod_l_free_sparse(&Kp, &cm);
+    if (KT) cholmod_l_free_sparse(&KT, &cm);
+    if (Ttr) cholmod_l_free_sparse(&Ttr, &cm);
+    if (T) cholmod_l_free_sparse(&T, &cm);
+    if (K) cholmod_l_free_sparse(&K, &cm);
+    cholmod_l_finish(&cm);
+    free(colmap);
+    return status;
+}

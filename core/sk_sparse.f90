@@ -10,7 +10,7 @@ module sk_sparse
     use sk_errors
     implicit none
     private
-    public :: triplet_count, triplet_read, dof_count, dof_read, cholmod_solve
+    public :: triplet_count, triplet_read, dof_count, dof_read, cholmod_solve, rigid_solve
 
     interface
         integer(c_int) function c_triplet_count(path, nnz, neq) bind(C, name='sk_c_triplet_count')
@@ -46,6 +46,15 @@ module sk_sparse
             real(c_double), intent(in) :: vals(*), b(*)
             real(c_double), intent(out) :: x(*), times(3), stats(1)
         end function c_cholmod_solve
+        integer(c_int) function c_cholmod_rigid(n, nnz, rows, cols, vals, nc, ceq, r, u, q, times, stats) &
+                bind(C, name='sk_c_cholmod_rigid')
+            import :: c_int, c_long, c_double
+            integer(c_int), value :: n, nc
+            integer(c_long), value :: nnz
+            integer(c_int), intent(in) :: rows(*), cols(*), ceq(*)
+            real(c_double), intent(in) :: vals(*), r(*)
+            real(c_double), intent(out) :: u(*), q(6, 6), times(3), stats(1)
+        end function c_cholmod_rigid
     end interface
 
 contains
@@ -128,5 +137,40 @@ contains
                                int(size(b, 2), c_int), b, x, times, stats)
         lnz = stats(1)
     end subroutine cholmod_solve
+
+    !> Rigid coupling of nc nodes to a reference point on the assembled K
+    !> (upper-triangle triplets, n equations): the coupled nodes move as
+    !> u_i = t + phi x r_i; ceq[3,nc] their 1-based equations (0: none),
+    !> r[3,nc] their offsets from the reference point. Returns the motion q
+    !> of the reference point under the six unit wrenches (its compliance)
+    !> and the displacements u[n,6] of every equation.
+    subroutine rigid_solve(n, rows, cols, vals, ceq, r, u, q, times, lnz, info)
+        integer(ip), intent(in) :: n, rows(:), cols(:), ceq(:, :)
+        real(dp), intent(in) :: vals(:), r(:, :)
+        real(dp), intent(out) :: u(:, :), q(6, 6), times(3), lnz
+        integer(ip), intent(out) :: info
+        real(dp) :: stats(1)
+        u = 0.0_dp
+        q = 0.0_dp
+        times = 0.0_dp
+        lnz = 0.0_dp
+        if (size(cols) /= size(rows) .or. size(vals) /= size(rows) .or. size(ceq, 1) /= 3 &
+            .or. any(shape(r) /= shape(ceq)) .or. size(u, 1) /= n .or. size(u, 2) /= 6) then
+            info = sk_err_size
+            return
+        end if
+        if (size(ceq, 2) < 3) then
+            info = sk_err_too_few
+            return
+        end if
+        if (any(vals /= vals) .or. any(r /= r)) then
+            info = sk_err_nonfinite
+            return
+        end if
+        stats = 0.0_dp
+        info = c_cholmod_rigid(n, int(size(rows), c_long), rows, cols, vals, int(size(ceq, 2), c_int), &
+                               ceq, r, u, q, times, stats)
+        lnz = stats(1)
+    end subroutine rigid_solve
 
 end module sk_sparse

@@ -237,9 +237,6 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         raise ConfigError(f"{path}: [fit] symmetrize = {sym!r}: true or false")
     so = data.get("solver", {})
     route = _choice(_get(so, "route", "solver", path, str, "auto"), ROUTES, "solver", "route", path)
-    if route == "matrix" and coupling == "rigid":
-        raise ConfigError(f"{path}: [solver] route = 'matrix' needs [load] coupling = 'distributing' "
-                          "(the rigid coupling runs through ccx: route = 'ccx' or 'auto')")
     timeout = _positive(_get(so, "timeout", "solver", path, float, 3600.0), "solver", "timeout", path)
     tol = _get(data["support"], "tolerance", "support", path, float, None) if "tolerance" in data["support"] else None
     approx = None

@@ -40,7 +40,8 @@ from ..field import (DOF_NAMES, LOAD_NAMES, Compliance, cantilever_compliance,
 from ..meshing import Mesh, MeshError, face_connectivity, faces_on_nodes, mesh_part, plane_nodes
 from .ccx import displacements_from_dat, run_ccx, write_matrix_deck, write_static_deck
 from .config import LinkJob
-from .sparse import cholmod_solve, distributing_loads, face_weights, read_dofs, read_triplets, work_conjugate
+from .sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs, read_triplets, rigid_solve,
+                     work_conjugate)
 
 logger = logging.getLogger(__name__)
 
@@ -244,19 +245,26 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress=None) -> FeaSolu
         t_read = time.perf_counter()
         eq = -np.ones((mesh.n_nodes + 1, 3), dtype=np.int64)
         eq[node, direction - 1] = np.arange(neq)
-        B = np.zeros((neq, 6))
-        idx = eq[coupled]                            # (nf, 3)
-        for j in range(6):
-            ok = idx >= 0
-            np.add.at(B[:, j], idx[ok], g[j][ok])
-        say(f"CHOLMOD: factor K ({neq} equations, {vals.size} stored entries), six solves")
-        X, ctime = cholmod_solve(rows, cols, vals, B)
+        Uunit = np.zeros((6, mesh.n_nodes, 3))
+        if job.coupling == "distributing":
+            B = np.zeros((neq, 6))
+            idx = eq[coupled]                            # (nf, 3)
+            for j in range(6):
+                ok = idx >= 0
+                np.add.at(B[:, j], idx[ok], g[j][ok])
+            say(f"CHOLMOD: factor K ({neq} equations, {vals.size} stored entries), six solves")
+            X, ctime = cholmod_solve(rows, cols, vals, B)
+            for j in range(6):
+                Uunit[j, node - 1, direction - 1] = X[:, j]
+            unit_ref = work_conjugate(g, Uunit[:, coupled - 1]).T        # (6 dof, 6 cases)
+        else:
+            say(f"CHOLMOD: factor T^T K T ({neq} equations, rigid face of {load.size} nodes), six solves")
+            X, unit_ref, ctime = rigid_solve(rows, cols, vals, neq, eq[load] + 1,
+                                             mesh.nodes[load - 1] - p0)
+            for j in range(6):
+                Uunit[j, node - 1, direction - 1] = X[:, j]
         for name in ("kmatrix.sti", "kmatrix.mas"):
             (workdir / name).unlink(missing_ok=True)
-        Uunit = np.zeros((6, mesh.n_nodes, 3))
-        for j in range(6):
-            Uunit[j, node - 1, direction - 1] = X[:, j]
-        unit_ref = work_conjugate(g, Uunit[:, coupled - 1]).T            # (6 dof, 6 cases)
         amps = (auto_amplitudes(unit_ref) if job.amplitudes == "auto"
                 else np.asarray(job.amplitudes, dtype=float))
         U = Uunit * amps[:, None, None]
@@ -311,9 +319,8 @@ def _load_solution(path: Path) -> FeaSolution | None:
 
 
 def resolve_route(job: LinkJob) -> str:
-    if job.route != "auto":
-        return job.route
-    return "matrix" if job.coupling == "distributing" else "ccx"
+    """``auto`` is the matrix route (one factorisation for the six cases)."""
+    return "matrix" if job.route == "auto" else job.route
 
 
 def fea_cached(job: LinkJob, cache_dir: Path | None, route: str | None = None,

@@ -53,6 +53,24 @@ def cholmod_solve(rows, cols, vals, b) -> tuple[np.ndarray, dict]:
                "solve_s": float(times[2]), "factor_nnz": float(lnz)}
 
 
+def rigid_solve(rows, cols, vals, n: int, ceq, offsets) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Rigid coupling on the assembled K (one CHOLMOD factorisation of
+    T^T K T): ``ceq`` (nc, 3) 1-based equations of the coupled nodes (0 =
+    constrained), ``offsets`` (nc, 3) node - reference point. Returns u
+    (n, 6): every equation under the six unit wrenches, q (6, 6): the
+    reference-point compliance, and timings."""
+    u, q, times, lnz, info = _sparse.sk_rigid_solve(
+        int(n), np.asarray(rows, dtype=np.int32), np.asarray(cols, dtype=np.int32),
+        np.asarray(vals, dtype=float), np.asfortranarray(np.asarray(ceq, np.int32).T),
+        np.asfortranarray(np.asarray(offsets, float).T))
+    check(info, "rigid_solve (sk_rigid_solve)",
+          {5: "the rigidly coupled stiffness matrix is not positive definite: the part is not held",
+           1: "coupled equations out of range or listed twice",
+           8: "fewer than 3 coupled nodes"})
+    return u, q, {"ordering_s": float(times[0]), "factor_s": float(times[1]),
+                  "solve_s": float(times[2]), "factor_nnz": float(lnz)}
+
+
 def face_weights(nodes: np.ndarray, face_conn: np.ndarray) -> tuple[np.ndarray, float]:
     """Weights of every node (integrals of the face shape functions over the
     faces (nf, 3|6), 1-based node numbers) and the faces' total area."""

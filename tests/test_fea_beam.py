@@ -151,8 +151,23 @@ def test_cache_resumes(cache):
     assert b.key == a.key
 
 
+def test_rigid_coupling_matrix_route_equals_ccx_rigid_body(cache):
+    c = cfg(geometry__size=[100.0, 10.0, 10.0], load__reference_point=[100.0, 0.0, 0.0],
+            load__coupling="rigid")
+    a = run_link(parse_link(c), cache_dir=cache)                    # T^T K T with CHOLMOD
+    c["solver"]["route"] = "ccx"
+    b = run_link(parse_link(c), cache_dir=cache)                    # *RIGID BODY, six steps
+    assert a.solution.route == "matrix" and b.solution.route == "ccx"
+    ka = a.reference_compliance
+    scale = np.sqrt(np.outer(np.abs(np.diag(ka)), np.abs(np.diag(ka))))
+    assert (np.abs(ka - b.reference_compliance) / scale).max() < 1e-6
+    assert (np.abs(a.compliance.matrix - b.compliance.matrix) / scale).max() < 1e-6
+    # a rigid face: the field fit returns the reference motion itself
+    assert (np.abs(a.compliance.matrix - ka) / scale).max() < 1e-9
+
+
 def test_rigid_coupling_and_tetgen(cache):
-    r = run_link(parse_link(cfg(load__coupling="rigid", solver__route="auto", mesh__mesher="tetgen")),
+    r = run_link(parse_link(cfg(load__coupling="rigid", solver__route="ccx", mesh__mesher="tetgen")),
                  cache_dir=cache)
     assert r.solution.route == "ccx" and r.mesh.mesher == "tetgen"
     err = r.closed_form_errors()

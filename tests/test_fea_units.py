@@ -93,14 +93,6 @@ def test_config_errors_name_the_key(section, key, value, needle):
     assert "bad.toml" in str(exc.value) and key in str(exc.value) and needle in str(exc.value)
 
 
-def test_matrix_route_needs_distributing():
-    cfg = copy.deepcopy(BASE)
-    cfg["load"]["coupling"] = "rigid"
-    cfg["solver"] = {"route": "matrix"}
-    with pytest.raises(ConfigError, match="distributing"):
-        parse_link(cfg)
-
-
 def test_mm_are_converted_at_the_boundary():
     job = parse_link(copy.deepcopy(BASE))
     assert job.reference_point == [0.1, 0.0, 0.0] and job.size_m == pytest.approx(0.005)
