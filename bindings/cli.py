@@ -59,6 +59,9 @@ def main(argv: list[str] | None = None) -> int:
     except FileNotFoundError as exc:
         print(f"stiffkit {args.command}: error: file not found: {exc.filename}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        print(f"stiffkit {args.command}: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"stiffkit {args.command}: interrupted", file=sys.stderr)
         return 130

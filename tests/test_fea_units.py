@@ -98,3 +98,13 @@ def test_mm_are_converted_at_the_boundary():
     assert job.reference_point == [0.1, 0.0, 0.0] and job.size_m == pytest.approx(0.005)
     L, sec, dims = job.closed_form_shape()
     assert L == pytest.approx(0.1) and sec == "rectangle" and dims == pytest.approx([0.01, 0.01])
+
+
+def test_demo_runs_the_fea_beam(capsys):
+    from stiffkit.cmd_demo import fea_demo
+    out = fea_demo(size=5.0)
+    err = out["errors"]
+    assert abs(err[0, 0]) < 2e-3 and abs(err[1, 1]) < 2e-3 and abs(err[4, 4]) < 2e-3
+    assert out["nodes"] > 8000
+    text = capsys.readouterr().out
+    assert "closed form" in text and "CHOLMOD" in text
