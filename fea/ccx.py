@@ -135,6 +135,20 @@ def write_matrix_deck(path, mesh, E: float, nu: float, density: float, fixed_nod
 
 # ---------------------------------------------------------------- runs
 
+def peak_rss_mb(pid="self") -> float:
+    """High-water resident memory (VmHWM) of a live process, MB; 0 if unknown.
+    (getrusage's ru_maxrss of a child includes its parent's memory at fork
+    on Linux, so children are sampled here instead.)"""
+    try:
+        with open(f"/proc/{pid}/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0.0
+
+
 @dataclass
 class CcxRun:
     seconds: float
@@ -165,13 +179,16 @@ def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1) -> CcxRun:
         proc = subprocess.Popen([exe, "-i", deck.stem], cwd=deck.parent, stdout=out,
                                 stderr=subprocess.STDOUT, env=env, start_new_session=True)
         rss = 0.0
+        polls = 0
         while True:
-            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+            pid, status, _usage = os.wait4(proc.pid, os.WNOHANG)
             if pid:
                 rc = os.waitstatus_to_exitcode(status)
                 proc.returncode = rc
-                rss = usage.ru_maxrss / 1024.0
                 break
+            if polls % 5 == 0:                    # sample ccx's peak memory every ~0.1 s
+                rss = max(rss, peak_rss_mb(proc.pid))
+            polls += 1
             if time.perf_counter() - t0 > timeout:
                 os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()

@@ -10,6 +10,7 @@ finest meshes of the same order.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import multiprocessing
 import sys
 import time
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ class RunRecord:
     nodes: int
     elements: int
     seconds: float
-    memory_mb: float
+    memory_mb: float          # peak resident memory of the run's processes (ccx, CHOLMOD)
     compliance: np.ndarray
     significant: np.ndarray
     cached: bool
@@ -107,18 +108,14 @@ def run_study(job: LinkJob, orders, sizes, cache_dir: str, jobs: int = 1, progre
 
     if progress:
         out.write(f"convergence: {len(pairs)} runs, {jobs} in parallel, cache {cache_dir}\n")
-    if jobs <= 1:
-        for k, (o, s) in enumerate(pairs, 1):
-            rec = RunRecord(**_one(job, o, s, cache_dir))
+    # one fresh process per run, so that its peak memory is its own
+    ctx = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, max_tasks_per_child=1) as pool:
+        futs = {pool.submit(_one, job, o, s, cache_dir): (o, s) for o, s in pairs}
+        for k, fut in enumerate(cf.as_completed(futs), 1):
+            rec = RunRecord(**fut.result())
             records.append(rec)
             report(k, rec)
-    else:
-        with cf.ProcessPoolExecutor(max_workers=jobs) as pool:
-            futs = {pool.submit(_one, job, o, s, cache_dir): (o, s) for o, s in pairs}
-            for k, fut in enumerate(cf.as_completed(futs), 1):
-                rec = RunRecord(**fut.result())
-                records.append(rec)
-                report(k, rec)
     records.sort(key=lambda r: (r.order, -r.size))
     # a single-beam [approximation] is no reference: only a true closed form is
     cform = closed_form(job) if job.approximation is None else None

@@ -24,7 +24,6 @@ import hashlib
 import json
 import logging
 import os
-import resource
 import shutil
 import tempfile
 import time
@@ -38,7 +37,7 @@ from .._errors import InputError
 from ..field import (DOF_NAMES, LOAD_NAMES, Compliance, cantilever_compliance,
                      compliance_from_experiments, fit_fields, section_properties)
 from ..meshing import Mesh, MeshError, face_connectivity, faces_on_nodes, mesh_part, plane_nodes
-from .ccx import displacements_from_dat, run_ccx, write_matrix_deck, write_static_deck
+from .ccx import displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck, write_static_deck
 from .config import LinkJob
 from .sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs, read_triplets, rigid_solve,
                      work_conjugate)
@@ -288,7 +287,7 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress=None) -> FeaSolu
         (workdir / "sixcases.frd").unlink(missing_ok=True)
         timing = {"mesh": t_mesh, "fea": time.perf_counter() - t1, "ccx": run.seconds}
         stats.update({"ccx_max_rss_mb": run.max_rss_mb})
-    stats["python_max_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    stats["python_max_rss_mb"] = peak_rss_mb()
     return FeaSolution(mesh=mesh, U=U, amplitudes=amps, ref_motion=ref, load_nodes=load,
                        fixed_nodes=fixed, route=route, timing=timing, stats=stats)
 
