@@ -18,7 +18,9 @@ LINK.toml (contract: shared/spec/link.md; lengths in geometry.units):
   [geometry]  step = "part.step" (STEP/BREP/IGES) or shape = "box" (size = [L, b, h]),
               "tube" (length, outer_diameter, inner_diameter), "rod"; units = "mm"
   [material]  E (Pa), nu, density (kg/m^3, only for the matrix route; default 7850)
-  [support]   plane = "x-min" ...          bounding-box face, clamped in x, y, z
+  [support]   plane = "x-min" ...          bounding-box face, clamped in x, y, z;
+              tolerance = distance from the plane that still counts as on it (default
+              1e-6 of the bounding-box diagonal; also used for the load plane)
   [load]      plane = "x-max", reference_point = [x, y, z], coupling = "distributing" | "rigid",
               amplitudes = "auto" | [Fx, Fy, Fz, Mx, My, Mz] (N, N m)
   [field]     region = "face" | "cube" | "layer", size (cube edge / layer depth)

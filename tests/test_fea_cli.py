@@ -114,7 +114,8 @@ def test_ccx_input_error_text_is_surfaced(tmp_path):
     with pytest.raises(CcxError) as exc:
         run_ccx(deck, timeout=60)
     msg = str(exc.value)
-    assert "ccx" in msg and "bad.inp" in msg and "ERROR" in msg
+    # exit status 201 is ccx's input error; its own text is surfaced
+    assert "ccx input error" in msg and "bad.inp" in msg and "no material was assigned" in msg
 
 
 def test_ccx_timeout(tmp_path, monkeypatch):
@@ -187,3 +188,16 @@ def test_orthoglide_axle_example_from_step(tmp_path):
     d, beam = np.diag(r.compliance.matrix), np.diag(r.closed_form)
     assert np.abs(d / beam - 1).max() < 0.15                           # a flanged tube ~ a tube
     assert r.to_json()["closed_form"]["kind"] == "single-beam approximation"
+
+
+def test_ccx_input_error_through_the_cli(tmp_path):
+    # a stand-in ccx that fails the way ccx 2.20 does on a bad deck (exit 201)
+    fake = tmp_path / "ccx201"
+    fake.write_text("#!/bin/sh\necho ' *ERROR in calinput: no material was assigned to element 1'\n"
+                    "echo ' *ERROR: fatal'\nexit 201\n")
+    fake.chmod(0o755)
+    import os
+    p = write(tmp_path)
+    proc = subprocess.run([sys.executable, "-m", "stiffkit", "link", str(p), "--no-cache"],
+                          capture_output=True, text=True, env=dict(os.environ, STIFFKIT_CCX=str(fake)))
+    assert_clean_error(proc, "ccx input error", "no material was assigned")
