@@ -18,8 +18,10 @@ examples:
   stiffkit convergence examples/orthoglide_axle.toml --orders 2 --sizes 6,4,3 --png axle.png
 
 Sizes are in the geometry units of LINK.toml. Wall time includes meshing,
-the FEA and the fit (zero-cost for runs taken from the cache: rerun with
---no-cache ... or another --cache folder to time them again).
+the FEA and the fit; runs taken from the cache report the time and memory
+of their original run (use another --cache folder to run them again).
+Memory: peak resident size of the run's processes (ccx; Python with CHOLMOD).
+An interrupted study (Ctrl-C) resumes from the runs already finished.
 """
 
 
