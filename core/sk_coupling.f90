@@ -89,6 +89,8 @@ contains
             info = sk_err_degenerate
             return
         end if
+        ! quadratic corners integrate to zero: drop the round-off (either sign)
+        where (abs(w) <= 1.0e-12_dp*maxval(abs(w))) w = 0.0_dp
         info = sk_ok
     end subroutine face_weights
 

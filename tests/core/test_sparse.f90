@@ -111,7 +111,7 @@ contains
         call face_weights(x, conn, w, area, info)
         if (info /= sk_ok .or. abs(area - 1.0_dp) > 1e-14_dp) print *, 'T6 info, area, w:', info, area, w
         call expect(info == sk_ok .and. abs(area - 1.0_dp) < 1e-14_dp, 'T6 area')
-        call expect(all(abs(w(1:4)) < 1e-14_dp), 'T6 corner weights 0')
+        call expect(all(w(1:4) == 0.0_dp), 'T6 corner weights exactly 0')
         call expect(abs(w(7) - 1.0_dp/3) < 1e-14_dp .and. abs(w(5) - 1.0_dp/6) < 1e-14_dp, 'T6 mid-side weights A/3')
         conn3(:, 1) = [1, 2, 3]
         conn3(:, 2) = [1, 3, 4]
