@@ -166,20 +166,29 @@ def _error_text(log: str, limit: int = 6) -> str:
     return " | ".join(out[:limit])
 
 
-def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1) -> CcxRun:
+_FACTOR = re.compile(rb"Factoring the system of equations")
+
+
+def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1, progress=None) -> CcxRun:
     """Run ``ccx -i job`` in the deck's folder; raise CcxError with ccx's
-    own error text on failure (exit 201: input error) or after ``timeout``."""
+    own error text on failure (exit 201: input error) or after ``timeout``.
+    ``progress(msg)`` is told when ccx starts each *STEP."""
     exe = ccx_executable()
     deck = Path(deck)
+    # line-buffered output (C stdio via stdbuf, gfortran units) so that the
+    # log shows ccx's progress while it runs
     env = dict(os.environ, OMP_NUM_THREADS=str(threads), CCX_NPROC_STIFFNESS=str(threads),
-               CCX_NPROC_EQUATION_SOLVER=str(threads))
+               CCX_NPROC_EQUATION_SOLVER=str(threads), GFORTRAN_UNBUFFERED_PRECONNECTED="y")
+    stdbuf = shutil.which("stdbuf")
+    cmd = ([stdbuf, "-oL"] if stdbuf else []) + [exe, "-i", deck.stem]
     logf = deck.with_suffix(".log")
     t0 = time.perf_counter()
     with open(logf, "w") as out:
-        proc = subprocess.Popen([exe, "-i", deck.stem], cwd=deck.parent, stdout=out,
+        proc = subprocess.Popen(cmd, cwd=deck.parent, stdout=out,
                                 stderr=subprocess.STDOUT, env=env, start_new_session=True)
         rss = 0.0
         polls = 0
+        seen = 0
         while True:
             pid, status, _usage = os.wait4(proc.pid, os.WNOHANG)
             if pid:
@@ -188,6 +197,14 @@ def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1) -> CcxRun:
                 break
             if polls % 5 == 0:                    # sample ccx's peak memory every ~0.1 s
                 rss = max(rss, peak_rss_mb(proc.pid))
+            if progress is not None and polls % 50 == 0:
+                try:
+                    steps = len(_FACTOR.findall(logf.read_bytes()))
+                except OSError:
+                    steps = 0
+                if steps > seen:
+                    seen = steps
+                    progress(f"ccx: solving step {steps} ({time.perf_counter() - t0:.0f} s elapsed)")
             polls += 1
             if time.perf_counter() - t0 > timeout:
                 os.killpg(proc.pid, signal.SIGKILL)

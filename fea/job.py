@@ -278,7 +278,7 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress=None) -> FeaSolu
         deck = write_static_deck(workdir / "sixcases.inp", mesh, job.E, job.nu, fixed, faces,
                                  load, p0, job.coupling, amps)
         say(f"ccx: six load cases ({mesh.n_nodes * 3} dofs, {job.coupling} coupling)")
-        run = run_ccx(deck.path, job.ccx_timeout)
+        run = run_ccx(deck.path, job.ccx_timeout, progress=progress)
         U, ref = displacements_from_dat(workdir / "sixcases.dat", mesh.n_nodes, deck)
         if job.coupling == "distributing":
             # ccx's *DISTRIBUTING gives the reference node no solved motion:
