@@ -44,7 +44,7 @@ from .sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs,
 
 logger = logging.getLogger(__name__)
 
-CACHE_VERSION = "fea-1"
+CACHE_VERSION = "fea-2"     # bump when the FEA results of a key change
 #: deflection ranges the paper recommends for the field fit (s3.5, s4.2)
 T_RANGE_M = (1e-4, 1e-3)
 PHI_RANGE_RAD = (np.radians(0.01), np.radians(0.2))
