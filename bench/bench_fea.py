@@ -11,6 +11,8 @@
     python bench/bench_fea.py quick      # 3 mm instead of 2 mm, Table 5 at 5, 3 mm
     python bench/bench_fea.py fine       # also C3D10 1.5 mm by the matrix route
                                          # (237k nodes, ~2 min, ~4.6 GB)
+    python bench/bench_fea.py lengths    # also beams of 250 and 500 mm at 2 mm: which
+                                         # errors come from the mesh, which from the clamp
 """
 from __future__ import annotations
 
@@ -91,6 +93,21 @@ def best_setting(size: float, cache: str, routes=("matrix", "ccx")) -> None:
           f"time ratio matrix/ccx = {ta / tb:.2f} ({ta:.1f} s vs {tb:.1f} s)")
 
 
+def lengths(cache: str, size: float = 2.0) -> None:
+    """Errors that do not change with the length come from the mesh of the
+    section (torsion); errors that scale with 1/L from the clamped root."""
+    print(f"-- error vs beam length, C3D10 {size:g} mm (mesh error: constant; root clamp: ~1/L)")
+    for L in (250.0, 500.0, 1000.0):
+        cfg = copy.deepcopy(BEAM)
+        cfg["geometry"]["size"] = [L, 10.0, 10.0]
+        cfg["load"]["reference_point"] = [L, 0.0, 0.0]
+        cfg["mesh"]["size"] = size
+        r = run_link(parse_link(cfg, "bench beam"), cache_dir=cache)
+        e = 100 * r.closed_form_errors()
+        print(f"  L = {L:6.0f} mm: k11 {e[0, 0]:+.4f} %  k22 {e[1, 1]:+.4f} %  k44 {e[3, 3]:+.4f} %  "
+              f"k55 {e[4, 4]:+.4f} %  ({r.mesh.n_nodes} nodes)")
+
+
 def table5(sizes, cache: str, jobs: int) -> None:
     job = parse_link(BEAM, "bench beam")
     study = run_study(job, [1, 2], sizes, cache, jobs=jobs, progress=False)
@@ -103,5 +120,7 @@ if __name__ == "__main__":
     with tempfile.TemporaryDirectory(prefix="bench-fea-") as cache:
         best_setting(3.0 if quick else 2.0, cache)
         table5([5.0, 3.0] if quick else [5.0, 3.0, 2.0], cache, jobs=1)
+        if "lengths" in sys.argv[1:]:
+            lengths(cache)
         if "fine" in sys.argv[1:]:
             best_setting(1.5, cache, routes=("matrix",))
