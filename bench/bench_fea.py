@@ -11,6 +11,7 @@
     python bench/bench_fea.py quick      # 3 mm instead of 2 mm, Table 5 at 5, 3 mm
     python bench/bench_fea.py fine       # also C3D10 1.5 mm by the matrix route
                                          # (237k nodes, ~2 min, ~4.6 GB)
+    python bench/bench_fea.py netgen     # also C3D10 2 mm with [mesh] optimize = "netgen"
     python bench/bench_fea.py lengths    # also beams of 250 and 500 mm at 2 mm: which
                                          # errors come from the mesh, which from the clamp
 """
@@ -49,14 +50,16 @@ def _timed_run(cfg: dict, cache: str):
     return r, time.perf_counter() - t0
 
 
-def best_setting(size: float, cache: str, routes=("matrix", "ccx")) -> None:
-    print(f"-- beam 1000 x 10 x 10 mm, C3D10 {size:g} mm, distributing coupling, tip-face field")
+def best_setting(size: float, cache: str, routes=("matrix", "ccx"), optimize: str = "none") -> None:
+    print(f"-- beam 1000 x 10 x 10 mm, C3D10 {size:g} mm, distributing coupling, tip-face field"
+          + (f", mesh optimiser {optimize}" if optimize != "none" else ""))
     res = {}
     ctx = multiprocessing.get_context("spawn")
     for route in routes:
         cfg = copy.deepcopy(BEAM)
         cfg["mesh"]["size"] = size
         cfg["solver"]["route"] = route
+        cfg["mesh"]["optimize"] = optimize
         # a fresh process per route: its peak memory is the route's own
         with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
             r, wall = pool.submit(_timed_run, cfg, cache).result()
@@ -120,6 +123,8 @@ if __name__ == "__main__":
     with tempfile.TemporaryDirectory(prefix="bench-fea-") as cache:
         best_setting(3.0 if quick else 2.0, cache)
         table5([5.0, 3.0] if quick else [5.0, 3.0, 2.0], cache, jobs=1)
+        if "netgen" in sys.argv[1:]:
+            best_setting(2.0, cache, routes=("matrix",), optimize="netgen")
         if "lengths" in sys.argv[1:]:
             lengths(cache)
         if "fine" in sys.argv[1:]:

@@ -54,6 +54,7 @@ class LinkJob:
     size: float                       # geometry units
     refine: float | None
     refine_radius: float | None       # geometry units
+    optimize: str                     # none | netgen
     method: str
     trim: float
     confidence: float
@@ -224,6 +225,8 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     if refine is not None and not 0 < refine < 1:
         raise ConfigError(f"{path}: [mesh] refine = {refine!r}: a size factor in (0, 1)")
     rr = _get(me, "refine_radius", "mesh", path, float, None) if "refine_radius" in me else None
+    optimize = _choice(_get(me, "optimize", "mesh", path, str, "none"), ("none", "netgen"), "mesh",
+                       "optimize", path)
     fit = data.get("fit", {})
     method = _choice(_get(fit, "method", "fit", path, str, "lin"), FIT_METHODS, "fit", "method", path)
     trim = _get(fit, "trim", "fit", path, float, 0.0)
@@ -253,7 +256,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
                    density=density, support_plane=sup, load_plane=lplane,
                    reference_point=[v * scale for v in ref], coupling=coupling, amplitudes=amps,
                    region=region, region_size=rsize * scale, mesher=mesher, order=order,
-                   size=msize, refine=refine, refine_radius=rr, method=method, trim=trim,
+                   size=msize, refine=refine, refine_radius=rr, optimize=optimize, method=method, trim=trim,
                    confidence=conf, symmetrize=sym, route=route,
                    plane_tolerance=None if tol is None else tol * scale, ccx_timeout=timeout,
                    approximation=approx, raw=data)

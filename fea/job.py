@@ -91,7 +91,8 @@ def cache_key(job: LinkJob, route: str) -> str:
            "support": job.support_plane, "load": job.load_plane, "ref": job.reference_point,
            "coupling": job.coupling, "amplitudes": job.amplitudes, "mesher": job.mesher,
            "order": job.order, "size": job.size, "refine": job.refine,
-           "refine_radius": job.refine_radius, "route": route, "tol": job.plane_tolerance}
+           "refine_radius": job.refine_radius, "route": route, "tol": job.plane_tolerance,
+           "optimize": job.optimize}
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
 
 
@@ -193,7 +194,7 @@ def _mesh_job(job: LinkJob) -> Mesh:
                   refine_points=[[v / job.scale for v in job.reference_point]],
                   refine_planes=[job.support_plane])
     return mesh_part(job.geometry, job.units, job.scale, order=job.order, size=job.size,
-                     mesher=job.mesher, **kw)
+                     mesher=job.mesher, optimize=job.optimize, **kw)
 
 
 def _faces(job: LinkJob, mesh: Mesh):

@@ -89,3 +89,12 @@ def test_not_a_solid_and_missing_file(tmp_path):
         mesh_part({"step": str(tmp_path / "sheet.step")}, "mm", 1e-3, order=1, size=2.0)
     with pytest.raises(Exception, match="not found"):
         mesh_part({"step": str(tmp_path / "nope.step")}, "mm", 1e-3, order=1, size=2.0)
+
+
+def test_netgen_optimised_mesh_is_valid():
+    m = mesh_part(BOX, "mm", 1e-3, order=2, size=4.0, optimize="netgen")
+    st = check_geometry(m)
+    assert st["total_volume"] == pytest.approx(1e-5, rel=1e-9)
+    assert midside_errors(m.nodes, m.elements).max() < 1e-9
+    with pytest.raises(Exception, match="none or netgen"):
+        mesh_part(BOX, "mm", 1e-3, order=2, size=4.0, optimize="fast")
