@@ -37,7 +37,8 @@ from .._errors import InputError
 from ..field import (DOF_NAMES, LOAD_NAMES, Compliance, cantilever_compliance,
                      compliance_from_experiments, fit_fields, section_properties)
 from ..meshing import Mesh, MeshError, face_connectivity, faces_on_nodes, mesh_part, plane_nodes
-from .ccx import displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck, write_static_deck
+from .ccx import (ccx_version, displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck,
+                  write_static_deck)
 from .config import LinkJob
 from .sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs, read_triplets, rigid_solve,
                      work_conjugate)
@@ -289,6 +290,7 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress=None) -> FeaSolu
         timing = {"mesh": t_mesh, "fea": time.perf_counter() - t1, "ccx": run.seconds}
         stats.update({"ccx_max_rss_mb": run.max_rss_mb})
     stats["python_max_rss_mb"] = peak_rss_mb()
+    stats["ccx_version"] = ccx_version()
     return FeaSolution(mesh=mesh, U=U, amplitudes=amps, ref_motion=ref, load_nodes=load,
                        fixed_nodes=fixed, route=route, timing=timing, stats=stats)
 
