@@ -48,34 +48,35 @@ def _one(job: LinkJob, order: int, size: float, cache_dir: str) -> dict:
                 cached=r.cached, route=r.solution.route)
 
 
-def richardson(sizes: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float]:
+def richardson(sizes: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float, bool]:
     """Extrapolate element-wise values (k, 6, 6) over sizes h (k,) to h -> 0
-    with k(h) = k0 + C h^p: p from the three finest meshes (bisection on
-    the ratio of differences, clipped to [0.5, 8]), else p = 2 from two."""
+    with k(h) = k0 + C h^p. p is estimated from the three finest meshes
+    (median over the diagonal elements of the ratio of successive
+    differences, solved by bisection in [0.5, 8]); with two meshes, or when
+    the differences do not shrink monotonically, p = 2 is assumed.
+    Returns k0, p and whether p was estimated."""
     o = np.argsort(sizes)[::-1]
     h, v = np.asarray(sizes, float)[o], np.asarray(values, float)[o]
     if len(h) == 1:
-        return v[0], float("nan")
-    if len(h) == 2:
-        p = 2.0
-    else:
+        return v[0], float("nan"), False
+    p, estimated = 2.0, False
+    if len(h) >= 3:
         h1, h2, h3 = h[-3:]
-        d12 = v[-3] - v[-2]
-        d23 = v[-2] - v[-1]
-        big = np.abs(d23) > 1e-14 * np.abs(v[-1]).max()
-        ratio = np.median((d12[big] / d23[big])) if big.any() else 4.0
-        f = lambda p: (h1 ** p - h2 ** p) / (h2 ** p - h3 ** p) - ratio   # noqa: E731
-        lo, hi = 0.5, 8.0
-        if ratio <= 0 or f(lo) * f(hi) > 0:
-            p = 2.0
-        else:
-            for _ in range(60):
-                mid = 0.5 * (lo + hi)
-                lo, hi = (mid, hi) if f(lo) * f(mid) > 0 else (lo, mid)
-            p = 0.5 * (lo + hi)
+        d12 = np.diagonal(v[-3] - v[-2])
+        d23 = np.diagonal(v[-2] - v[-1])
+        big = np.abs(d23) > 1e-12 * np.abs(np.diagonal(v[-1])).max()
+        if big.any():
+            ratio = float(np.median(d12[big] / d23[big]))
+            f = lambda q: (h1 ** q - h2 ** q) / (h2 ** q - h3 ** q) - ratio   # noqa: E731
+            lo, hi = 0.5, 8.0
+            if ratio > 0 and f(lo) * f(hi) < 0:
+                for _ in range(60):
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (mid, hi) if f(lo) * f(mid) > 0 else (lo, mid)
+                p, estimated = 0.5 * (lo + hi), True
     ha, hb = h[-2], h[-1]
     k0 = v[-1] + (v[-1] - v[-2]) * hb ** p / (ha ** p - hb ** p)
-    return k0, p
+    return k0, p, estimated
 
 
 ELEMENT_NAMES = [f"k{i + 1}{j + 1}" for i in range(6) for j in range(6)]
@@ -128,9 +129,9 @@ def run_study(job: LinkJob, orders, sizes, cache_dir: str, jobs: int = 1, progre
         refs = {}
         for o in sorted({r.order for r in records}):
             rs = [r for r in records if r.order == o]
-            k0, p = richardson(np.array([r.size for r in rs]), np.array([r.compliance for r in rs]))
+            k0, p, est = richardson(np.array([r.size for r in rs]), np.array([r.compliance for r in rs]))
             finest = min(rs, key=lambda r: r.size)
-            refs[o] = (k0, p)
+            refs[o] = (k0, p, est)
             _errors(rs, k0, finest.significant)
         basis = "Richardson extrapolation of the finest meshes of each order"
     return {"records": records, "basis": basis, "richardson": refs,
@@ -142,6 +143,10 @@ def table(study: dict) -> str:
              f"{study['basis']}",
              f"{'order':>5s} {'element':>7s} {'size':>7s} {'nodes':>8s} {'error %':>9s} {'worst':>6s} "
              f"{'time s':>8s} {'mem MB':>8s} {'route':>7s}"]
+    for o, (_k0, p, est) in sorted(study.get("richardson", {}).items()):
+        how = ("observed on the three finest meshes" if est else
+               "assumed (fewer than three meshes, or differences not shrinking)")
+        lines.append(f"  order {o}: k(h) = k0 + C h^p with p = {p:.2f}, {how}")
     for r in study["records"]:
         lines.append(f"{r.order:5d} {('C3D10' if r.order == 2 else 'C3D4'):>7s} "
                      f"{r.size:5g}{study['units']:>2s} {r.nodes:8d} {100 * r.error:9.4f} {r.worst:>6s} "
@@ -151,6 +156,8 @@ def table(study: dict) -> str:
 
 def to_json(study: dict) -> dict:
     return {"basis": study["basis"], "units": study["units"],
+            "richardson": {str(o): {"p": p, "observed": est, "extrapolated_compliance": k0.tolist()}
+                           for o, (k0, p, est) in study.get("richardson", {}).items()},
             "runs": [{"order": r.order, "size": r.size, "nodes": r.nodes, "elements": r.elements,
                       "max_relative_error": r.error, "worst_element": r.worst,
                       "wall_time_s": r.seconds, "memory_mb": r.memory_mb, "route": r.route,

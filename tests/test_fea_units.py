@@ -21,13 +21,20 @@ BASE = {
 }
 
 
+def test_richardson_two_meshes_assumes_p2():
+    k0 = np.eye(6)
+    vals = np.array([k0 * (1 + 0.01 * hh ** 2) for hh in (4.0, 2.0)])
+    est, p, observed = richardson(np.array([4.0, 2.0]), vals)
+    assert not observed and p == 2.0 and np.allclose(est, k0)
+
+
 @pytest.mark.parametrize("p", [1.0, 2.0, 3.5])
 def test_richardson_recovers_limit_and_order(p):
     h = np.array([5.0, 3.0, 2.0])
     k0 = np.arange(1.0, 37.0).reshape(6, 6)
     vals = np.array([k0 * (1 + 0.01 * hh ** p) for hh in h])
-    est, p_est = richardson(h, vals)
-    assert p_est == pytest.approx(p, rel=1e-6)
+    est, p_est, observed = richardson(h, vals)
+    assert observed and p_est == pytest.approx(p, rel=1e-6)
     assert np.allclose(est, k0, rtol=1e-9)
 
 
