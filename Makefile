@@ -18,7 +18,7 @@ LINK ?= examples/beam.toml
 export OMP_NUM_THREADS ?= 1
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
-.PHONY: help system-deps venv install test test-core test-py demo bench clean
+.PHONY: help system-deps venv install test test-core test-py demo bench clean link-stiffness convergence
 .DEFAULT_GOAL := help
 
 help:
@@ -26,6 +26,8 @@ help:
 	@echo "  make test        install what is missing, run the Fortran unit tests (-fcheck=all) and pytest"
 	@echo "  make demo        install what is missing, run the main job on a built-in example"
 	@echo "  make bench       benchmarks (figures for the README results section)"
+	@echo "  make link-stiffness [LINK=examples/beam.toml]   compliance of a link from its CAD (FEA)"
+	@echo "  make convergence [LINK=...] [ORDERS=1,2] [SIZES=5,3,2] [JOBS=2]   mesh-convergence study"
 	@echo "  make install     system packages, .venv and an editable install only"
 	@echo "  make clean       remove build directories (keeps .venv)"
 
@@ -77,3 +79,16 @@ bench: install
 
 clean:
 	rm -rf build
+
+# FEA link stiffness (issue 3): one LINK.toml job, and a mesh-convergence study.
+ORDERS ?= 1,2
+SIZES ?= 5,3,2
+JOBS ?= 2
+link-stiffness: install
+	@mkdir -p out
+	$(VENV)/bin/stiffkit link $(LINK) --json out/$(notdir $(basename $(LINK))).json --vtu out/$(notdir $(basename $(LINK))).vtu
+
+convergence: install
+	@mkdir -p out
+	$(VENV)/bin/stiffkit convergence $(LINK) --orders $(ORDERS) --sizes $(SIZES) -j $(JOBS) \
+	  --json out/convergence-$(notdir $(basename $(LINK))).json --png out/convergence-$(notdir $(basename $(LINK))).png

@@ -38,6 +38,8 @@ INFO = {
     6: (InputError, "an argument is out of its range"),
     7: (ConvergenceError, "the iteration did not converge"),
     8: (InputError, "too few data are left for the estimate"),
+    31: (InputError, "a file is missing, unreadable or malformed"),
+    32: (StiffkitError, "out of memory"),
 }
 
 

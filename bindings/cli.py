@@ -22,12 +22,16 @@ COMMANDS = [
     ("stiffkit.cmd_diagnose", "diagnose: is the residual noise? rank the missing effects"),
     ("stiffkit.cmd_compare", "compare: two fit results side by side"),
     ("stiffkit.cmd_synth", "synth: calibration data with a known truth and hidden effects"),
+    ("stiffkit.cmd_link", "link: a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)"),
+    ("stiffkit.cmd_convergence", "convergence: mesh-convergence study of a link (Table 5)"),
     ("stiffkit.cmd_demo", "demo: the main job on a built-in example"),
 ]
 
 EPILOG = """\
 examples:
   stiffkit demo                       run the built-in example
+  stiffkit link examples/beam.toml --json beam.json
+  stiffkit convergence examples/beam.toml --orders 1,2 --sizes 5,3,2 -j 2
   stiffkit field nodes.csv disp1.csv ... disp6.csv --reference 1,0,0 --loads 1000,1,1,1,1,1
   stiffkit synth kr270 --out kr270    calibration data of a KR-270-like robot
   stiffkit fit kr270/model.toml kr270/measurements.csv
@@ -63,6 +67,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except FileNotFoundError as exc:
         print(f"stiffkit {args.command}: error: file not found: {exc.filename}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"stiffkit {args.command}: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"stiffkit {args.command}: interrupted", file=sys.stderr)

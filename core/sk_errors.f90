@@ -25,4 +25,8 @@ module sk_errors
     integer(ip), parameter, public :: sk_err_noconv = 7
     !> too few data left (e.g. after trimming) for the requested estimate
     integer(ip), parameter, public :: sk_err_too_few = 8
+    !> a file (FEA results, matrices) is missing, unreadable or malformed
+    integer(ip), parameter, public :: sk_err_io = 31
+    !> out of memory (sparse factorisation)
+    integer(ip), parameter, public :: sk_err_nomem = 32
 end module sk_errors

@@ -1,0 +1,449 @@
+/*
+ * C glue of the sparse route (issue 3): readers of the text files that
+ * CalculiX writes with *FREQUENCY, SOLVER=MATRIXSTORAGE, and one CHOLMOD
+ * factorisation of the assembled stiffness K shared by several right-hand
+ * sides.
+ *
+ *   job.sti / job.mas   "row col value" per line, 1-based equation numbers,
+ *                       upper triangle (row <= col) of K / M
+ *   job.dof             "node.direction" per line: equation i is that dof
+ *
+ * Every function is prefixed sk_c_ and returns an int status that the
+ * Fortran side (core/sk_sparse.f90) maps to the codes of sk_errors:
+ *   0 ok, 1 sizes inconsistent, 5 matrix not positive definite (singular),
+ *   31 file missing, unreadable or malformed, 32 out of memory.
+ * Reading is a single pass over a large buffer with strtol/strtod: the
+ * 2 mm beam's .sti (426 MB) reads in a few seconds.
+ */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <cholmod.h>
+
+#define SK_OK 0
+#define SK_ERR_SIZE 1
+#define SK_ERR_SINGULAR 5
+#define SK_ERR_IO 31
+#define SK_ERR_NOMEM 32
+
+#define SK_BUF (1 << 22)
+
+static double sk_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Line reader over a big buffer: calls fn(line, ctx) for every line;
+ * a nonzero return stops the scan and is returned. */
+typedef int (*sk_line_fn)(char *line, void *ctx);
+
+static int sk_scan_lines(const char *path, sk_line_fn fn, void *ctx)
+{
+    FILE *fh = fopen(path, "rb");
+    if (!fh) return SK_ERR_IO;
+    char *buf = malloc(SK_BUF + 1);
+    if (!buf) {
+        fclose(fh);
+        return SK_ERR_NOMEM;
+    }
+    size_t keep = 0;
+    int status = SK_OK;
+    for (;;) {
+        size_t got = fread(buf + keep, 1, SK_BUF - keep, fh);
+        size_t have = keep + got;
+        int eof = (got == 0) || feof(fh);
+        if (have == 0) break;
+        buf[have] = '\0';
+        char *start = buf;
+        char *end = buf + have;
+        for (;;) {
+            char *nl = memchr(start, '\n', (size_t)(end - start));
+            if (!nl) break;
+            *nl = '\0';
+            status = fn(start, ctx);
+            if (status) goto done;
+            start = nl + 1;
+        }
+        keep = (size_t)(end - start);
+        if (eof) {
+            if (keep > 0) {             /* last line without newline */
+                start[keep] = '\0';
+                status = fn(start, ctx);
+            }
+            break;
+        }
+        if (keep == SK_BUF) {          /* a line longer than the buffer */
+            status = SK_ERR_IO;
+            break;
+        }
+        memmove(buf, start, keep);
+    }
+    if (ferror(fh)) status = SK_ERR_IO;
+done:
+    free(buf);
+    fclose(fh);
+    return status;
+}
+
+static int sk_blank(const char *s)
+{
+    while (*s == ' ' || *s == '\t' || *s == '\r') s++;
+    return *s == '\0';
+}
+
+/* ---- triplets ---------------------------------------------------------- */
+
+typedef struct {
+    long count;      /* entries seen */
+    long cap;        /* capacity of the arrays (0: count only) */
+    int maxidx;
+    int *rows, *cols;
+    double *vals;
+} sk_trip_ctx;
+
+static int sk_trip_line(char *line, void *vctx)
+{
+    sk_trip_ctx *c = vctx;
+    if (sk_blank(line)) return SK_OK;
+    char *p = line, *q;
+    errno = 0;
+    long r = strtol(p, &q, 10);
+    if (q == p) return SK_ERR_IO;
+    p = q;
+    long col = strtol(p, &q, 10);
+    if (q == p) return SK_ERR_IO;
+    p = q;
+    double v = strtod(p, &q);
+    if (q == p || errno == ERANGE) return SK_ERR_IO;
+    if (!sk_blank(q)) return SK_ERR_IO;
+    if (r < 1 || col < 1 || r > 2147483647L || col > 2147483647L) return SK_ERR_IO;
+    if (c->cap > 0) {
+        if (c->count >= c->cap) return SK_ERR_SIZE;
+        c->rows[c->count] = (int)r;
+        c->cols[c->count] = (int)col;
+        c->vals[c->count] = v;
+    }
+    c->count++;
+    if (r > c->maxidx) c->maxidx = (int)r;
+    if (col > c->maxidx) c->maxidx = (int)col;
+    return SK_OK;
+}
+
+/* Number of entries and largest equation number of a .sti/.mas file. */
+int sk_c_triplet_count(const char *path, long *nnz, int *neq)
+{
+    sk_trip_ctx c = {0, 0, 0, NULL, NULL, NULL};
+    int st = sk_scan_lines(path, sk_trip_line, &c);
+    *nnz = c.count;
+    *neq = c.maxidx;
+    return st;
+}
+
+/* Read exactly nnz entries (1-based rows/cols as in the file). */
+int sk_c_triplet_read(const char *path, long nnz, int *rows, int *cols, double *vals)
+{
+    if (nnz < 1) return SK_ERR_SIZE;
+    sk_trip_ctx c = {0, nnz, 0, rows, cols, vals};
+    int st = sk_scan_lines(path, sk_trip_line, &c);
+    if (st) return st;
+    return c.count == nnz ? SK_OK : SK_ERR_SIZE;
+}
+
+/* ---- .dof -------------------------------------------------------------- */
+
+typedef struct {
+    int count, cap;
+    int *node, *dir;
+} sk_dof_ctx;
+
+static int sk_dof_line(char *line, void *vctx)
+{
+    sk_dof_ctx *c = vctx;
+    if (sk_blank(line)) return SK_OK;
+    char *p = line, *q;
+    long node = strtol(p, &q, 10);
+    if (q == p || *q != '.') return SK_ERR_IO;
+    p = q + 1;
+    long dir = strtol(p, &q, 10);
+    if (q == p || !sk_blank(q) || node < 1 || dir < 1 || dir > 6) return SK_ERR_IO;
+    if (c->cap > 0) {
+        if (c->count >= c->cap) return SK_ERR_SIZE;
+        c->node[c->count] = (int)node;
+        c->dir[c->count] = (int)dir;
+    }
+    c->count++;
+    return SK_OK;
+}
+
+/* Equations listed in a .dof file (node.direction per line). */
+int sk_c_dof_count(const char *path, int *neq)
+{
+    sk_dof_ctx c = {0, 0, NULL, NULL};
+    int st = sk_scan_lines(path, sk_dof_line, &c);
+    *neq = c.count;
+    return st;
+}
+
+int sk_c_dof_read(const char *path, int neq, int *node, int *dir)
+{
+    if (neq < 1) return SK_ERR_SIZE;
+    sk_dof_ctx c = {0, neq, node, dir};
+    int st = sk_scan_lines(path, sk_dof_line, &c);
+    if (st) return st;
+    return c.count == neq ? SK_OK : SK_ERR_SIZE;
+}
+
+/* ---- CHOLMOD ----------------------------------------------------------- */
+
+/*
+ * Solve K X = B for nrhs right-hand sides with one factorisation.
+ * K: n x n symmetric positive definite from nnz 1-based triplets of its
+ * upper triangle (row <= col; entries below the diagonal are rejected,
+ * duplicates are summed). B, X: n x nrhs column-major.
+ * times[0..2]: ordering/analysis, numeric factorisation, solves (s);
+ * stats[0]: nonzeros of the factor L.
+ */
+int sk_c_cholmod_solve(int n, long nnz, const int *rows, const int *cols,
+                       const double *vals, int nrhs, const double *b, double *x,
+                       double *times, double *stats)
+{
+    if (n < 1 || nnz < 1 || nrhs < 1) return SK_ERR_SIZE;
+    for (long k = 0; k < nnz; k++) {
+        if (rows[k] < 1 || cols[k] < 1 || rows[k] > n || cols[k] > n || rows[k] > cols[k])
+            return SK_ERR_SIZE;
+    }
+    cholmod_common cm;
+    cholmod_l_start(&cm);
+    cm.print = 0;
+    cm.error_handler = NULL;
+    cm.supernodal = CHOLMOD_SUPERNODAL;   /* LL^T: an indefinite K is reported */
+    int status = SK_OK;
+    cholmod_triplet *T = NULL;
+    cholmod_sparse *A = NULL;
+    cholmod_factor *L = NULL;
+    cholmod_dense *B = NULL, *X = NULL;
+    double t0 = sk_now(), t1, t2, t3;
+
+    T = cholmod_l_allocate_triplet((size_t)n, (size_t)n, (size_t)nnz, 1, CHOLMOD_REAL, &cm);
+    if (!T) {
+        status = SK_ERR_NOMEM;
+        goto out;
+    }
+    SuiteSparse_long *ti = T->i, *tj = T->j;
+    double *tx = T->x;
+    for (long k = 0; k < nnz; k++) {
+        ti[k] = rows[k] - 1;
+        tj[k] = cols[k] - 1;
+        tx[k] = vals[k];
+    }
+    T->nnz = (size_t)nnz;
+    A = cholmod_l_triplet_to_sparse(T, (size_t)nnz, &cm);
+    cholmod_l_free_triplet(&T, &cm);
+    if (!A) {
+        status = SK_ERR_NOMEM;
+        goto out;
+    }
+    L = cholmod_l_analyze(A, &cm);
+    t1 = sk_now();
+    if (!L) {
+        status = cm.status == CHOLMOD_OUT_OF_MEMORY ? SK_ERR_NOMEM : SK_ERR_SIZE;
+        goto out;
+    }
+    cholmod_l_factorize(A, L, &cm);
+    t2 = sk_now();
+    if (cm.status == CHOLMOD_NOT_POSDEF || L->minor < (size_t)n) {
+        status = SK_ERR_SINGULAR;
+        goto out;
+    }
+    if (cm.status < CHOLMOD_OK) {
+        status = cm.status == CHOLMOD_OUT_OF_MEMORY ? SK_ERR_NOMEM : SK_ERR_SIZE;
+        goto out;
+    }
+    B = cholmod_l_allocate_dense((size_t)n, (size_t)nrhs, (size_t)n, CHOLMOD_REAL, &cm);
+    if (!B) {
+        status = SK_ERR_NOMEM;
+        goto out;
+    }
+    memcpy(B->x, b, sizeof(double) * (size_t)n * (size_t)nrhs);
+    X = cholmod_l_solve(CHOLMOD_A, L, B, &cm);
+    t3 = sk_now();
+    if (!X) {
+        status = SK_ERR_NOMEM;
+        goto out;
+    }
+    memcpy(x, X->x, sizeof(double) * (size_t)n * (size_t)nrhs);
+    times[0] = t1 - t0;
+    times[1] = t2 - t1;
+    times[2] = t3 - t2;
+    stats[0] = cm.lnz;
+out:
+    if (X) cholmod_l_free_dense(&X, &cm);
+    if (B) cholmod_l_free_dense(&B, &cm);
+    if (L) cholmod_l_free_factor(&L, &cm);
+    if (A) cholmod_l_free_sparse(&A, &cm);
+    cholmod_l_finish(&cm);
+    return status;
+}
+
+/*
+ * Rigid coupling of a face to a reference point, solved on the assembled K:
+ * the nc coupled nodes move as u_i = t + phi x r_i (r_i = node - reference),
+ * so with the transformation T from the reduced unknowns (free equations,
+ * then t, phi) to all n equations, K' = T^T K T is factorised once and the
+ * six unit wrenches at the reference point are solved for.
+ * ceq[3*i+d]: 1-based equation of node i, direction d (0: constrained).
+ * Outputs u (n x 6, all equations, column j = unit wrench j) and q (6 x 6,
+ * the reference-point motion = compliance of the rigidly coupled face).
+ */
+int sk_c_cholmod_rigid(int n, long nnz, const int *rows, const int *cols, const double *vals,
+                       int nc, const int *ceq, const double *r, double *u, double *q,
+                       double *times, double *stats)
+{
+    if (n < 1 || nnz < 1 || nc < 1) return SK_ERR_SIZE;
+    for (long k = 0; k < nnz; k++) {
+        if (rows[k] < 1 || cols[k] < 1 || rows[k] > n || cols[k] > n || rows[k] > cols[k])
+            return SK_ERR_SIZE;
+    }
+    int status = SK_OK;
+    long *colmap = malloc(sizeof(long) * (size_t)n);
+    if (!colmap) return SK_ERR_NOMEM;
+    for (int e = 0; e < n; e++) colmap[e] = 0;
+    for (int i = 0; i < 3 * nc; i++) {
+        int e = ceq[i];
+        if (e < 0 || e > n) {
+            free(colmap);
+            return SK_ERR_SIZE;
+        }
+        if (e > 0) {
+            if (colmap[e - 1] == -1) {     /* a node listed twice */
+                free(colmap);
+                return SK_ERR_SIZE;
+            }
+            colmap[e - 1] = -1;
+        }
+    }
+    long nfree = 0;
+    for (int e = 0; e < n; e++)
+        if (colmap[e] == 0) colmap[e] = nfree++;
+        else colmap[e] = -1;
+    long m = nfree + 6;
+
+    cholmod_common cm;
+    cholmod_l_start(&cm);
+    cm.print = 0;
+    cm.error_handler = NULL;
+    cm.supernodal = CHOLMOD_SUPERNODAL;
+    cholmod_triplet *Tk = NULL, *Tt3 = NULL;
+    cholmod_sparse *K = NULL, *T = NULL, *KT = NULL, *Ttr = NULL, *Kp = NULL;
+    cholmod_factor *L = NULL;
+    cholmod_dense *B = NULL, *X = NULL;
+    double t0 = sk_now(), t1, t2, t3;
+
+    /* full (unsymmetric storage) K */
+    long nfull = 2 * nnz;
+    Tk = cholmod_l_allocate_triplet((size_t)n, (size_t)n, (size_t)nfull, 0, CHOLMOD_REAL, &cm);
+    if (!Tk) { status = SK_ERR_NOMEM; goto out; }
+    {
+        SuiteSparse_long *ti = Tk->i, *tj = Tk->j;
+        double *tx = Tk->x;
+        long p = 0;
+        for (long k = 0; k < nnz; k++) {
+            ti[p] = rows[k] - 1; tj[p] = cols[k] - 1; tx[p] = vals[k]; p++;
+            if (rows[k] != cols[k]) { ti[p] = cols[k] - 1; tj[p] = rows[k] - 1; tx[p] = vals[k]; p++; }
+        }
+        Tk->nnz = (size_t)p;
+    }
+    K = cholmod_l_triplet_to_sparse(Tk, Tk->nnz, &cm);
+    cholmod_l_free_triplet(&Tk, &cm);
+    if (!K) { status = SK_ERR_NOMEM; goto out; }
+
+    /* T: n x m */
+    Tt3 = cholmod_l_allocate_triplet((size_t)n, (size_t)m, (size_t)(nfree + 9 * (long)nc), 0,
+                                     CHOLMOD_REAL, &cm);
+    if (!Tt3) { status = SK_ERR_NOMEM; goto out; }
+    {
+        SuiteSparse_long *ti = Tt3->i, *tj = Tt3->j;
+        double *tx = Tt3->x;
+        long p = 0;
+        for (int e = 0; e < n; e++)
+            if (colmap[e] >= 0) { ti[p] = e; tj[p] = colmap[e]; tx[p] = 1.0; p++; }
+        for (int i = 0; i < nc; i++) {
+            double rx = r[3 * i], ry = r[3 * i + 1], rz = r[3 * i + 2];
+            /* u = t + phi x r: rows d = 0, 1, 2; columns t (0-2), phi (3-5) */
+            double c[3][6] = {{1, 0, 0, 0, rz, -ry}, {0, 1, 0, -rz, 0, rx}, {0, 0, 1, ry, -rx, 0}};
+            for (int d = 0; d < 3; d++) {
+                int e = ceq[3 * i + d];
+                if (e == 0) continue;
+                for (int k = 0; k < 6; k++) {
+                    if (c[d][k] == 0.0) continue;
+                    ti[p] = e - 1; tj[p] = nfree + k; tx[p] = c[d][k]; p++;
+                }
+            }
+        }
+        Tt3->nnz = (size_t)p;
+    }
+    T = cholmod_l_triplet_to_sparse(Tt3, Tt3->nnz, &cm);
+    cholmod_l_free_triplet(&Tt3, &cm);
+    if (!T) { status = SK_ERR_NOMEM; goto out; }
+    KT = cholmod_l_ssmult(K, T, 0, 1, 0, &cm);
+    cholmod_l_free_sparse(&K, &cm);
+    Ttr = cholmod_l_transpose(T, 1, &cm);
+    if (!KT || !Ttr) { status = SK_ERR_NOMEM; goto out; }
+    Kp = cholmod_l_ssmult(Ttr, KT, 1, 1, 1, &cm);
+    cholmod_l_free_sparse(&KT, &cm);
+    cholmod_l_free_sparse(&Ttr, &cm);
+    if (!Kp) { status = SK_ERR_NOMEM; goto out; }
+
+    L = cholmod_l_analyze(Kp, &cm);
+    t1 = sk_now();
+    if (!L) { status = cm.status == CHOLMOD_OUT_OF_MEMORY ? SK_ERR_NOMEM : SK_ERR_SIZE; goto out; }
+    cholmod_l_factorize(Kp, L, &cm);
+    t2 = sk_now();
+    if (cm.status == CHOLMOD_NOT_POSDEF || L->minor < (size_t)m) { status = SK_ERR_SINGULAR; goto out; }
+    if (cm.status < CHOLMOD_OK) { status = cm.status == CHOLMOD_OUT_OF_MEMORY ? SK_ERR_NOMEM : SK_ERR_SIZE; goto out; }
+    B = cholmod_l_zeros((size_t)m, 6, CHOLMOD_REAL, &cm);
+    if (!B) { status = SK_ERR_NOMEM; goto out; }
+    for (int j = 0; j < 6; j++) ((double *)B->x)[(size_t)j * (size_t)m + (size_t)(nfree + j)] = 1.0;
+    X = cholmod_l_solve(CHOLMOD_A, L, B, &cm);
+    t3 = sk_now();
+    if (!X) { status = SK_ERR_NOMEM; goto out; }
+    {
+        const double *x = X->x;
+        for (int j = 0; j < 6; j++)
+            for (int k = 0; k < 6; k++) q[j * 6 + k] = x[(size_t)j * (size_t)m + (size_t)(nfree + k)];
+        for (int j = 0; j < 6; j++) {
+            double *uj = u + (size_t)j * (size_t)n;
+            for (int e = 0; e < n; e++) uj[e] = colmap[e] >= 0 ? x[(size_t)j * (size_t)m + (size_t)colmap[e]] : 0.0;
+            for (int i = 0; i < nc; i++) {
+                double rx = r[3 * i], ry = r[3 * i + 1], rz = r[3 * i + 2];
+                const double *qq = q + j * 6;
+                double v[3] = {qq[0] + qq[4] * rz - qq[5] * ry, qq[1] + qq[5] * rx - qq[3] * rz,
+                               qq[2] + qq[3] * ry - qq[4] * rx};
+                for (int d = 0; d < 3; d++)
+                    if (ceq[3 * i + d] > 0) uj[ceq[3 * i + d] - 1] = v[d];
+            }
+        }
+    }
+    times[0] = t1 - t0;
+    times[1] = t2 - t1;
+    times[2] = t3 - t2;
+    stats[0] = cm.lnz;
+out:
+    if (X) cholmod_l_free_dense(&X, &cm);
+    if (B) cholmod_l_free_dense(&B, &cm);
+    if (L) cholmod_l_free_factor(&L, &cm);
+    if (Kp) cholmod_l_free_sparse(&Kp, &cm);
+    if (KT) cholmod_l_free_sparse(&KT, &cm);
+    if (Ttr) cholmod_l_free_sparse(&Ttr, &cm);
+    if (T) cholmod_l_free_sparse(&T, &cm);
+    if (K) cholmod_l_free_sparse(&K, &cm);
+    cholmod_l_finish(&cm);
+    free(colmap);
+    return status;
+}

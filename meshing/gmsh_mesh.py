@@ -1,0 +1,234 @@
+"""Geometry and tetrahedral meshes with Gmsh (OpenCASCADE kernel) and TetGen.
+
+Built-in shapes run along +x from x = 0, centred on y = z = 0 (box, tube,
+rod); any CAD file OCC reads (STEP, BREP, IGES) is meshed as it is. Lengths
+are in the geometry's own unit (``scale`` converts them to metres); the
+returned :class:`~stiffkit.meshing.mesh.Mesh` is in metres and in CalculiX
+node order.
+"""
+from __future__ import annotations
+
+import logging
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import InputError
+from .mesh import PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
+
+logger = logging.getLogger(__name__)
+
+CAD_SUFFIXES = {".step": "STEP", ".stp": "STEP", ".brep": "BREP", ".brp": "BREP",
+                ".iges": "IGES", ".igs": "IGES"}
+#: geometry unit -> OpenCASCADE target unit of STEP/IGES import
+OCC_UNITS = {"mm": "MM", "m": "M", "cm": "CM", "in": "INCH"}
+
+
+def _gmsh():
+    try:
+        import gmsh
+    except ImportError as exc:              # pragma: no cover - installed by make
+        raise InputError(f"the gmsh Python module is not installed ({exc}); run `make install`") from None
+    return gmsh
+
+
+def _add_geometry(gmsh, geometry: dict, units: str) -> None:
+    """Add the solid to the current gmsh model (OCC) and synchronise."""
+    occ = gmsh.model.occ
+    shape = geometry.get("shape")
+    if shape == "box":
+        L, b, h = geometry["size"]
+        occ.addBox(0.0, -b / 2, -h / 2, L, b, h)
+    elif shape in ("tube", "rod"):
+        L = geometry["length"]
+        ro = geometry["outer_diameter"] / 2
+        ri = geometry.get("inner_diameter", 0.0) / 2 if shape == "tube" else 0.0
+        outer = occ.addCylinder(0.0, 0.0, 0.0, L, 0.0, 0.0, ro)
+        if ri > 0:
+            inner = occ.addCylinder(0.0, 0.0, 0.0, L, 0.0, 0.0, ri)
+            occ.cut([(3, outer)], [(3, inner)])
+    elif "step" in geometry:
+        path = Path(geometry["step"])
+        kind = CAD_SUFFIXES.get(path.suffix.lower())
+        if kind is None:
+            raise InputError(f"{path}: unknown CAD format {path.suffix!r}; use STEP (.step/.stp), "
+                             "BREP (.brep) or IGES (.iges/.igs)")
+        if not path.is_file():
+            raise InputError(f"{path}: CAD file not found")
+        gmsh.option.setString("Geometry.OCCTargetUnit", OCC_UNITS.get(units, "MM"))
+        try:
+            occ.importShapes(str(path))
+        except Exception as exc:
+            raise MeshError(f"{path}: OpenCASCADE cannot read this {kind} file ({exc})") from None
+    else:
+        raise InputError("geometry: give `step` (a CAD file) or `shape` = box | tube | rod")
+    occ.synchronize()
+    vols = gmsh.model.getEntities(3)
+    where = geometry.get("step", geometry.get("shape"))
+    if not vols:
+        nsurf = len(gmsh.model.getEntities(2))
+        raise MeshError(f"{where}: not a solid: the geometry holds no closed volume "
+                        f"({nsurf} surface(s)); stiffkit meshes one closed solid")
+    if len(vols) > 1:
+        raise MeshError(f"{where}: {len(vols)} separate solids; stiffkit meshes one closed solid "
+                        "(fuse the bodies in CAD first)")
+
+
+def _refinement(gmsh, size: float, refine: float, radius: float, points: list, planes: list) -> None:
+    """Background size field: `refine * size` near the given points and
+    axis-aligned planes ((axis, value)), growing to `size` at `radius`."""
+    fields = []
+    for expr in ([f"Sqrt((x-({p[0]}))^2+(y-({p[1]}))^2+(z-({p[2]}))^2)" for p in points]
+                 + [f"Fabs({'xyz'[a]}-({v}))" for a, v in planes]):
+        f = gmsh.model.mesh.field.add("MathEval")
+        gmsh.model.mesh.field.setString(f, "F", expr)
+        t = gmsh.model.mesh.field.add("Threshold")
+        gmsh.model.mesh.field.setNumber(t, "InField", f)
+        gmsh.model.mesh.field.setNumber(t, "SizeMin", refine * size)
+        gmsh.model.mesh.field.setNumber(t, "SizeMax", size)
+        gmsh.model.mesh.field.setNumber(t, "DistMin", 0.0)
+        gmsh.model.mesh.field.setNumber(t, "DistMax", radius)
+        fields.append(t)
+    if fields:
+        m = gmsh.model.mesh.field.add("Min")
+        gmsh.model.mesh.field.setNumbers(m, "FieldsList", fields)
+        gmsh.model.mesh.field.setAsBackgroundMesh(m)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", refine * size)
+
+
+def mesh_part(geometry: dict, units: str, scale: float, order: int = 2, size: float = 5.0,
+              mesher: str = "gmsh", refine: float | None = None, refine_radius: float | None = None,
+              refine_points: list | None = None, refine_planes: list | None = None,
+              workdir: str | Path | None = None, tetgen_timeout: float = 600.0,
+              optimize: str = "none") -> Mesh:
+    """Mesh one solid with quadratic (order 2, C3D10) or linear (order 1,
+    C3D4) tetrahedra of about ``size`` (geometry units).
+
+    ``mesher = "tetgen"``: Gmsh writes the surface triangulation, TetGen
+    fills the volume (``-pq1.414a<V>Y``, ``-o2`` for quadratic) with a
+    volume bound V of a regular tetrahedron of edge ``size``.
+    ``refine`` (0-1): element size factor near ``refine_points`` (geometry
+    units) and the bounding-box planes ``refine_planes`` (e.g. "x-min"), up
+    to ``refine_radius``.
+    ``optimize = "netgen"``: Gmsh's Netgen optimiser on the linear tets before
+    they are made quadratic (better shapes; on the paper's beam at C3D10
+    2 mm it takes the torsion error from -0.22 % to -0.15 %).
+    """
+    if optimize not in ("none", "netgen"):
+        raise InputError(f"mesh.optimize = {optimize!r}: none or netgen")
+    if order not in (1, 2):
+        raise InputError(f"mesh.order = {order!r}: 1 (C3D4) or 2 (C3D10)")
+    if not size > 0:
+        raise InputError(f"mesh.size = {size!r}: must be positive")
+    if mesher not in ("gmsh", "tetgen"):
+        raise InputError(f"mesh.mesher = {mesher!r}: gmsh or tetgen")
+    gmsh = _gmsh()
+    t0 = time.perf_counter()
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.model.add("link")
+        _add_geometry(gmsh, geometry, units)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", size if not refine else refine * size)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        gmsh.option.setNumber("Mesh.OptimizeNetgen", 1 if optimize == "netgen" else 0)
+        if refine:
+            if not 0 < refine < 1:
+                raise InputError(f"mesh.refine = {refine!r}: a size factor in (0, 1)")
+            lo_hi = gmsh.model.getBoundingBox(-1, -1)
+            planes = []
+            for name in refine_planes or []:
+                axis = "xyz".index(name[0])
+                planes.append((axis, lo_hi[axis] if name.endswith("min") else lo_hi[axis + 3]))
+            _refinement(gmsh, size, refine, refine_radius or 4 * size, refine_points or [], planes)
+        where = geometry.get("step", geometry.get("shape"))
+        if mesher == "gmsh":
+            gmsh.option.setNumber("Mesh.ElementOrder", order)
+            try:
+                gmsh.model.mesh.generate(3)
+            except Exception as exc:
+                raise MeshError(f"{where}: gmsh cannot mesh it at size {size:g} ({exc})") from None
+            mesh = _collect_gmsh(gmsh, order, scale)
+        else:
+            try:
+                gmsh.model.mesh.generate(2)
+            except Exception as exc:
+                raise MeshError(f"{where}: gmsh cannot mesh its surface at size {size:g} ({exc})") from None
+            with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+                stl = Path(tmp) / "surface.stl"
+                gmsh.write(str(stl))
+                mesh = _tetgen(stl, order, size, scale, tetgen_timeout)
+    finally:
+        gmsh.finalize()
+    mesh.size_m = size * scale
+    mesh.mesher = mesher
+    mesh.info["time_s"] = time.perf_counter() - t0
+    mesh.info.update(check_geometry(mesh))
+    return mesh
+
+
+def _collect_gmsh(gmsh, order: int, scale: float) -> Mesh:
+    etype = 11 if order == 2 else 4
+    _tags, enodes = gmsh.model.mesh.getElementsByType(etype)
+    if len(enodes) == 0:
+        raise MeshError("gmsh produced no tetrahedra for this geometry")
+    ntags, coords, _ = gmsh.model.mesh.getNodes()
+    conn = np.asarray(enodes, dtype=np.int64).reshape(-1, 10 if order == 2 else 4)
+    used = np.unique(conn)
+    lookup = np.zeros(int(max(ntags.max(), used.max())) + 1, dtype=np.int64)
+    lookup[used] = np.arange(1, used.size + 1)
+    xyz = np.zeros((int(ntags.max()) + 1, 3))
+    xyz[ntags] = np.asarray(coords).reshape(-1, 3)
+    nodes = xyz[used] * scale
+    elements = lookup[conn]
+    if order == 2:
+        elements = elements[:, PERM_GMSH_TET10]
+    return Mesh(nodes=nodes, elements=elements.astype(np.int64), mesher="gmsh")
+
+
+def _read_tetgen(node_file: Path, ele_file: Path, order: int, scale: float) -> Mesh:
+    def table(path):
+        lines = [ln.split("#")[0].split() for ln in path.read_text().splitlines()]
+        lines = [ln for ln in lines if ln]
+        head, body = lines[0], lines[1:]
+        return head, np.array(body, dtype=float)
+    _h, nd = table(node_file)
+    eh, el = table(ele_file)
+    npe = int(eh[1])
+    if npe != (10 if order == 2 else 4):
+        raise MeshError(f"TetGen wrote {npe}-node tetrahedra, expected {10 if order == 2 else 4}")
+    idx = nd[:, 0].astype(np.int64)
+    lookup = np.zeros(int(idx.max()) + 1, dtype=np.int64)
+    lookup[idx] = np.arange(1, idx.size + 1)
+    conn = lookup[el[:, 1:1 + npe].astype(np.int64)]
+    if order == 2:
+        conn = conn[:, PERM_TETGEN_TET10]
+    return Mesh(nodes=nd[:, 1:4] * scale, elements=conn, mesher="tetgen")
+
+
+def _tetgen(stl: Path, order: int, size: float, scale: float, timeout: float) -> Mesh:
+    exe = shutil.which("tetgen")
+    if exe is None:
+        raise InputError("mesh.mesher = 'tetgen' but the tetgen program is not on PATH "
+                         "(Debian package tetgen; `make install` installs it)")
+    vmax = size ** 3 / (6.0 * np.sqrt(2.0))          # regular tetrahedron of edge `size`
+    flags = f"-pq1.414a{vmax:.6g}YQ" + ("o2" if order == 2 else "")
+    try:
+        proc = subprocess.run([exe, flags, stl.name], cwd=stl.parent, capture_output=True,
+                              text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        raise MeshError(f"tetgen did not finish within {timeout:.0f} s") from None
+    node_file = stl.parent / (stl.stem + ".1.node")
+    ele_file = stl.parent / (stl.stem + ".1.ele")
+    if proc.returncode != 0 or not ele_file.is_file():
+        text = (proc.stdout + proc.stderr).strip().splitlines()[-5:]
+        raise MeshError(f"tetgen {flags} failed (exit {proc.returncode}): " + " | ".join(text))
+    return _read_tetgen(node_file, ele_file, order, scale)
