@@ -33,7 +33,7 @@ DOF_NAMES = ("tx", "ty", "tz", "phix", "phiy", "phiz")
 LOAD_NAMES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class FieldFit:
     """Rigid motion (t, phi) of a node field about a reference point.
 
@@ -90,41 +90,52 @@ def _points(points, name="points") -> np.ndarray:
     return a
 
 
-def fit_fields(points, displacements, reference, method: str = "lin", trim: float = 0.0,
-               pooled: bool = True) -> list[FieldFit]:
-    """Fit m displacement fields (m, n, 3) that share node positions (n, 3).
-
-    With ``pooled`` the noise is estimated once over all fields (paper
-    s3.4: squared residuals aggregated, m(3n - 6) degrees of freedom) and
-    scales every covariance.
-    """
-    p = _points(points)
-    d = np.asarray(displacements, dtype=float)
-    if d.ndim != 3 or d.shape[1:] != p.shape:
-        raise InputError(f"displacements must have shape (m, {p.shape[0]}, 3) to match points "
-                         f"{p.shape}, got {d.shape}")
-    ref = np.asarray(reference, dtype=float).reshape(-1)
-    if ref.shape != (3,):
-        raise InputError(f"reference must be a point (3,), got shape {np.shape(reference)}")
+def _method_code(method: str, trim: float) -> int:
     try:
         code = METHODS[method]
     except KeyError:
         raise InputError(f"unknown method {method!r}; choose one of lin, svd+, svd-, svd+-, exact") from None
     if not 0.0 <= trim < 0.5:
         raise InputError(f"trim must be a fraction in [0, 0.5), got {trim}")
-    # (n,3) C-order -> (3,n) F-order without copy; (m,n,3) -> (3,n,m)
+    return code
+
+
+def _reference(reference) -> np.ndarray:
+    ref = np.asarray(reference, dtype=float).reshape(-1)
+    if ref.shape != (3,):
+        raise InputError(f"reference must be a point (3,), got shape {np.shape(reference)}")
+    return ref
+
+
+def _fit(p, d_f, ref, method, trim, pooled) -> list[FieldFit]:
+    """Core call on p (n,3) and d_f (3,n,m) Fortran-ordered; results are
+    views into the arrays the core filled (no copies)."""
     t, phi, cov, res, used, sigma, _nused, niter, sigma_pooled, info = _field.sk_fit_fields(
-        np.asfortranarray(p.T), np.asfortranarray(d.transpose(2, 1, 0)), ref,
-        code, float(trim), int(bool(pooled)))
+        p.T, d_f, ref, _method_code(method, trim), float(trim), int(bool(pooled)))
     check(info, "fit_field (sk_fit_fields)", _FIT_DETAILS)
-    out = []
-    for j in range(d.shape[0]):
-        out.append(FieldFit(t=t[:, j].copy(), phi=phi[:, j].copy(),
-                            sigma=float(sigma_pooled if pooled else sigma[j]),
-                            residuals=res[:, :, j].T.copy(), cov=cov[:, :, j].copy(),
-                            nodes_used=used[:, j].astype(bool), method=method,
-                            iterations=int(niter[j]), sigma_own=float(sigma[j])))
-    return out
+    used = used != 0
+    return [FieldFit(t[:, j], phi[:, j], float(sigma_pooled if pooled else sigma[j]),
+                     res[:, :, j].T, cov[:, :, j], used[:, j], method, int(niter[j]),
+                     float(sigma[j]))
+            for j in range(d_f.shape[2])]
+
+
+def fit_fields(points, displacements, reference, method: str = "lin", trim: float = 0.0,
+               pooled: bool = True) -> list[FieldFit]:
+    """Fit m displacement fields (m, n, 3) that share node positions (n, 3).
+
+    With ``pooled`` the noise is estimated once over all fields (paper
+    s3.4: squared residuals aggregated, m(3n - 6) degrees of freedom) and
+    scales every covariance. One core call for all m fields.
+    """
+    p = _points(points)
+    d = np.asarray(displacements, dtype=float)
+    if d.ndim != 3 or d.shape[1:] != p.shape:
+        raise InputError(f"displacements must have shape (m, {p.shape[0]}, 3) to match points "
+                         f"{p.shape}, got {d.shape}")
+    # (n,3) C-order -> (3,n) F-order without copy; (m,n,3) -> (3,n,m)
+    return _fit(np.ascontiguousarray(p), np.asfortranarray(d.transpose(2, 1, 0)),
+                _reference(reference), method, trim, pooled)
 
 
 def fit_field(points, displacements, reference, method: str = "lin", trim: float = 0.0) -> FieldFit:
@@ -144,11 +155,11 @@ def fit_field(points, displacements, reference, method: str = "lin", trim: float
     InputError, DegenerateError : bad shapes, NaN/Inf, fewer than 3 nodes,
         collinear or coincident nodes.
     """
-    p = _points(points)
-    d = _points(displacements, "displacements")
+    p = np.ascontiguousarray(_points(points))
+    d = np.ascontiguousarray(_points(displacements, "displacements"))
     if d.shape != p.shape:
         raise InputError(f"displacements {d.shape} must match points {p.shape}")
-    return fit_fields(p, d[None], reference, method=method, trim=trim, pooled=False)[0]
+    return _fit(p, d.T[:, :, None], _reference(reference), method, trim, False)[0]
 
 
 @dataclass(frozen=True)

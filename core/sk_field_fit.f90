@@ -16,7 +16,7 @@ module sk_field_fit
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv, &
-                         spd_inverse, sym_eig, svd, all_finite, eye
+                         svd, all_finite, eye, jacobi_eig, inv3
     implicit none
     private
     public :: fit_field, fit_rigid, trim_mask
@@ -34,26 +34,26 @@ module sk_field_fit
 
 contains
 
-    !> Centroid c of q and the rotational normal matrix
+    !> Centroid c of q, the rotational normal matrix and the LIN right-hand
+    !> side b = sum_i qh_i x d_i (eq. 17).
     !> D = sum_i [qh_i]x^T [qh_i]x = sum_i (|qh_i|^2 I - qh_i qh_i^T), qh = q - c
     !> (the 3x3 block of eq. 17). info = sk_err_degenerate if D is
     !> (numerically) singular: all nodes on one line or one point.
-    subroutine normal_matrix(q, c, dmat, info)
+    subroutine normal_matrix(q, d, c, dmat, b, dbar, info)
         real(dp), intent(in) :: q(:, :)        !> q[3,n]
-        real(dp), intent(out) :: c(3), dmat(3, 3)
+        real(dp), intent(in) :: d(:, :)        !> d[3,n]
+        real(dp), intent(out) :: c(3), dmat(3, 3), b(3), dbar(3)
         integer(ip), intent(out) :: info
         real(dp) :: ev(3), evec(3, 3), s
-        integer :: n
-        n = size(q, 2)
-        c = mean_cols(q)
-        call second_moment(q, c, dmat)          ! S = sum qh qh^T
+        c = centroid(q)
+        call centred_moments(q, c, d, dmat, b, dbar)  ! S = sum qh qh^T, b = sum qh x d
         s = dmat(1,1) + dmat(2,2) + dmat(3,3)
         dmat = -dmat
         dmat(1,1) = dmat(1,1) + s
         dmat(2,2) = dmat(2,2) + s
         dmat(3,3) = dmat(3,3) + s
-        call sym_eig(dmat, ev, evec, info)
-        if (info /= sk_ok) return
+        call jacobi_eig(3, dmat, ev, evec)
+        info = sk_ok
         if (ev(3) <= 0.0_dp .or. ev(1) <= degenerate_ratio*ev(3)) info = sk_err_degenerate
     end subroutine normal_matrix
 
@@ -70,30 +70,19 @@ contains
         integer(ip), intent(in) :: method
         real(dp), intent(out) :: t(3), phi(3), rmat(3, 3), covu(6, 6), res(:, :), ssr
         integer(ip), intent(out) :: niter, info
-        real(dp) :: c(3), dmat(3, 3), dinv(3, 3), b(3), r(3, 3), cx(3, 3)
+        real(dp) :: c(3), dmat(3, 3), dinv(3, 3), b(3), r(3, 3), cx(3, 3), dbar(3)
         real(dp) :: gbar(3), h(3, 3), u(3, 3), s(3), vt(3, 3), fix(3, 3), y(3)
-        real(dp) :: delta(3), ji(3, 3), dy(3, 3), dyinv(3, 3), rc(3), qh(3), e(3)
+        real(dp) :: delta(3), ji(3, 3), dyinv(3, 3), rc(3), qh(3), e(3)
         integer :: i, n, it
         integer, parameter :: max_iter = 100
         n = size(q, 2)
         niter = 0
-        call normal_matrix(q, c, dmat, info)
-        if (info /= sk_ok) return
-        call spd_inverse(dmat, dinv, info)
-        if (info /= sk_ok) then
-            info = sk_err_degenerate
-            return
-        end if
-
         ! LIN, centred form (eq. 17): t_c = mean(d), phi = D^-1 sum qh x d
-        b = 0.0_dp
-        do i = 1, n
-            b(1) = b(1) + (q(2, i) - c(2))*d(3, i) - (q(3, i) - c(3))*d(2, i)
-            b(2) = b(2) + (q(3, i) - c(3))*d(1, i) - (q(1, i) - c(1))*d(3, i)
-            b(3) = b(3) + (q(1, i) - c(1))*d(2, i) - (q(2, i) - c(2))*d(1, i)
-        end do
+        call normal_matrix(q, d, c, dmat, b, dbar, info)
+        if (info /= sk_ok) return
+        dinv = inv3(dmat)          ! D is SPD with a bounded condition number here
         phi = matmul(dinv, b)
-        t = mean_cols(d) - cross(phi, c)
+        t = dbar - cross(phi, c)
         ! eq. 20 at the centroid, then t(p0) = t_c + [c]x phi
         cx = skew(c)
         covu = 0.0_dp
@@ -107,7 +96,7 @@ contains
             r = eye(3) + skew(phi)
         case (method_svd_plus, method_svd_minus, method_svd_pm)
             ! eqs. 7-10: Procrustes on the centred fields
-            gbar = mean_cols(q + d)
+            gbar = c + dbar                          ! mean of q + d
             call cross_moment(q, c, d, gbar, h)    ! H = sum qh gh^T (eq. 10)
             call svd(h, u, s, vt, info)
             if (info /= sk_ok) return
@@ -115,7 +104,9 @@ contains
             fix = eye(3)
             if (det3(matmul(transpose(vt), transpose(u))) < 0.0_dp) fix(3, 3) = -1.0_dp
             r = matmul(matmul(transpose(vt), fix), transpose(u))
-            t = gbar - matmul(r, c)                      ! eq. 6
+            ! eq. 6, t = mean(q + d) - R mean(q), written as mean(d) - (R - I) c
+            ! so that the round-off of the centroid cancels
+            t = dbar - matmul(r - eye(3), c)
             select case (method)                          ! Table 1
             case (method_svd_plus)
                 phi = [r(3,2), r(1,3), r(2,1)]
@@ -127,7 +118,7 @@ contains
         case (method_exact)
             ! Gauss-Newton on SO(3): R <- exp([delta]x) R, with (delta, t)
             ! the exact least-squares step of the model linearised at R.
-            gbar = mean_cols(q + d)
+            gbar = c + dbar
             r = rot_exp(phi)
             do it = 1, max_iter
                 niter = it
@@ -142,9 +133,8 @@ contains
                     b(2) = b(2) + y(3)*e(1) - y(1)*e(3)
                     b(3) = b(3) + y(1)*e(2) - y(2)*e(1)
                 end do
-                dy = matmul(matmul(r, dmat), transpose(r))
-                call spd_inverse(dy, dyinv, info)
-                if (info /= sk_ok) return
+                ! (R D R^T)^-1 = R D^-1 R^T
+                dyinv = matmul(matmul(r, dinv), transpose(r))
                 delta = matmul(dyinv, b)
                 r = matmul(rot_exp(delta), r)
                 if (norm2(delta) <= 1.0e-15_dp + 1.0e-14_dp*norm2(rot_log(r))) exit
@@ -155,11 +145,9 @@ contains
             end if
             phi = rot_log(r)
             rc = matmul(r, c)
-            t = gbar - rc
+            t = dbar - (rc - c)
             ! covariance: delta ~ D_y^-1 (unit), t = gbar - R c, phi = log R
-            dy = matmul(matmul(r, dmat), transpose(r))
-            call spd_inverse(dy, dyinv, info)
-            if (info /= sk_ok) return
+            dyinv = matmul(matmul(r, dinv), transpose(r))
             ji = left_jacobian_inv(phi)
             cx = skew(rc)
             covu(1:3, 1:3) = eye(3)/real(n, dp) + matmul(matmul(cx, dyinv), transpose(cx))
@@ -176,20 +164,36 @@ contains
         info = sk_ok
     end subroutine fit_rigid
 
-    !> s[3,3] = sum_i (q_i - c)(q_i - c)^T, without temporaries.
-    pure subroutine second_moment(q, c, s)
-        real(dp), intent(in) :: q(:, :), c(3)
-        real(dp), intent(out) :: s(3, 3)
-        real(dp) :: x, y, z
-        integer :: i
+    !> s[3,3] = sum_i qh_i qh_i^T, b = sum_i qh_i x d_i (qh = q - c) and the
+    !> mean of d by compensated summation, in one pass: nine plain and three
+    !> TwoSum accumulators run side by side, without temporaries.
+    pure subroutine centred_moments(q, c, d, s, b, dbar)
+        real(dp), intent(in) :: q(:, :), c(3), d(:, :)
+        real(dp), intent(out) :: s(3, 3), b(3), dbar(3)
+        real(dp) :: x, y, z, ds(3), dc(3), tt, zz, v
+        integer :: i, k
         s = 0.0_dp
+        b = 0.0_dp
+        ds = 0.0_dp
+        dc = 0.0_dp
         do i = 1, size(q, 2)
             x = q(1, i) - c(1); y = q(2, i) - c(2); z = q(3, i) - c(3)
             s(1,1) = s(1,1) + x*x; s(2,1) = s(2,1) + y*x; s(3,1) = s(3,1) + z*x
             s(2,2) = s(2,2) + y*y; s(3,2) = s(3,2) + z*y; s(3,3) = s(3,3) + z*z
+            b(1) = b(1) + (y*d(3, i) - z*d(2, i))
+            b(2) = b(2) + (z*d(1, i) - x*d(3, i))
+            b(3) = b(3) + (x*d(2, i) - y*d(1, i))
+            do k = 1, 3
+                v = d(k, i)
+                tt = ds(k) + v
+                zz = tt - ds(k)
+                dc(k) = dc(k) + ((ds(k) - (tt - zz)) + (v - zz))
+                ds(k) = tt
+            end do
         end do
         s(1,2) = s(2,1); s(1,3) = s(3,1); s(2,3) = s(3,2)
-    end subroutine second_moment
+        dbar = (ds + dc)/real(size(q, 2), dp)
+    end subroutine centred_moments
 
     !> h[3,3] = sum_i (q_i - c)(q_i + d_i - g)^T, without temporaries.
     pure subroutine cross_moment(q, c, d, g, h)
@@ -243,7 +247,7 @@ contains
         logical, intent(out) :: used(:)
         integer(ip), intent(out) :: nused, niter, info
         real(dp), allocatable :: q(:, :), qs(:, :), ds(:, :), rs(:, :)
-        real(dp) :: rmat(3, 3)
+        real(dp) :: rmat(3, 3), acc(3)
         integer :: n, ntrim, i, k
         n = size(p, 2)
         used = .true.
@@ -252,7 +256,6 @@ contains
         t = 0.0_dp
         phi = 0.0_dp
         covu = 0.0_dp
-        res = 0.0_dp
         ssr = 0.0_dp
         if (size(p, 1) /= 3 .or. any(shape(d) /= [3, n]) .or. any(shape(res) /= [3, n]) &
             .or. size(used) /= n) then
@@ -263,7 +266,7 @@ contains
             info = sk_err_size
             return
         end if
-        if (.not. (all_finite(p) .and. all_finite(d) .and. all_finite(p0) .and. all_finite([trim]))) then
+        if (.not. (all_finite(p0) .and. all_finite([trim]))) then
             info = sk_err_nonfinite
             return
         end if
@@ -272,9 +275,15 @@ contains
             return
         end if
         allocate(q(3, n))
-        do i = 1, n
+        acc = 0.0_dp
+        do i = 1, n                      ! positions about p0, and a finiteness check
             q(:, i) = p(:, i) - p0
+            acc = acc + ((q(:, i) - q(:, i)) + (d(:, i) - d(:, i)))   ! NaN if any Inf/NaN
         end do
+        if (.not. all(acc == 0.0_dp)) then
+            info = sk_err_nonfinite
+            return
+        end if
         call fit_rigid(q, d, method, t, phi, rmat, covu, res, ssr, niter, info)
         if (info /= sk_ok) return
         nused = n
@@ -348,29 +357,24 @@ contains
         v = 1.0_dp - 2.0_dp*c*exp(-0.5_dp*c*c)/sqrt(2.0_dp*3.141592653589793_dp)/p
     end function trimmed_variance_factor
 
-    !> Mean of the columns of a[k,n] by compensated (Neumaier) summation,
-    !> so that round-off does not grow with n (Table 2 asks for translation
-    !> errors at the 1e-16 level; a naive sum of 1331 nodes gives 5e-14).
-    pure function mean_cols(a) result(m)
-        real(dp), intent(in) :: a(:, :)
-        real(dp) :: m(size(a, 1))
-        real(dp) :: s, comp, tt
-        integer :: i, j
-        do i = 1, size(a, 1)
-            s = 0.0_dp
-            comp = 0.0_dp
-            do j = 1, size(a, 2)
-                tt = s + a(i, j)
-                if (abs(s) >= abs(a(i, j))) then
-                    comp = comp + ((s - tt) + a(i, j))
-                else
-                    comp = comp + ((a(i, j) - tt) + s)
-                end if
-                s = tt
-            end do
-            m(i) = (s + comp)/real(size(a, 2), dp)
+    !> Centroid of the columns of a[3,n] (plain sums, two interleaved
+    !> chains per row). Its round-off does not reach t: every estimator
+    !> writes t = mean(d) - (R - I) c with the compensated mean(d).
+    pure function centroid(a) result(m)
+        real(dp), intent(in) :: a(:, :)       !> a[3,n]
+        real(dp) :: m(3)
+        real(dp) :: s1(3), s2(3)
+        integer :: j, n
+        n = size(a, 2)
+        s1 = 0.0_dp
+        s2 = 0.0_dp
+        do j = 1, n - 1, 2
+            s1(1) = s1(1) + a(1, j); s1(2) = s1(2) + a(2, j); s1(3) = s1(3) + a(3, j)
+            s2(1) = s2(1) + a(1, j + 1); s2(2) = s2(2) + a(2, j + 1); s2(3) = s2(3) + a(3, j + 1)
         end do
-    end function mean_cols
+        if (mod(n, 2) == 1) s1 = s1 + a(:, n)
+        m = (s1 + s2)/real(n, dp)
+    end function centroid
 
     !> Indices that sort x ascending (heap sort, O(n log n), not stable).
     function argsort(x) result(idx)

@@ -40,12 +40,13 @@ module sk_springs
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_spatial, only: rotate_blocks, congruence_transfer, revolute_twist
+    use sk_linalg, only: jacobi_eig, sym_eigvals_small
     implicit none
     private
     public :: op_spring, op_joint, op_series, op_parallel
     public :: leaf_compliance, leaf_stiffness, joint_revolute, joint_prismatic
-    public :: gspring, jacobi_eig, c_to_k, k_to_c, spring_tree_batch
-    public :: congruence_transfer, rotate_blocks, sym_eigvals_small
+    public :: gspring, c_to_k, k_to_c, spring_tree_batch
+    public :: congruence_transfer, rotate_blocks
 
     integer(ip), parameter :: op_spring = 1     !> push leaf spring arg
     integer(ip), parameter :: op_joint = 2      !> push joint arg
@@ -74,184 +75,6 @@ module sk_springs
     end type gspring
 
 contains
-
-    !> Eigen-decomposition of a small symmetric a[n,n] by cyclic Jacobi
-    !> rotations (relatively accurate for graded matrices, no workspace):
-    !> eigenvalues w ascending, eigenvectors in the columns of v.
-    pure subroutine jacobi_eig(n, a, w, v)
-        integer, intent(in) :: n
-        real(dp), intent(in) :: a(n, n)
-        real(dp), intent(out) :: w(n), v(n, n)
-        real(dp) :: b(n, n), off, tot, theta, t, c, s, x, y, tmpw, tmpv(n)
-        integer :: sweep, p, q, k, i, j
-        b = a
-        v = 0.0_dp
-        do k = 1, n
-            v(k, k) = 1.0_dp
-        end do
-        do sweep = 1, 60
-            off = 0.0_dp
-            tot = 0.0_dp
-            do q = 1, n
-                do p = 1, q - 1
-                    off = off + b(p, q)**2
-                end do
-                tot = tot + b(q, q)**2
-            end do
-            if (off <= (1.0e-18_dp)**2*(tot + 2*off) .or. off == 0.0_dp) exit
-            do p = 1, n - 1
-                do q = p + 1, n
-                    if (b(p, q) == 0.0_dp) cycle
-                    theta = (b(q, q) - b(p, p))/(2.0_dp*b(p, q))
-                    if (abs(theta) > 1.0e150_dp) then
-                        t = 0.5_dp/theta
-                    else
-                        t = sign(1.0_dp, theta)/(abs(theta) + sqrt(theta*theta + 1.0_dp))
-                    end if
-                    c = 1.0_dp/sqrt(t*t + 1.0_dp)
-                    s = t*c
-                    do k = 1, n
-                        x = b(k, p)
-                        y = b(k, q)
-                        b(k, p) = c*x - s*y
-                        b(k, q) = s*x + c*y
-                    end do
-                    do k = 1, n
-                        x = b(p, k)
-                        y = b(q, k)
-                        b(p, k) = c*x - s*y
-                        b(q, k) = s*x + c*y
-                    end do
-                    b(p, q) = 0.0_dp
-                    b(q, p) = 0.0_dp
-                    do k = 1, n
-                        x = v(k, p)
-                        y = v(k, q)
-                        v(k, p) = c*x - s*y
-                        v(k, q) = s*x + c*y
-                    end do
-                end do
-            end do
-        end do
-        do k = 1, n
-            w(k) = b(k, k)
-        end do
-        ! insertion sort, ascending
-        do i = 2, n
-            tmpw = w(i)
-            tmpv = v(:, i)
-            j = i - 1
-            do while (j >= 1)
-                if (w(j) <= tmpw) exit
-                w(j + 1) = w(j)
-                v(:, j + 1) = v(:, j)
-                j = j - 1
-            end do
-            w(j + 1) = tmpw
-            v(:, j + 1) = tmpv
-        end do
-    end subroutine jacobi_eig
-
-    !> Eigenvalues only (unsorted) of a small symmetric a[n,n]: Householder
-    !> tridiagonalisation and the implicit QL iteration (tred2/tqli without
-    !> vectors). ok = .false. if QL needs more than 30 iterations.
-    pure subroutine sym_eigvals_small(n, a, d, ok)
-        integer, intent(in) :: n
-        real(dp), intent(in) :: a(n, n)
-        real(dp), intent(out) :: d(n)
-        logical, intent(out) :: ok
-        real(dp) :: b(n, n), e(n), scale, h, f, g, hh, r, s, c, p, bb, dd
-        integer :: i, j, l, m, iter
-        logical :: early
-        b = a
-        ok = .true.
-        e = 0.0_dp
-        do i = n, 2, -1
-            l = i - 1
-            h = 0.0_dp
-            if (l > 1) then
-                scale = sum(abs(b(i, 1:l)))
-                if (scale == 0.0_dp) then
-                    e(i) = b(i, l)
-                else
-                    b(i, 1:l) = b(i, 1:l)/scale
-                    h = sum(b(i, 1:l)**2)
-                    f = b(i, l)
-                    g = -sign(sqrt(h), f)
-                    e(i) = scale*g
-                    h = h - f*g
-                    b(i, l) = f - g
-                    f = 0.0_dp
-                    do j = 1, l
-                        g = dot_product(b(j, 1:j), b(i, 1:j)) + dot_product(b(j + 1:l, j), b(i, j + 1:l))
-                        e(j) = g/h
-                        f = f + e(j)*b(i, j)
-                    end do
-                    hh = f/(h + h)
-                    do j = 1, l
-                        f = b(i, j)
-                        g = e(j) - hh*f
-                        e(j) = g
-                        b(j, 1:j) = b(j, 1:j) - (f*e(1:j) + g*b(i, 1:j))
-                    end do
-                end if
-            else
-                e(i) = b(i, l)
-            end if
-        end do
-        do i = 1, n
-            d(i) = b(i, i)
-        end do
-        do i = 2, n
-            e(i - 1) = e(i)
-        end do
-        e(n) = 0.0_dp
-        do l = 1, n
-            iter = 0
-            do
-                do m = l, n - 1
-                    dd = abs(d(m)) + abs(d(m + 1))
-                    if (abs(e(m)) + dd == dd) exit
-                end do
-                if (m == l) exit
-                iter = iter + 1
-                if (iter > 30) then
-                    ok = .false.
-                    return
-                end if
-                g = (d(l + 1) - d(l))/(2.0_dp*e(l))
-                r = sqrt(g*g + 1.0_dp)
-                g = d(m) - d(l) + e(l)/(g + sign(r, g))
-                s = 1.0_dp
-                c = 1.0_dp
-                p = 0.0_dp
-                early = .false.
-                do i = m - 1, l, -1
-                    f = s*e(i)
-                    bb = c*e(i)
-                    r = sqrt(f*f + g*g)
-                    e(i + 1) = r
-                    if (r == 0.0_dp) then
-                        d(i + 1) = d(i + 1) - p
-                        e(m) = 0.0_dp
-                        early = .true.
-                        exit
-                    end if
-                    s = f/r
-                    c = g/r
-                    g = d(i + 1) - p
-                    r = (d(i) - g)*s + 2.0_dp*c*bb
-                    p = s*r
-                    d(i + 1) = g + p
-                    g = c*r - bb
-                end do
-                if (early) cycle
-                d(l) = d(l) - p
-                e(l) = g
-                e(m) = 0.0_dp
-            end do
-        end do
-    end subroutine sym_eigvals_small
 
     !> Orthonormal bases of range(p) (eigenvalue > tol*max) and of its
     !> orthogonal complement, for a symmetric PSD p[6,6].

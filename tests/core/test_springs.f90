@@ -6,6 +6,7 @@ program test_springs
     use sk_linalg, only: eye, skew
     use sk_spatial, only: twist_transfer, compliance_move
     use sk_springs
+    use sk_linalg, only: jacobi_eig, sym_eigvals_small
     use sk_indices, only: stiffness_indices
     implicit none (type, external)
     integer :: failures = 0
