@@ -78,7 +78,7 @@ bench: install
 	$(PY) bench/run.py $(BENCH)
 
 clean:
-	rm -rf build
+	rm -rf build $(STAMP_INSTALL)
 
 # FEA link stiffness (issue 3): one LINK.toml job, and a mesh-convergence study.
 ORDERS ?= 1,2

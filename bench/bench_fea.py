@@ -26,21 +26,11 @@ import time
 
 import numpy as np
 
-from stiffkit.fea.config import parse_link
+from stiffkit.fea.config import paper_beam, parse_link
 from stiffkit.fea.convergence import run_study, table
 from stiffkit.fea.job import run_link
 
-BEAM = {
-    "geometry": {"shape": "box", "size": [1000.0, 10.0, 10.0], "units": "mm"},
-    "material": {"E": 2.0e11, "nu": 0.266},
-    "support": {"plane": "x-min"},
-    "load": {"plane": "x-max", "reference_point": [1000.0, 0.0, 0.0], "coupling": "distributing",
-             "amplitudes": "auto"},
-    "field": {"region": "face"},
-    "mesh": {"mesher": "gmsh", "order": 2, "size": 2.0},
-    "fit": {"method": "lin", "trim": 0.0, "confidence": 0.99},
-    "solver": {"route": "matrix"},
-}
+BEAM = paper_beam(2.0)
 NAMES = [f"k{i + 1}{j + 1}" for i in range(6) for j in range(6)]
 
 

@@ -39,18 +39,23 @@ def read_columns(path, columns: list[str], what: str = "table") -> np.ndarray:
             for c, i in zip(columns, idx):
                 if i >= len(row):
                     raise InputError(f"{path}, line {lineno}: field {c!r} is missing (row has {len(row)} fields)")
-                text = row[i].strip()
-                try:
-                    v = float(text)
-                except ValueError:
-                    raise InputError(f"{path}, line {lineno}: field {c!r} = {text!r} is not a number") from None
-                if not math.isfinite(v):
-                    raise InputError(f"{path}, line {lineno}: field {c!r} is {text} (must be finite)")
-                vals.append(v)
+                vals.append(parse_number(row[i], path, lineno, c))
             rows.append(vals)
     if not rows:
         raise InputError(f"{path}: no data rows")
     return np.array(rows, dtype=float)
+
+
+def parse_number(text: str, path, lineno: int, field: str) -> float:
+    """A finite float from one CSV field, or InputError naming file, line and field."""
+    text = text.strip()
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f"{path}, line {lineno}: field {field!r} = {text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise InputError(f"{path}, line {lineno}: field {field!r} is {text} (must be finite)")
+    return v
 
 
 def parse_vector(text: str, n: int, what: str) -> np.ndarray:

@@ -69,28 +69,15 @@ def field_demo(seed: int = 1) -> dict:
     return result
 
 
-BEAM = {
-    "geometry": {"shape": "box", "size": [1000.0, 10.0, 10.0], "units": "mm"},
-    "material": {"E": 2.0e11, "nu": 0.266},
-    "support": {"plane": "x-min"},
-    "load": {"plane": "x-max", "reference_point": [1000.0, 0.0, 0.0], "coupling": "distributing",
-             "amplitudes": "auto"},
-    "field": {"region": "face"},
-    "mesh": {"mesher": "gmsh", "order": 2, "size": 5.0},
-    "fit": {"method": "lin", "trim": 0.0, "confidence": 0.99},
-    "solver": {"route": "matrix"},
-}
 
 
 def fea_demo(size: float = 5.0) -> dict:
     """The paper's beam through Gmsh + CalculiX + CHOLMOD + field fit."""
-    import copy
     import time
 
-    from .fea.config import parse_link
+    from .fea.config import paper_beam, parse_link
     from .fea.job import run_link
-    cfg = copy.deepcopy(BEAM)
-    cfg["mesh"]["size"] = float(size)
+    cfg = paper_beam(size)
     job = parse_link(cfg, "built-in beam")
     print(f"\nstiffkit demo: FEA of the same beam (Gmsh C3D10 {size:g} mm, CalculiX assembles K, "
           "CHOLMOD solves six load cases, tip-face field fit)")

@@ -27,6 +27,24 @@ REGIONS = ("face", "cube", "layer")
 FIT_METHODS = ("lin", "svd+", "svd-", "svd+-", "exact")
 
 
+def paper_beam(size_mm: float = 5.0, route: str = "matrix") -> dict:
+    """LINK.toml data of the paper's illustrative beam (Pashkevich 2009 s4.1):
+    1000 x 10 x 10 mm, E = 2e5 N/mm^2, nu = 0.266, clamped at x = 0, loaded
+    at the tip through a distributing coupling, tip-face field, C3D10. A new
+    dict on every call (callers change it)."""
+    return {
+        "geometry": {"shape": "box", "size": [1000.0, 10.0, 10.0], "units": "mm"},
+        "material": {"E": 2.0e11, "nu": 0.266},
+        "support": {"plane": "x-min"},
+        "load": {"plane": "x-max", "reference_point": [1000.0, 0.0, 0.0],
+                 "coupling": "distributing", "amplitudes": "auto"},
+        "field": {"region": "face"},
+        "mesh": {"mesher": "gmsh", "order": 2, "size": float(size_mm)},
+        "fit": {"method": "lin", "trim": 0.0, "confidence": 0.99},
+        "solver": {"route": route},
+    }
+
+
 class ConfigError(InputError):
     """LINK.toml is missing, malformed or has an invalid value."""
 

@@ -9,19 +9,10 @@ import numpy as np
 import pytest
 
 from stiffkit.fea import parse_link, run_link
+from stiffkit.fea.config import paper_beam
 from stiffkit.fea.job import auto_amplitudes, PHI_RANGE_RAD, T_RANGE_M
 
-BEAM = {
-    "geometry": {"shape": "box", "size": [1000.0, 10.0, 10.0], "units": "mm"},
-    "material": {"E": 2.0e11, "nu": 0.266},
-    "support": {"plane": "x-min"},
-    "load": {"plane": "x-max", "reference_point": [1000.0, 0.0, 0.0], "coupling": "distributing",
-             "amplitudes": "auto"},
-    "field": {"region": "face"},
-    "mesh": {"mesher": "gmsh", "order": 2, "size": 5.0},
-    "fit": {"method": "lin", "trim": 0.0, "confidence": 0.99},
-    "solver": {"route": "matrix"},
-}
+BEAM = paper_beam(5.0)
 #: the bending and axial elements of eq. 22 (torsion k44 needs ~5 elements across)
 BEND_AXIAL = [(0, 0), (1, 1), (2, 2), (4, 4), (5, 5), (1, 5), (5, 1), (2, 4), (4, 2)]
 

@@ -9,13 +9,13 @@ axes) and optional ``rx ry rz`` (rad). Extra columns are ignored.
 from __future__ import annotations
 
 import csv
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .._errors import InputError
+from .._io import parse_number
 
 WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
 POINT = ["px", "py", "pz"]
@@ -92,14 +92,7 @@ def read_measurements(path, dof: int) -> Measurements:
                                      f"(row has {len(row)} fields, header {len(header)})")
                 if c == "config":
                     continue
-                text = row[i].strip()
-                try:
-                    v = float(text)
-                except ValueError:
-                    raise InputError(f"{path}, line {lineno}: field {c!r} = {text!r} is not a number") from None
-                if not math.isfinite(v):
-                    raise InputError(f"{path}, line {lineno}: field {c!r} is {text} (must be finite)")
-                vals[c] = v
+                vals[c] = parse_number(row[i], path, lineno, c)
             rows.append(vals)
             configs.append(row[idx["config"]].strip() if has_config else f"row{lineno}")
             lines.append(lineno)

@@ -2,32 +2,19 @@
 !> (groups, null-space relations), score tests, greedy selection, and the
 !> chi-square / F tail probabilities in log space.
 program test_calib
+    use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_calib
     implicit none (type, external)
-    integer :: failures = 0
 
     call test_wls_groups()
     call test_score()
     call test_tails()
     call test_select()
-    if (failures > 0) then
-        print '(i0, a)', failures, ' check(s) failed'
-        error stop 1
-    end if
-    print '(a)', 'all calib checks passed'
+    call finish('calib')
 
 contains
-
-    subroutine expect(ok, what)
-        logical, intent(in) :: ok
-        character(*), intent(in) :: what
-        if (.not. ok) then
-            failures = failures + 1
-            print '(a, a)', 'FAILED: ', what
-        end if
-    end subroutine expect
 
     subroutine test_wls_groups()
         real(dp) :: a(8, 4), y(8), theta(4), stdu(4), s(4), v(4, 4), res(8), tt(4)

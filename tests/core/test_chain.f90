@@ -3,33 +3,20 @@
 !> code paths of the core), and the block-form terms of the tool compliance
 !> (sk_spatial, shared with sk_springs) against J C J^T of the Jacobians.
 program test_chain
+    use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: eye, skew
     use sk_chain
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     implicit none (type, external)
-    integer :: failures = 0
 
     call test_planar_two_link()
     call test_basis_matches_compliance()
     call test_block_terms_equal_jacobian_products()
-    if (failures > 0) then
-        print '(i0, a)', failures, ' check(s) failed'
-        error stop 1
-    end if
-    print '(a)', 'all chain checks passed'
+    call finish('chain')
 
 contains
-
-    subroutine expect(ok, what)
-        logical, intent(in) :: ok
-        character(*), intent(in) :: what
-        if (.not. ok) then
-            failures = failures + 1
-            print '(a, a)', 'FAILED: ', what
-        end if
-    end subroutine expect
 
     !> Planar arm: joints about z at the origin and at (l1,0,0) of link 1,
     !> tool at l2 along link 2. Tool twist from joint i: [z x (p - p_i); z].

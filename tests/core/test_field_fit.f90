@@ -1,6 +1,7 @@
 !> Unit tests of sk_linalg, sk_field_fit, sk_compliance and sk_beams on
 !> small known systems; tolerances scaled by epsilon.
 program test_field_fit
+    use sk_testing, only: expect, finish
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     use sk_kinds, only: dp, ip
     use sk_errors
@@ -9,7 +10,6 @@ program test_field_fit
     use sk_compliance, only: normal_quantile, compliance_from_experiments
     use sk_beams
     implicit none (type, external)
-    integer :: failures = 0
 
     call test_rotations()
     call test_fit_exact_field()
@@ -17,22 +17,9 @@ program test_field_fit
     call test_quantile()
     call test_compliance_diagonal()
     call test_beams()
-    if (failures > 0) then
-        print '(i0, a)', failures, ' check(s) failed'
-        error stop 1
-    end if
-    print '(a)', 'all field-fit core checks passed'
+    call finish('field-fit core')
 
 contains
-
-    subroutine expect(ok, what)
-        logical, intent(in) :: ok
-        character(*), intent(in) :: what
-        if (.not. ok) then
-            failures = failures + 1
-            print '(a, a)', 'FAILED: ', what
-        end if
-    end subroutine expect
 
     subroutine test_rotations()
         real(dp) :: w(3), r(3, 3)

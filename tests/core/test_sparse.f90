@@ -1,34 +1,21 @@
 !> Unit tests of sk_sparse (CalculiX matrix files, CHOLMOD) and
 !> sk_coupling (distributing coupling) on small known systems.
 program test_sparse
+    use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: cross
     use sk_sparse
     use sk_coupling
     implicit none (type, external)
-    integer :: failures = 0
 
     call test_triplets_and_solve()
     call test_bad_files()
     call test_face_weights()
     call test_distributing()
-    if (failures > 0) then
-        print '(i0, a)', failures, ' check(s) failed'
-        error stop 1
-    end if
-    print '(a)', 'all sparse core checks passed'
+    call finish('sparse core')
 
 contains
-
-    subroutine expect(ok, what)
-        logical, intent(in) :: ok
-        character(*), intent(in) :: what
-        if (.not. ok) then
-            failures = failures + 1
-            print '(a, a)', 'FAILED: ', what
-        end if
-    end subroutine expect
 
     !> K = tridiag(-1, 4, -1) of order 5 written as CalculiX writes .sti
     !> (upper triangle, 1-based, blank line in between); two right-hand sides.

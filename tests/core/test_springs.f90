@@ -1,6 +1,7 @@
 !> Unit tests of sk_springs and sk_indices on small known systems;
 !> tolerances scaled by epsilon.
 program test_springs
+    use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: eye, skew
@@ -9,29 +10,15 @@ program test_springs
     use sk_linalg, only: jacobi_eig, sym_eigvals_small
     use sk_indices, only: stiffness_indices
     implicit none (type, external)
-    integer :: failures = 0
 
     call test_jacobi()
     call test_transfer()
     call test_switch_rank()
     call test_tree_series_parallel()
     call test_indices()
-    if (failures > 0) then
-        print '(i0, a)', failures, ' check(s) failed'
-        error stop 1
-    end if
-    print '(a)', 'all springs core checks passed'
+    call finish('springs core')
 
 contains
-
-    subroutine expect(ok, what)
-        logical, intent(in) :: ok
-        character(*), intent(in) :: what
-        if (.not. ok) then
-            failures = failures + 1
-            print '(a, a)', 'FAILED: ', what
-        end if
-    end subroutine expect
 
     !> A = Q diag(1e-8, 1, 2, 3, 1e4, 5e6) Q^T: eigenpairs to round-off.
     subroutine test_jacobi()
