@@ -28,7 +28,8 @@ LINK.toml (contract: shared/spec/link.md; lengths in geometry.units):
               refine = 0.5 (size factor near the reference point and the clamp), refine_radius,
               optimize = "none" | "netgen" (Netgen optimiser: better tets, e.g. torsion
               error of the paper's beam at C3D10 2 mm -0.22 % -> -0.15 %)
-  [fit]       method = "lin" | "svd+" | "svd-" | "svd+-" | "exact", trim, confidence, symmetrize
+  [fit]       method = "lin" | "svd+" | "svd-" | "svd+-" | "exact", trim, confidence, symmetrize,
+              pooled (true: one noise estimate for the six fields, paper s3.4; false: each its own)
   [solver]    route = "auto" (= matrix) | "ccx" (six *STEPs) | "matrix" (ccx assembles K once,
               CHOLMOD solves the six cases; distributing or rigid coupling)
 

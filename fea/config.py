@@ -81,6 +81,7 @@ class LinkJob:
     plane_tolerance: float | None     # m
     ccx_timeout: float
     approximation: dict | None = None  # single-beam approximation: length (m), section, dims (m)
+    pooled: bool = True               # one noise estimate for the six fields (paper s3.4)
     raw: dict = field(default_factory=dict)
 
     @property
@@ -256,6 +257,9 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     sym = fit.get("symmetrize", False)
     if not isinstance(sym, bool):
         raise ConfigError(f"{path}: [fit] symmetrize = {sym!r}: true or false")
+    pooled = fit.get("pooled", True)
+    if not isinstance(pooled, bool):
+        raise ConfigError(f"{path}: [fit] pooled = {pooled!r}: true or false")
     so = data.get("solver", {})
     route = _choice(_get(so, "route", "solver", path, str, "auto"), ROUTES, "solver", "route", path)
     timeout = _positive(_get(so, "timeout", "solver", path, float, 3600.0), "solver", "timeout", path)
@@ -277,7 +281,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
                    size=msize, refine=refine, refine_radius=rr, optimize=optimize, method=method, trim=trim,
                    confidence=conf, symmetrize=sym, route=route,
                    plane_tolerance=None if tol is None else tol * scale, ccx_timeout=timeout,
-                   approximation=approx, raw=data)
+                   approximation=approx, pooled=pooled, raw=data)
 
 
 def load_link(path) -> LinkJob:

@@ -498,7 +498,7 @@ def fit_solution(job: LinkJob, sol: FeaSolution) -> tuple:
     field_nodes = select_field(job, sol.mesh, sol.load_nodes)
     pts = sol.mesh.nodes[field_nodes - 1]
     fits = fit_fields(pts, sol.U[:, field_nodes - 1], job.reference_point, method=job.method,
-                      trim=job.trim, pooled=True)
+                      trim=job.trim, pooled=job.pooled)
     comp = compliance_from_experiments(np.diag(sol.amplitudes), fits, confidence=job.confidence,
                                        symmetrize=job.symmetrize)
     ref_c = sol.ref_motion / sol.amplitudes[None, :]

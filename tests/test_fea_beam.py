@@ -52,6 +52,20 @@ def test_beam_c3d10_5mm_matches_eq22(matrix_run):
     assert r.mesh.n_nodes > 8000 and r.mesh.order == 2
 
 
+def test_pooled_and_per_field_noise(matrix_run, cache):
+    """[fit] pooled (default, paper s3.4): one sigma over the six fields;
+    pooled = false: each field its own, and the pooled value is their
+    dof-weighted root mean square."""
+    own = run_link(parse_link(cfg(fit__pooled=False)), cache_dir=cache)
+    pooled = [f.sigma for f in matrix_run.fits]
+    each = np.array([f.sigma for f in own.fits])
+    assert np.ptp(pooled) == 0 and np.ptp(each) > 0
+    assert pooled[0] == pytest.approx(np.sqrt(np.mean(each**2)), rel=1e-9)   # equal node counts
+    # the axial case carries the load face's Poisson contraction: the largest residual
+    assert int(np.argmax(each)) == 0
+    np.testing.assert_allclose(own.compliance.matrix, matrix_run.compliance.matrix)
+
+
 def test_zero_elements_flagged(cache):
     zeros = np.array(BEAM_ZEROS)
     # symmetrised (paper s4.6): every zero of eq. 22 non-significant, every other significant

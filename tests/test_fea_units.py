@@ -91,6 +91,7 @@ def test_field_regions():
     ("load", "coupling", "glued", "choose one of"),
     ("mesh", "size", 0.0, "positive"),
     ("fit", "trim", 0.6, "fraction"),
+    ("fit", "pooled", "yes", "true or false"),
 ])
 def test_config_errors_name_the_key(section, key, value, needle):
     cfg = copy.deepcopy(BASE)
