@@ -84,6 +84,11 @@ def _null(v: float):
     return None if not np.isfinite(v) else float(v)
 
 
+def _matrix(a) -> str:
+    """A 6x6 matrix as rows of aligned scientific numbers, indented."""
+    return "\n".join("  " + " ".join(f"{v: .4e}" for v in row) for row in a)
+
+
 def run(args) -> int:
     from ._errors import InputError
     from ._io import parse_vector, read_columns
@@ -106,10 +111,10 @@ def run(args) -> int:
     for i in show:
         print(f"posture {i + 1}: q = {np.array2string(Q[i], precision=4)}")
         print("  compliance (rows dt, dphi; columns f, m; SI):")
-        print("  " + np.array2string(C[i], precision=4, separator=" ").replace("\n", "\n  "))
+        print(_matrix(C[i]))
         if ok[i]:
             print("  stiffness:")
-            print("  " + np.array2string(K[i], precision=4, separator=" ").replace("\n", "\n  "))
+            print(_matrix(K[i]))
             print("  indices: " + ", ".join(f"{n} = {v[i]:.6g} {units[n]}" for n, v in indices.items()))
         else:
             print(f"  stiffness: does not exist (compliance rank {rank[i]} < 6: the model has no "
