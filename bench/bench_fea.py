@@ -12,6 +12,9 @@
     python bench/bench_fea.py fine       # also C3D10 1.5 mm by the matrix route
                                          # (237k nodes, ~2 min, ~4.6 GB)
     python bench/bench_fea.py netgen     # also C3D10 2 mm with [mesh] optimize = "netgen"
+    python bench/bench_fea.py structured # also structured C3D10 meshes ([mesh] structured = true):
+                                         # 2 mm with 6 elements across (across_factor 0.9) and
+                                         # 5 mm along with 6 across (across_factor 0.34)
     python bench/bench_fea.py lengths    # also beams of 250 and 500 mm at 2 mm: which
                                          # errors come from the mesh, which from the clamp
 """
@@ -40,9 +43,11 @@ def _timed_run(cfg: dict, cache: str):
     return r, time.perf_counter() - t0
 
 
-def best_setting(size: float, cache: str, routes=("matrix", "ccx"), optimize: str = "none") -> None:
+def best_setting(size: float, cache: str, routes=("matrix", "ccx"), optimize: str = "none",
+                 across_factor: float | None = None) -> None:
     print(f"-- beam 1000 x 10 x 10 mm, C3D10 {size:g} mm, distributing coupling, tip-face field"
-          + (f", mesh optimiser {optimize}" if optimize != "none" else ""))
+          + (f", mesh optimiser {optimize}" if optimize != "none" else "")
+          + (f", structured mesh, {across_factor * size:g} mm across" if across_factor else ""))
     res = {}
     ctx = multiprocessing.get_context("spawn")
     for route in routes:
@@ -50,6 +55,9 @@ def best_setting(size: float, cache: str, routes=("matrix", "ccx"), optimize: st
         cfg["mesh"]["size"] = size
         cfg["solver"]["route"] = route
         cfg["mesh"]["optimize"] = optimize
+        if across_factor:
+            cfg["mesh"]["structured"] = True
+            cfg["mesh"]["across_factor"] = across_factor
         # a fresh process per route: its peak memory is the route's own
         with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
             r, wall = pool.submit(_timed_run, cfg, cache).result()
@@ -115,6 +123,9 @@ if __name__ == "__main__":
         table5([5.0, 3.0] if quick else [5.0, 3.0, 2.0], cache, jobs=1)
         if "netgen" in sys.argv[1:]:
             best_setting(2.0, cache, routes=("matrix",), optimize="netgen")
+        if "structured" in sys.argv[1:]:
+            best_setting(2.0, cache, routes=("matrix",), across_factor=0.9)
+            best_setting(5.0, cache, routes=("matrix",), across_factor=0.34)
         if "lengths" in sys.argv[1:]:
             lengths(cache)
         if "fine" in sys.argv[1:]:

@@ -28,6 +28,11 @@ LINK.toml (contract: shared/spec/link.md; lengths in geometry.units):
               refine = 0.5 (size factor near the reference point and the clamp), refine_radius,
               optimize = "none" | "netgen" (Netgen optimiser: better tets, e.g. torsion
               error of the paper's beam at C3D10 2 mm -0.22 % -> -0.15 %)
+              structured = false | true (built-in box only, gmsh, no refine/optimize: a
+              transfinite mesh, hex cells split into six tets; default false),
+              across_factor = 1.0 (structured: element size across the section, i.e. along the
+              box's two shorter sides, = across_factor x size; e.g. size = 2, across_factor = 0.9:
+              6 elements across the 10 mm section, paper's beam max error 0.08 % vs 0.22 %)
   [fit]       method = "lin" | "svd+" | "svd-" | "svd+-" | "exact", trim, confidence, symmetrize,
               pooled (true: one noise estimate for the six fields, paper s3.4; false: each its own)
   [solver]    route = "auto" (= matrix) | "ccx" (six *STEPs) | "matrix" (ccx assembles K once,

@@ -82,6 +82,8 @@ class LinkJob:
     ccx_timeout: float
     approximation: dict | None = None  # single-beam approximation: length (m), section, dims (m)
     pooled: bool = True               # one noise estimate for the six fields (paper s3.4)
+    structured: bool = False          # transfinite tet mesh (built-in box only)
+    across_factor: float = 1.0        # structured: element size across the section / size
     raw: dict = field(default_factory=dict)
 
     @property
@@ -246,6 +248,27 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     rr = _get(me, "refine_radius", "mesh", path, float, None) if "refine_radius" in me else None
     optimize = _choice(_get(me, "optimize", "mesh", path, str, "none"), ("none", "netgen"), "mesh",
                        "optimize", path)
+    structured = me.get("structured", False)
+    if not isinstance(structured, bool):
+        raise ConfigError(f"{path}: [mesh] structured = {structured!r}: true or false")
+    across = _get(me, "across_factor", "mesh", path, float, 1.0)
+    if not 0 < across <= 1:
+        raise ConfigError(f"{path}: [mesh] across_factor = {across!r}: a size factor in (0, 1]")
+    if "across_factor" in me and not structured:
+        raise ConfigError(f"{path}: [mesh] across_factor needs structured = true")
+    if structured:
+        if geometry.get("shape") != "box":
+            raise ConfigError(f"{path}: [mesh] structured = true is only for the built-in "
+                              f"[geometry] shape = \"box\", not "
+                              f"{geometry.get('shape') or 'step = ' + repr(g.get('step'))}")
+        if mesher != "gmsh":
+            raise ConfigError(f"{path}: [mesh] structured = true needs mesher = \"gmsh\", not {mesher!r}")
+        if refine is not None:
+            raise ConfigError(f"{path}: [mesh] structured = true and refine exclude each other "
+                              "(a structured mesh has one size along and one across)")
+        if optimize != "none":
+            raise ConfigError(f"{path}: [mesh] structured = true needs optimize = \"none\" "
+                              "(the optimiser would unstructure it)")
     fit = data.get("fit", {})
     method = _choice(_get(fit, "method", "fit", path, str, "lin"), FIT_METHODS, "fit", "method", path)
     trim = _get(fit, "trim", "fit", path, float, 0.0)
@@ -281,7 +304,8 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
                    size=msize, refine=refine, refine_radius=rr, optimize=optimize, method=method, trim=trim,
                    confidence=conf, symmetrize=sym, route=route,
                    plane_tolerance=None if tol is None else tol * scale, ccx_timeout=timeout,
-                   approximation=approx, pooled=pooled, raw=data)
+                   approximation=approx, pooled=pooled, structured=structured,
+                   across_factor=across, raw=data)
 
 
 def load_link(path) -> LinkJob:

@@ -94,6 +94,9 @@ def cache_key(job: LinkJob, route: str) -> str:
            "order": job.order, "size": job.size, "refine": job.refine,
            "refine_radius": job.refine_radius, "route": route, "tol": job.plane_tolerance,
            "optimize": job.optimize}
+    if job.structured:                    # only then: keys of unstructured runs stay as they were
+        key["structured"] = True
+        key["across_factor"] = job.across_factor
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
 
 
@@ -195,7 +198,8 @@ def _mesh_job(job: LinkJob) -> Mesh:
                   refine_points=[[v / job.scale for v in job.reference_point]],
                   refine_planes=[job.support_plane])
     return mesh_part(job.geometry, job.units, job.scale, order=job.order, size=job.size,
-                     mesher=job.mesher, optimize=job.optimize, **kw)
+                     mesher=job.mesher, optimize=job.optimize, structured=job.structured,
+                     across_factor=job.across_factor, **kw)
 
 
 def _faces(job: LinkJob, mesh: Mesh):
@@ -220,7 +224,9 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress=None) -> FeaSolu
     """Mesh and solve the six load cases (no cache)."""
     say = progress or (lambda msg: None)
     t0 = time.perf_counter()
-    say(f"meshing ({job.mesher}, order {job.order}, size {job.size:g} {job.units})")
+    say(f"meshing ({job.mesher}{', structured' if job.structured else ''}, order {job.order}, "
+        f"size {job.size:g} {job.units}"
+        f"{f', across {job.across_factor * job.size:g} {job.units}' if job.structured and job.across_factor != 1 else ''})")
     mesh = _mesh_job(job)
     t_mesh = time.perf_counter() - t0
     say(f"mesh: {mesh.n_nodes} nodes, {mesh.n_elements} {mesh.ccx_type} elements")

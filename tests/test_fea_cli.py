@@ -171,6 +171,7 @@ def test_link_and_convergence_end_to_end(tmp_path):
 def test_help_teaches():
     proc = stiffkit("link", "--help")
     assert proc.returncode == 0 and "LINK.toml" in proc.stdout and "example" in proc.stdout
+    assert "structured = false | true" in proc.stdout and "across_factor" in proc.stdout
     proc = stiffkit("convergence", "--help")
     assert proc.returncode == 0 and "--orders" in proc.stdout
 

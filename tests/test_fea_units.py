@@ -116,3 +116,48 @@ def test_demo_runs_the_fea_beam(capsys):
     assert out["nodes"] > 8000
     text = capsys.readouterr().out
     assert "closed form" in text and "CHOLMOD" in text
+
+
+@pytest.mark.parametrize("geometry,mesh,needle", [
+    ({"shape": "tube", "length": 100.0, "outer_diameter": 20.0, "inner_diameter": 10.0},
+     {"structured": True}, 'only for the built-in [geometry] shape = "box", not tube'),
+    (None, {"structured": "yes"}, "true or false"),
+    (None, {"structured": True, "mesher": "tetgen"}, 'needs mesher = "gmsh"'),
+    (None, {"structured": True, "refine": 0.5}, "refine"),
+    (None, {"structured": True, "optimize": "netgen"}, 'optimize = "none"'),
+    (None, {"structured": True, "across_factor": 0.0}, "(0, 1]"),
+    (None, {"across_factor": 0.5}, "needs structured = true"),
+])
+def test_structured_mesh_config_errors(geometry, mesh, needle):
+    cfg = copy.deepcopy(BASE)
+    if geometry:
+        cfg["geometry"] = {**geometry, "units": "mm"}
+    cfg["mesh"].update(mesh)
+    with pytest.raises(ConfigError) as exc:
+        parse_link(cfg, "bad.toml")
+    text = str(exc.value)
+    assert text.startswith("bad.toml: [mesh] ") and needle in text, text
+
+
+def test_structured_mesh_step_file_is_refused(tmp_path):
+    step = tmp_path / "part.step"
+    step.write_text("ISO-10303-21;")                  # only its existence is checked here
+    cfg = copy.deepcopy(BASE)
+    cfg["geometry"] = {"step": "part.step", "units": "mm"}
+    cfg["mesh"]["structured"] = True
+    with pytest.raises(ConfigError, match=r"bad.toml: \[mesh\] structured = true is only for the "
+                                          r"built-in .*step = 'part.step'"):
+        parse_link(cfg, "bad.toml", tmp_path)
+
+
+def test_structured_mesh_is_in_the_cache_key():
+    from stiffkit.fea.job import cache_key
+    base = parse_link(copy.deepcopy(BASE))
+    cfg = copy.deepcopy(BASE)
+    cfg["mesh"]["structured"] = True
+    st = parse_link(cfg)
+    cfg["mesh"]["across_factor"] = 0.5
+    st2 = parse_link(cfg)
+    keys = {cache_key(j, "matrix") for j in (base, st, st2)}
+    assert len(keys) == 3
+    assert not base.structured and base.across_factor == 1.0

@@ -98,3 +98,31 @@ def test_netgen_optimised_mesh_is_valid():
     assert midside_errors(m.nodes, m.elements).max() < 1e-9
     with pytest.raises(Exception, match="none or netgen"):
         mesh_part(BOX, "mm", 1e-3, order=2, size=4.0, optimize="fast")
+
+
+def test_structured_box_mesh_is_valid_calculix_c3d10():
+    # 100 x 10 x 10 mm, size 5 along, 0.5 x 5 = 2.5 across: 20 x 4 x 4 hex cells of six tets
+    m = mesh_part(BOX, "mm", 1e-3, order=2, size=5.0, structured=True, across_factor=0.5)
+    assert m.elements.shape == (20 * 4 * 4 * 6, 10) and m.ccx_type == "C3D10"
+    assert m.n_nodes == 41 * 9 * 9                      # the half-cell grid, nothing else
+    st = check_geometry(m)
+    assert (tet_volumes(m.nodes, m.elements) > 0).all()
+    assert st["total_volume"] == pytest.approx(1e-5, rel=1e-9)
+    assert midside_errors(m.nodes, m.elements).max() < 1e-9
+    assert np.array_equal(np.unique(m.elements), np.arange(1, m.n_nodes + 1))
+    assert m.info["structured"] is True
+    # every corner on the regular grid: x in steps of 5 mm, y and z of 2.5 mm
+    corners = m.nodes[np.unique(m.elements[:, :4]) - 1] * 1e3
+    for axis, step in ((0, 5.0), (1, 2.5), (2, 2.5)):
+        v = (corners[:, axis] - corners[:, axis].min()) / step
+        assert np.abs(v - np.round(v)).max() < 1e-9
+    # the tip face is a structured grid too: its faces are found as usual
+    tip = plane_nodes(m, "x-max")
+    assert tip.size == 9 * 9 and faces_on_nodes(m, tip).shape[0] == 4 * 4 * 2
+
+
+def test_structured_only_for_the_box():
+    with pytest.raises(Exception, match="structured.*box"):
+        mesh_part(TUBE, "mm", 1e-3, order=2, size=3.0, structured=True)
+    with pytest.raises(Exception, match="across_factor"):
+        mesh_part(BOX, "mm", 1e-3, order=2, size=5.0, structured=True, across_factor=1.5)
