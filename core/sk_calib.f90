@@ -39,6 +39,25 @@ contains
         where (zero) d = 1.0_dp
     end subroutine column_scales
 
+    !> SVD of a[n,p] with its columns scaled to unit norm (zero columns kept
+    !> at zero): as = a diag(d)^-1 = u diag(s) vt; rank counts the singular
+    !> values above rcond * s(1). Shared by the fit and the score tests.
+    subroutine scaled_svd(a, rcond, d, zero, as, u, s, vt, rank, info)
+        real(dp), intent(in) :: a(:, :), rcond
+        real(dp), intent(out) :: d(:), as(:, :), u(:, :), s(:), vt(:, :)
+        logical, intent(out) :: zero(:)
+        integer(ip), intent(out) :: rank, info
+        integer :: k
+        call column_scales(a, d, zero)
+        do k = 1, size(a, 2)
+            as(:, k) = merge(0.0_dp, a(:, k)/d(k), zero(k))
+        end do
+        rank = 0
+        call svd(as, u, s, vt, info)
+        if (info /= sk_ok) return
+        rank = count(s > rcond*s(1) .and. s > 0.0_dp)
+    end subroutine scaled_svd
+
     !> Weighted least squares a theta ~ y (a[n,p], n >= p, rows already
     !> weighted). The columns are scaled to unit norm, a = U S V^T; singular
     !> values below rcond*s(1) count as zero (rank r). theta is the
@@ -78,16 +97,9 @@ contains
             return
         end if
         allocate(d(p), zero(p), as(n, p), u(n, p), vt(p, p), uty(p))
-        call column_scales(a, d, zero)
-        do k = 1, p
-            as(:, k) = merge(0.0_dp, a(:, k)/d(k), zero(k))
-        end do
-        call svd(as, u, s, vt, info)
+        call scaled_svd(a, rcond, d, zero, as, u, s, vt, rank, info)
         if (info /= sk_ok) return
         v = transpose(vt)
-        do i = 1, p
-            if (s(i) > rcond*s(1) .and. s(i) > 0.0_dp) rank = rank + 1
-        end do
         uty = matmul(transpose(u(:, 1:rank)), y)
         do i = 1, rank
             theta = theta + v(:, i)*(uty(i)/s(i))                 ! eq. 19
@@ -157,16 +169,8 @@ contains
             zref = max(zref, norm2(a(:, k)))
         end do
         zref = 1.0e-13_dp*zref
-        call column_scales(a, d, zero)
-        do k = 1, p
-            as(:, k) = merge(0.0_dp, a(:, k)/d(k), zero(k))
-        end do
-        call svd(as, u, s, vt, info)
+        call scaled_svd(a, rcond, d, zero, as, u, s, vt, rank, info)
         if (info /= sk_ok) return
-        rank = 0
-        do i = 1, p
-            if (s(i) > rcond*s(1) .and. s(i) > 0.0_dp) rank = rank + 1
-        end do
         do c = 1, ncand
             k0 = cstart(c)
             nc = cstart(c + 1) - k0
