@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 from stiffkit.calib import synth as S  # noqa: E402
 from stiffkit.calib.diagnose import candidate_tables, diagnose  # noqa: E402
 from stiffkit.calib.fit import fit  # noqa: E402
-from stiffkit.calib.model import model_from_tables  # noqa: E402
+from stiffkit.robot.model import model_from_tables  # noqa: E402
 
 MARKERS = ((0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2))
 SIGMA = 2e-5

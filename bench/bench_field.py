@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 import stiffkit as sk
-from stiffkit.synthetic import cubic_grid, elementary_rotation, rigid_displacements
+from stiffkit.field.synthetic import cubic_grid, elementary_rotation, rigid_displacements
 
 
 def numpy_lin(points, disp, ref):

@@ -1,25 +1,8 @@
-"""stiffkit: how stiff a robot is, and why it bends the way it does.
+"""stiffkit._core: the thin f2py layer over the Fortran core.
 
-Link stiffness from CAD (Gmsh + CalculiX + field fits), manipulator
-stiffness (generalised springs, virtual-joint models), calibration and
-diagnosis against measurements. The numbers are computed in a Fortran core
-(``core/``), wrapped by f2py; this package orchestrates.
+One extension per signature file (``_field``, ``_sparse``, ``_springs``,
+``_calib``); the modules of the same name without the underscore are typed
+wrappers that put arrays into the core's layout and map the integer
+``info`` of every routine to an exception (``errors.check``). Nothing else
+in stiffkit calls an extension directly.
 """
-from ._errors import (ConvergenceError, DegenerateError, InputError, SingularError,
-                      StiffkitError)
-from .field import (METHODS, Compliance, FieldFit, beam_stiffness, cantilever_compliance,
-                    compliance_from_experiments, fit_field, fit_fields, normal_quantile,
-                    section_properties)
-
-# serial robots: stiffness, calibration and diagnosis (contract: the commands
-# are callable from Python with the same names)
-from .calib import compare, diagnose, fit, load_model  # noqa: E402
-
-__version__ = "0.1.0"
-
-__all__ = [
-    "StiffkitError", "InputError", "DegenerateError", "SingularError", "ConvergenceError",
-    "METHODS", "FieldFit", "Compliance", "fit_field", "fit_fields",
-    "compliance_from_experiments", "section_properties", "cantilever_compliance",
-    "beam_stiffness", "normal_quantile", "load_model", "fit", "diagnose", "compare",
-]

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._errors import StiffkitError
+from ..errors import StiffkitError
 
 LOAD_LABELS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 

@@ -17,7 +17,7 @@ try:                                   # Python >= 3.11
 except ImportError:                    # pragma: no cover
     import tomli as tomllib            # type: ignore
 
-from .._errors import InputError
+from ..errors import InputError
 
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
 PLANES = ("x-min", "x-max", "y-min", "y-max", "z-min", "z-max")

@@ -32,15 +32,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from .._errors import InputError
+from ..version import __version__
+from ..errors import InputError
 from ..field import (DOF_NAMES, LOAD_NAMES, Compliance, cantilever_compliance,
                      compliance_from_experiments, fit_fields, section_properties)
 from ..meshing import Mesh, MeshError, face_connectivity, faces_on_nodes, mesh_part, plane_nodes
 from .ccx import (ccx_version, displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck,
                   write_static_deck)
 from .config import LinkJob
-from .sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs, read_triplets, rigid_solve,
+from .._core.sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs, read_triplets, rigid_solve,
                      work_conjugate)
 
 logger = logging.getLogger(__name__)

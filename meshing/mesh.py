@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._errors import InputError
+from ..errors import InputError
 
 #: mesher's 10-node tet -> CalculiX C3D10: ccx_nodes = mesher_nodes[:, PERM]
 PERM_GMSH_TET10 = np.array([0, 1, 2, 3, 4, 5, 6, 7, 9, 8])

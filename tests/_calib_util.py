@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from stiffkit.calib import synth as S
-from stiffkit.calib.model import model_from_tables
+from stiffkit.robot.model import model_from_tables
 
 MARKERS = ((0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2))
 

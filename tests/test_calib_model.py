@@ -9,7 +9,7 @@ import pytest
 
 import stiffkit
 from stiffkit.calib import synth as S
-from stiffkit.calib.robot import urdf_text
+from stiffkit.robot.urdf import urdf_text
 
 from _calib_util import data, joints_truth, spd
 
@@ -88,7 +88,7 @@ def test_link_value_from_json_with_rpy(tmp_path):
     rpy = [0.1, -0.2, 0.3]
     (tmp_path / "a.toml").write_text(base + f'\n[[effect]]\nkind = "link"\ntarget = "link_2"\n'
                                      f'value = "links/arm.json"\nrpy = {rpy}\n')
-    from stiffkit.calib.model import rpy_matrix
+    from stiffkit.robot.model import rpy_matrix
     R = rpy_matrix(rpy)
     B = np.kron(np.eye(2), R)
     (tmp_path / "b.toml").write_text(base + f'\n[[effect]]\nkind = "link"\ntarget = "link_2"\n'
@@ -113,7 +113,7 @@ def test_spring_jacobians_by_finite_differences():
     F_k -> F_k T(dt) Rot(dphi), both in the spring frame's own axes."""
     import copy
 
-    from stiffkit.calib.robot import _rot_axis
+    from stiffkit.robot.urdf import _rot_axis
 
     chain, tm, _ = data(joints_truth() + [{"kind": "link", "target": "link_3", "value": spd(5).tolist()}],
                         n_configs=1)
@@ -144,8 +144,8 @@ def test_random_chain_against_finite_difference_reference(tmp_path):
     base and tool springs)."""
     import copy
 
-    from stiffkit.calib.model import model_from_tables
-    from stiffkit.calib.robot import _rot_axis, load_chain
+    from stiffkit.robot.model import model_from_tables
+    from stiffkit.robot.urdf import _rot_axis, load_chain
 
     rng = np.random.default_rng(42)
     joints, parent = [], "base_link"

@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 from stiffkit.calib import synth as S
-from stiffkit.calib.model import model_from_tables
-from stiffkit.calib.robot import load_chain
+from stiffkit.robot.model import model_from_tables
+from stiffkit.robot.urdf import load_chain
 from stiffkit.springs import Joint, Spring, evaluate, model_tree, model_vjm, serial_vjm, series
-from stiffkit._errors import InputError
+from stiffkit.errors import InputError
 
 from _calib_util import spd
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import stiffkit as sk
-from stiffkit.synthetic import cantilever_fields, square_grid
+from stiffkit.field.synthetic import cantilever_fields, square_grid
 
 
 def run(*args, cwd=None):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import stiffkit as sk
-from stiffkit.synthetic import cantilever_fields, square_grid
+from stiffkit.field.synthetic import cantilever_fields, square_grid
 
 L, B, E, NU = 1.0, 0.01, 2.0e11, 0.266        # the paper's beam, SI
 LOADS = np.diag([1000.0, 1.0, 1.0, 1.0, 1.0, 1.0])   # s4.2

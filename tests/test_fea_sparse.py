@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stiffkit import InputError, SingularError
-from stiffkit.fea.sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs,
+from stiffkit._core.sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs,
                                  read_triplets, rigid_solve)
 
 

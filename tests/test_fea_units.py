@@ -109,7 +109,7 @@ def test_mm_are_converted_at_the_boundary():
 
 
 def test_demo_runs_the_fea_beam(capsys):
-    from stiffkit.cmd_demo import fea_demo
+    from stiffkit.fea.demo import fea_demo
     out = fea_demo(size=5.0)
     err = out["errors"]
     assert abs(err[0, 0]) < 2e-3 and abs(err[1, 1]) < 2e-3 and abs(err[4, 4]) < 2e-3

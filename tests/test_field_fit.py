@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import stiffkit as sk
-from stiffkit.synthetic import (cubic_grid, elementary_rotation, rigid_displacements,
+from stiffkit.field.synthetic import (cubic_grid, elementary_rotation, rigid_displacements,
                                 rotation_vector)
 
 CUBE = cubic_grid(10.0, 1.0)          # 10 x 10 x 10 mm, 1 mm step: 1331 nodes (mm units)

@@ -20,7 +20,7 @@ from numpy.testing import assert_allclose
 
 import stiffkit
 from stiffkit.calib import synth as S
-from stiffkit.calib.robot import urdf_text
+from stiffkit.robot.urdf import urdf_text
 from stiffkit.cli import main
 from stiffkit.springs import stiffness_indices, stiffness_indices_where
 

@@ -12,7 +12,7 @@ Run:  python examples/kr270/table2.py   (about 5 s)
 """
 from stiffkit.calib import synth as S
 from stiffkit.calib.fit import error_stats, fit
-from stiffkit.calib.model import model_from_tables
+from stiffkit.robot.model import model_from_tables
 from stiffkit.calib.reduce import format_reduction, reduce_model, reduced_model
 
 SIGMA = 2e-5

@@ -1,0 +1,233 @@
+"""Synthetic calibration data with a known truth (issue 4).
+
+``synthesize`` takes a robot (URDF joint list), a truth (effect tables with
+values: joint and link compliances, joint profiles, gravity compensator,
+point offset, ...), postures, loads, markers and noise, and returns the
+measurement rows the truth predicts plus Gaussian noise. ``write_synth``
+writes robot.urdf, model.toml (the effects to identify, no values),
+truth.toml (the truth with values) and measurements.csv.
+
+The built-in example is a KR-270-like 6R robot: dimensions of the public
+KUKA KR 270 R2700 datasheet (approximate: A1 height 675 mm, A1-A2 offset
+350 mm, upper arm 1150 mm, A3 offset 41 mm, forearm 1200 mm, flange
+215 mm), aluminium-tube link compliances, joint compliances of the magnitude
+klimchik reports, and a gravity compensator on A2.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .measure import Measurements, write_measurements
+from ..robot.urdf import load_chain, urdf_text
+
+KR270_JOINTS = [
+    dict(name="joint_a1", type="revolute", parent="base_link", child="link_1", xyz=(0, 0, 0.675), axis=(0, 0, 1)),
+    dict(name="joint_a2", type="revolute", parent="link_1", child="link_2", xyz=(0.350, 0, 0), axis=(0, 1, 0)),
+    dict(name="joint_a3", type="revolute", parent="link_2", child="link_3", xyz=(1.150, 0, 0), axis=(0, 1, 0)),
+    dict(name="joint_a4", type="revolute", parent="link_3", child="link_4", xyz=(0.600, 0, 0.041), axis=(1, 0, 0)),
+    dict(name="joint_a5", type="revolute", parent="link_4", child="link_5", xyz=(0.600, 0, 0), axis=(0, 1, 0)),
+    dict(name="joint_a6", type="revolute", parent="link_5", child="link_6", xyz=(0.100, 0, 0), axis=(1, 0, 0)),
+    dict(name="joint_tool", type="fixed", parent="link_6", child="tool0", xyz=(0.115, 0, 0),
+         rpy=(0, math.pi / 2, 0)),
+]
+
+#: posture ranges (rad) used to draw calibration configurations
+KR270_RANGES = [(-2.5, 2.5), (-1.4, 0.2), (-1.0, 1.2), (-2.5, 2.5), (0.4, 1.9), (-2.5, 2.5)]
+
+KR270_JOINT_C = [3.0e-7, 2.0e-7, 3.0e-7, 1.5e-6, 1.6e-6, 2.5e-6]     # rad/(N m)
+
+KR270_COMPENSATOR = dict(a=0.45, b=0.12, beta=0.3, s0=0.25, k_s=5.0e7)
+
+
+def beam_compliance(length, E, nu, outer, inner) -> np.ndarray:
+    """Tip compliance of a tube cantilever along x (Euler-Bernoulli, no shear)."""
+    A = math.pi / 4 * (outer ** 2 - inner ** 2)
+    I = math.pi / 64 * (outer ** 4 - inner ** 4)
+    J = 2 * I
+    G = E / (2 * (1 + nu))
+    L = length
+    C = np.zeros((6, 6))
+    C[0, 0] = L / (E * A)
+    C[1, 1] = C[2, 2] = L ** 3 / (3 * E * I)
+    C[3, 3] = L / (G * J)
+    C[4, 4] = C[5, 5] = L / (E * I)
+    C[1, 5] = C[5, 1] = L ** 2 / (2 * E * I)
+    C[2, 4] = C[4, 2] = -L ** 2 / (2 * E * I)
+    return C
+
+
+def kr270_links() -> dict[str, np.ndarray]:
+    """Link spring compliances of the KR-270-like robot (cast aluminium-alloy
+    tubes, E = 70 GPa)."""
+    E, nu = 7.0e10, 0.33
+    return {"link_2": beam_compliance(1.150, E, nu, 0.30, 0.26),
+            "link_3": beam_compliance(0.600, E, nu, 0.22, 0.18),
+            "link_4": beam_compliance(0.600, E, nu, 0.18, 0.15)}
+
+
+def kr270_truth(joints=True, links=True, compensator=True, offset=None) -> list[dict]:
+    """Effect tables (with values) of the KR-270-like truth."""
+    eff = []
+    if joints:
+        for j, c in zip(KR270_JOINTS, KR270_JOINT_C):
+            eff.append({"kind": "joint", "target": j["name"], "value": c})
+    if links:
+        for name, C in kr270_links().items():
+            eff.append({"kind": "link", "target": name, "value": C.tolist()})
+    if compensator:
+        eff.append({"kind": "gravity_compensator", "target": "joint_a2", **KR270_COMPENSATOR})
+    if offset is not None:
+        eff.append({"kind": "point_offset", "r": list(offset)})
+    return eff
+
+
+def random_postures(n, ranges, rng) -> np.ndarray:
+    lo = np.array([r[0] for r in ranges])
+    hi = np.array([r[1] for r in ranges])
+    return lo + (hi - lo) * rng.random((n, len(ranges)))
+
+
+def make_loads(kind, n, rng, force=2500.0, moment=300.0, Rtool=None, mass_offset=(0.0, 0.0, 0.2)):
+    """n wrenches (n, 6) at the tool origin, base axes.
+
+    kind ``random``: force of magnitude ``force`` in a random direction and a
+    random moment up to ``moment``; ``gravity``: a weight (0, 0, -force) hung
+    at ``mass_offset`` (tool frame), so only forces along -z and the moment
+    of that offset (klimchik's gravity-based loading).
+    """
+    if kind == "random":
+        f = rng.normal(size=(n, 3))
+        f *= force / np.linalg.norm(f, axis=1, keepdims=True)
+        m = rng.uniform(-moment, moment, size=(n, 3))
+        return np.hstack([f, m])
+    if kind == "gravity":
+        f = np.tile([0.0, 0.0, -force], (n, 1))
+        c = np.einsum("nij,j->ni", Rtool, np.asarray(mass_offset, float))
+        return np.hstack([f, np.cross(c, f)])
+    raise InputError(f"unknown load kind {kind!r}; choose random or gravity")
+
+
+def synthesize(joints, truth: list[dict], n_configs: int = 30, loads: str = "random",
+               loads_per_config: int = 3, markers=((0.0, 0.0, 0.25),), sigma: float = 2e-5,
+               sigma_rotation: float | None = None, replicates: int = 1, ranges=None,
+               force: float = 2500.0, moment: float = 300.0, seed=0, workdir=None,
+               tool_frame: str = "tool0"):
+    """Measurement rows of ``truth`` on the robot ``joints``.
+
+    Returns (chain, truth_model, measurements). Each configuration gets
+    ``loads_per_config`` wrenches; each wrench is measured at every marker,
+    ``replicates`` times (independent noise), so there are
+    n_configs * loads_per_config * len(markers) * replicates rows.
+    """
+    import tempfile
+
+    from .fit import Problem
+    from ..robot.model import model_from_tables
+
+    rng = np.random.default_rng(seed)
+    tmp = Path(workdir or tempfile.mkdtemp(prefix="stiffkit_synth_"))
+    tmp.mkdir(parents=True, exist_ok=True)
+    if isinstance(joints, (str, Path)):          # an existing URDF: copy it
+        text = Path(joints).read_text()
+        (tmp / "robot.urdf").write_text(text)
+        chain = load_chain(tmp / "robot.urdf", "base_link", tool_frame)
+    else:
+        (tmp / "robot.urdf").write_text(urdf_text("synthetic", joints))
+        chain = load_chain(tmp / "robot.urdf", "base_link", joints[-1]["child"])
+    dof = chain.dof
+    ranges = ranges or [(-math.pi, math.pi)] * dof
+    Qc = random_postures(n_configs, ranges, rng)
+    Rt = np.array([chain.forward(q)[0] for q in Qc])
+    rows_q, rows_w, rows_p, rows_c = [], [], [], []
+    for i in range(n_configs):
+        W = make_loads(loads, loads_per_config, rng, force, moment, np.repeat(Rt[i:i + 1], loads_per_config, 0))
+        for k in range(loads_per_config):
+            for mk in markers:
+                for _ in range(replicates):
+                    rows_q.append(Qc[i])
+                    rows_w.append(W[k])
+                    rows_p.append(mk)
+                    rows_c.append(f"c{i + 1}")
+    n = len(rows_q)
+    meas = Measurements(q=np.array(rows_q), w=np.array(rows_w), p=np.array(rows_p, float),
+                        d=np.zeros((n, 3)), r=None if sigma_rotation is None else np.zeros((n, 3)),
+                        config=rows_c, lines=list(range(2, n + 2)), path="synthetic")
+    truth_model = model_from_tables(chain, truth, where="truth")
+    pb = Problem(truth_model, meas)
+    pred, _ = pb.evaluate(np.zeros(0), jac=False)
+    meas.d = pred[0:3].T + sigma * rng.normal(size=(n, 3))
+    if sigma_rotation is not None:
+        meas.r = pred[3:6].T + sigma_rotation * rng.normal(size=(n, 3))
+    return chain, truth_model, meas
+
+
+def strip_values(effects: list[dict]) -> list[dict]:
+    """The effect tables without their values (what a user would identify)."""
+    out = []
+    for e in effects:
+        e2 = {k: v for k, v in e.items() if k not in ("value", "k_s", "r", "rpy")}
+        if e2["kind"] in ("link", "base", "tool") and "template" not in e2:
+            e2["template"] = "full"
+        out.append(e2)
+    return out
+
+
+def model_toml(effects: list[dict], sigma=None, urdf="robot.urdf", tool_frame="tool0",
+               sigma_rotation=None) -> str:
+    import tomli_w
+
+    doc = {"robot": {"urdf": urdf, "base_link": "base_link", "tool_frame": tool_frame}}
+    meas = {}
+    if sigma is not None:
+        meas["sigma_position"] = float(sigma)
+    if sigma_rotation is not None:
+        meas["sigma_rotation"] = float(sigma_rotation)
+    if meas:
+        doc["measurements"] = meas
+    return tomli_w.dumps(doc) + effects_toml(effects)
+
+
+def effects_toml(effects) -> str:
+    """[[effect]] tables, always in the appendable array-of-tables form."""
+    import tomli_w
+
+    return "".join("\n[[effect]]\n" + tomli_w.dumps(_plain(e)) for e in effects)
+
+
+def _plain(v):
+    if isinstance(v, dict):
+        return {k: _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [_plain(x) for x in v]
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    return v
+
+
+def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):
+    """Write robot.urdf, model.toml, truth.toml and measurements.csv to outdir."""
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    chain, truth_model, meas = synthesize(joints, truth, workdir=out, **kw)
+    sigma = kw.get("sigma", 2e-5)
+    sr = kw.get("sigma_rotation")
+    tool = kw.get("tool_frame", "tool0") if isinstance(joints, (str, Path)) else joints[-1]["child"]
+    (out / "model.toml").write_text(model_toml(fit_effects, sigma if declare_sigma and sigma > 0 else None,
+                                               tool_frame=tool, sigma_rotation=sr))
+    (out / "truth.toml").write_text(model_toml(truth, sigma if sigma > 0 else None, tool_frame=tool,
+                                               sigma_rotation=sr))
+    write_measurements(out / "measurements.csv", meas)
+    return out
+
+
+def synth_kr270(out, links=True, compensator=True, offset=None, fit_effects=None, **kw):
+    """Python face of ``stiffkit synth kr270``: the KR-270-like truth, data
+    and files in ``out`` (fit_effects default: joints only, the paper's J1)."""
+    kw.setdefault("ranges", KR270_RANGES)
+    truth = kr270_truth(links=links, compensator=compensator, offset=offset)
+    fit_effects = fit_effects if fit_effects is not None else [{"kind": "joint", "target": "all"}]
+    return write_synth(out, KR270_JOINTS, truth, fit_effects, **kw)

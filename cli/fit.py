@@ -1,0 +1,119 @@
+"""``stiffkit fit``: identify the elastostatic parameters of a robot model.
+
+Reads the model (URDF + TOML effects, contract s2) and the measured
+deflections under known wrenches (CSV, contract s3); solves the weighted
+least squares by a rank-revealing SVD (klimchik eqs. 7-9, 15-20; nonlinear
+effects by Levenberg-Marquardt); prints the residual table of klimchik
+Table 2 (MAX and RMS per axis and positional, before and after
+compensation) and every parameter with its standard error and group:
+identifiable, non-identifiable (does not affect the data) or
+semi-identifiable (only a combination with others is determined; the
+coupled sets are listed).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+
+from ..calib.compare import compare
+from ..calib.fit import fit, format_parameters, format_table, write_model
+from ..calib.measure import read_measurements
+from ..calib.plots import fit_plots
+from ..calib.reduce import format_reduction, reduce_model, reduced_model
+from ..robot.model import load_model
+
+HELP = """\
+inputs:
+  MODEL.toml   [robot] urdf/base_link/tool_frame, optional [measurements]
+               sigma_position (m), and [[effect]] tables: kind = joint | link |
+               base | tool | joint_profile | gravity_compensator | point_offset
+  MEAS.csv     config, q1..qN, fx fy fz mx my mz, [px py pz], dx dy dz, [rx ry rz]
+               (wrench at the tool-frame origin in base axes; point in tool
+               coordinates; deflection in base axes; SI units)
+
+effects (where each virtual spring acts; parameter names as printed):
+  joint             target = joint name or "all": rotation about the axis, c (rad/(N m)) -> J.c
+  link              target = link: 6x6 spring at the link's distal joint frame (before that
+                    joint's rotation); template = full (21) | beam (8, eq. 13; axis = x|y|z)
+                    | diagonal (6) -> link.cIJ, I<=J over (dx dy dz rx ry rz)
+  base / tool       6x6 spring at the base_link origin / the tool frame
+  joint_profile     c(q) = c0 + c1 cos q + c2 sin q + c3 cos 2q + c4 sin 2q
+  gravity_compensator  spring between the bodies of a joint: give a, b, beta, s0 (m, rad);
+                    identifies k_s (N/m); needs a joint effect on the same joint
+  point_offset      the measured points sit at p + r (tool frame): identifies r (m)
+  any effect with value = ... is known, not identified (contract s5)
+  [measurements] sigma_position (m) weights the rows and scales the standard errors
+  (else estimated from the residual); sigma_rotation (rad) for rx ry rz rows.
+
+outputs:
+  --json OUT.json        residuals, compensated fraction, parameters (contract s4)
+  --plots DIR            residual vectors, residual histograms, measured vs predicted
+  --write-model OUT.toml the model with every identified value (contract s5),
+                         ready for `stiffkit stiffness`
+  --compare OLD.json     side-by-side with an earlier fit
+  --reduce               model reduction M1-M5 (klimchik Table 1): report, then fit
+                         only the selected independent parameters (the others fixed
+                         at 0), so every reported parameter is identifiable
+
+example (the loop):
+  stiffkit synth kr270 --out kr270            # data with hidden effects
+  stiffkit fit kr270/model.toml kr270/measurements.csv --json j1.json
+  stiffkit diagnose kr270/model.toml kr270/measurements.csv
+  # append the suggested [[effect]] to model.toml, then
+  stiffkit fit kr270/model.toml kr270/measurements.csv --compare j1.json
+"""
+
+
+def register(sub) -> None:
+    p = sub.add_parser("fit", help="identify a robot's elastostatic parameters from measurements",
+                       description=__doc__, epilog=HELP,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("model", help="model TOML")
+    p.add_argument("measurements", help="measurement CSV")
+    p.add_argument("--json", help="write the results to this JSON file")
+    p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
+    p.add_argument("--write-model", metavar="OUT.toml", help="write the model with identified values")
+    p.add_argument("--compare", metavar="OLD.json", help="print a comparison with an earlier fit")
+    p.add_argument("--reduce", action="store_true",
+                   help="reduce the model (M1-M5), print Table 1, fit the independent subset")
+    p.add_argument("--sigma", type=float, help="override sigma_position (m)")
+    p.add_argument("--quiet", action="store_true", help="table only, no parameter list")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+
+    model = load_model(args.model)
+    meas = read_measurements(args.measurements, model.chain.dof)
+    res = fit(model, meas, sigma_position=args.sigma)
+    red = None
+    if args.reduce:
+        red = reduce_model(model, meas, sigma_position=args.sigma)
+        print(format_reduction(red))
+        print()
+        full = res
+        res = fit(reduced_model(model, red), meas, sigma_position=args.sigma)
+        print(f"reduced model: {len(res.names)} free parameters (of {len(full.names)}); the others fixed at 0")
+    print(f"model {args.model}: {len(model.effects)} effect(s), {len(res.names)} parameters; "
+          f"{meas.n} rows from {args.measurements}")
+    print(format_table(res))
+    if not args.quiet:
+        print()
+        print(format_parameters(res))
+    out = res.to_json()
+    if red is not None:
+        out["reduction"] = red.to_json()
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(out, fh, indent=1)
+        print(f"wrote {args.json}")
+    if args.plots:
+        for f in fit_plots(res, args.plots):
+            print(f"wrote {f}")
+    if args.write_model:
+        write_model(res, args.write_model)
+        print(f"wrote {args.write_model}")
+    if args.compare:
+        print()
+        print(compare(args.compare, out, names=("before", "now")))
+    return 0

@@ -1,0 +1,87 @@
+"""``stiffkit synth``: measurement data with a known truth and hidden effects.
+
+Writes robot.urdf, model.toml (the effects to identify, without values),
+truth.toml (the truth, with values) and measurements.csv into --out.
+
+ROBOT is ``kr270`` (a built-in KR-270-like 6R robot: approximate KUKA
+KR 270 R2700 datasheet dimensions; joint compliances of klimchik's
+magnitude; aluminium-tube links 2-4; a gravity compensator on A2) or a truth
+model TOML whose effects carry values (its URDF is copied).
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..calib import synth as S
+from ..errors import InputError
+from ..io.tables import parse_vector
+from ..robot.model import load_model
+
+HELP = """\
+examples:
+  stiffkit synth kr270 --out kr270                  # joints-only model.toml (the paper's J1)
+  stiffkit synth kr270 --out g --loads gravity      # forces along -z only
+  stiffkit synth kr270 --out o --offset 0.01,0,0.02 # plus an unknown marker offset
+  stiffkit synth truth.toml --out d --configs 50 --sigma 1e-5
+
+loads:   random = 2.5 kN in a random direction plus moments up to 300 N m;
+         gravity = a weight (0, 0, -F) hung 0.2 m along the tool z axis.
+markers: points on the tool (tool frame), each measured for every load.
+"""
+
+
+def register(sub) -> None:
+    p = sub.add_parser("synth", help="synthetic calibration data with a known truth",
+                       description=__doc__, epilog=HELP,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("robot", help="kr270 or a truth model TOML with values")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--configs", type=int, default=30, help="number of robot configurations")
+    p.add_argument("--loads", choices=["random", "gravity"], default="random")
+    p.add_argument("--loads-per-config", type=int, default=3)
+    p.add_argument("--force", type=float, default=2500.0, help="force magnitude (N)")
+    p.add_argument("--moment", type=float, default=300.0, help="moment bound (N m), random loads")
+    p.add_argument("--markers", type=int, default=3, choices=[1, 2, 3, 4], help="points on the tool")
+    p.add_argument("--sigma", type=float, default=2e-5, help="noise std of each coordinate (m)")
+    p.add_argument("--replicates", type=int, default=1, help="repeat each measurement (pure error)")
+    p.add_argument("--no-sigma", action="store_true", help="do not declare sigma_position in model.toml")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--no-compensator", action="store_true", help="kr270: no gravity compensator")
+    p.add_argument("--no-links", action="store_true", help="kr270: rigid links")
+    p.add_argument("--offset", help="kr270: unknown marker offset r = x,y,z (m, tool frame)")
+    p.add_argument("--fit", choices=["joints", "truth"], default="joints",
+                   help="effects of model.toml: joints only (J1) or the truth's effects")
+    p.set_defaults(func=run)
+
+
+MARKERS = [(0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2), (-0.1, -0.1, 0.22)]
+
+
+def run(args) -> int:
+
+
+    kw = dict(n_configs=args.configs, loads=args.loads, loads_per_config=args.loads_per_config,
+              markers=MARKERS[: args.markers], sigma=args.sigma, replicates=args.replicates,
+              force=args.force, moment=args.moment, seed=args.seed)
+    if args.robot == "kr270":
+        offset = parse_vector(args.offset, 3, "--offset") if args.offset else None
+        truth = S.kr270_truth(links=not args.no_links, compensator=not args.no_compensator, offset=offset)
+        joints = S.KR270_JOINTS
+        kw["ranges"] = S.KR270_RANGES
+    else:
+        path = Path(args.robot)
+        if not path.is_file():
+            raise InputError(f"{path}: no such truth model (give kr270 or a TOML with values)")
+        m = load_model(path)          # checks the file
+        truth = m.effects
+        for t in m.terms:
+            if t.free:
+                raise InputError(f"{path}: effect {t.source} on {t.target!r} has no value; a truth needs values")
+        joints = Path(m.chain.urdf)
+        kw["tool_frame"] = m.chain.tool_frame
+    fit_effects = [{"kind": "joint", "target": "all"}] if args.fit == "joints" else S.strip_values(truth)
+    out = S.write_synth(args.out, joints, truth, fit_effects, declare_sigma=not args.no_sigma, **kw)
+    n = args.configs * args.loads_per_config * args.markers * args.replicates
+    print(f"wrote {out}/robot.urdf, model.toml ({args.fit}), truth.toml, measurements.csv ({n} rows)")
+    return 0

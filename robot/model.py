@@ -1,0 +1,484 @@
+"""Robot elastostatic models: URDF + TOML effects (contract s2, s5).
+
+A model file names the robot and lists ``[[effect]]`` tables; each effect
+expands into *terms* (``joint`` with ``target = "all"`` becomes one term per
+actuated joint), each term owns parameters (free, to identify, or known
+when the table carries a value) and a virtual spring of the chain.
+"""
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .._core import calib as core
+from .urdf import Chain, load_chain
+
+KINDS = ("joint", "link", "base", "tool", "joint_profile", "gravity_compensator", "point_offset")
+TEMPLATES = ("full", "beam", "diagonal")
+AXES = "xyz"
+SPRING_JOINT, SPRING_FRAME, SPRING_BASE, SPRING_TOOL = 1, 2, 3, 4
+
+#: element (a, b), 0-based a <= b, of the 21 upper-triangle entries (core order)
+SYM = [(a, b) for a in range(6) for b in range(a, 6)]
+SYM_INDEX = {ab: k for k, ab in enumerate(SYM)}
+
+
+def template_elements(template: str, axis: int = 0) -> list[int]:
+    """Indices (0..20) of the elements a template keeps (M1, M2 / eq. 13).
+
+    ``beam`` along axis a (0, 1, 2): the six diagonal elements plus the two
+    bending couplings (translation along b with rotation about c, and c with
+    b), b, c the transverse axes in cyclic order.
+    """
+    if template == "full":
+        return list(range(21))
+    if template == "diagonal":
+        return [SYM_INDEX[(i, i)] for i in range(6)]
+    if template == "beam":
+        b, c = (axis + 1) % 3, (axis + 2) % 3
+        pairs = [(i, i) for i in range(6)] + [(b, 3 + c), (c, 3 + b)]
+        return sorted(SYM_INDEX[tuple(sorted(p))] for p in pairs)
+    raise InputError(f"unknown template {template!r}; choose one of {', '.join(TEMPLATES)}")
+
+
+def rpy_matrix(rpy) -> np.ndarray:
+    """URDF rpy: R = Rz(y) Ry(p) Rx(r)."""
+    r, p, y = (float(v) for v in rpy)
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+@dataclass
+class Term:
+    """One expanded effect: a spring (or a point offset) with its parameters.
+
+    kind: joint | joint_profile | gravity_compensator | six (link/base/tool)
+          | point_offset
+    """
+
+    kind: str
+    target: str
+    effect: int                      # index of the [[effect]] table
+    names: list[str]
+    spring: tuple[int, int] | None   # (stype, 1-based joint index) or None
+    elements: list[int] = field(default_factory=list)   # six: kept elements
+    value: np.ndarray | None = None  # known values of the parameters
+    joint: int = -1                  # 0-based chain index (joint kinds)
+    qcol: int = -1                   # 0-based q column (joint kinds)
+    geometry: dict = field(default_factory=dict)        # compensator a, b, beta, s0
+    template: str = ""
+    axis: int = 0
+    source: str = ""                 # kind as written (link/base/tool)
+
+    @property
+    def free(self) -> bool:
+        return self.value is None
+
+    @property
+    def nonlinear(self) -> bool:
+        return self.kind in ("gravity_compensator", "point_offset")
+
+
+@dataclass
+class Model:
+    """A robot (chain) and its elastostatic effects."""
+
+    chain: Chain
+    effects: list[dict]
+    terms: list[Term]
+    path: Path | None = None
+    sigma_position: float | None = None
+    sigma_rotation: float | None = None
+    robot_table: dict = field(default_factory=dict)
+
+    # -- springs --------------------------------------------------------
+    def springs(self, extra_terms=()) -> list[tuple[int, int]]:
+        """Distinct springs of the terms (and extra terms), in a stable order:
+        every actuated joint's spring first (needed by joint-type terms)."""
+        out = []
+        for t in list(self.terms) + list(extra_terms):
+            if t.spring is not None and t.spring not in out:
+                out.append(t.spring)
+        return out
+
+    @property
+    def parameter_names(self) -> list[str]:
+        return [n for t in self.terms if t.free for n in t.names]
+
+    def has(self, kind: str, target: str) -> bool:
+        return any(t.kind == kind and t.target == target for t in self.terms)
+
+    # -- evaluation with known values -----------------------------------
+    def joint_compliances(self, Q: np.ndarray, terms=None) -> dict[int, np.ndarray]:
+        """Compliance of every joint spring at postures Q (N, dof), from the
+        known values of joint, joint_profile and gravity_compensator terms:
+        {chain joint index: (N,)}."""
+        terms = self.terms if terms is None else terms
+        c = {}
+        for t in terms:
+            if t.kind in ("joint", "joint_profile"):
+                if t.value is None:
+                    raise InputError(f"effect {t.source or t.kind} on {t.target!r} has no value; "
+                                     f"identify it first (stiffkit fit --write-model)")
+                c.setdefault(t.joint, np.zeros(Q.shape[0]))
+                c[t.joint] = c[t.joint] + (t.value[0] if t.kind == "joint"
+                                           else profile_basis(Q[:, t.qcol]) @ t.value)
+        for t in terms:
+            if t.kind == "gravity_compensator":
+                if t.value is None:
+                    raise InputError(f"gravity_compensator on {t.target!r} has no k_s; identify it first")
+                h = compensator_h(Q[:, t.qcol], t.geometry)
+                c[t.joint] = c[t.joint] / (1.0 + c[t.joint] * t.value[0] * h)
+        return c
+
+    def six_values(self, terms=None) -> dict[tuple[int, int], np.ndarray]:
+        """Summed known 6x6 compliance of each 6-dof spring."""
+        terms = self.terms if terms is None else terms
+        out = {}
+        for t in terms:
+            if t.kind == "six":
+                if t.value is None:
+                    raise InputError(f"effect {t.source} on {t.target!r} has no value; "
+                                     f"identify it first (stiffkit fit --write-model)")
+                C = np.zeros((6, 6))
+                for e, v in zip(t.elements, t.value):
+                    a, b = SYM[e]
+                    C[a, b] += v
+                    if a != b:
+                        C[b, a] += v
+                out[t.spring] = out.get(t.spring, np.zeros((6, 6))) + C
+        return out
+
+    def jacobians(self, q) -> dict:
+        """Jacobians of every spring of the model at posture q (dof,):
+        {(stype, joint index): (6, 1) or (6, 6)}; the tool twist per spring
+        deflection (base axes, about the tool-frame origin)."""
+        springs = self.springs()
+        if not springs:
+            return {}
+        q = np.asarray(q, dtype=float).reshape(-1)
+        if q.shape != (self.chain.dof,):
+            raise InputError(f"posture must have {self.chain.dof} values, got {q.size}")
+        stype = np.array([s[0] for s in springs], np.int32)
+        sidx = np.array([s[1] for s in springs], np.int32)
+        nd = int(sum(1 if s == SPRING_JOINT else 6 for s in stype))
+        jac = core.spring_jacobians(nd, self.chain.core_arrays(), stype=stype, sidx=sidx, q=q)
+        out, col = {}, 0
+        for sp in springs:
+            n = 1 if sp[0] == SPRING_JOINT else 6
+            out[sp] = jac[:, col:col + n].copy()
+            col += n
+        return out
+
+    def tool_compliance(self, Q, return_stiffness: bool = False):
+        """Tool-frame compliance (N, 6, 6) at postures Q (N, dof): base axes,
+        about the tool-frame origin, sum_i J_i C_i J_i^T, one core call.
+
+        With ``return_stiffness`` also (K (N,6,6), rank (N,), ok (N,) bool):
+        K = C^-1 where C is positive definite, else zeros and ok False.
+        """
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        if Q.ndim != 2 or Q.shape[1] != self.chain.dof:
+            raise InputError(f"postures must have shape (N, {self.chain.dof}), got {np.shape(Q)}")
+        if not np.all(np.isfinite(Q)):
+            raise InputError("postures contain NaN or Inf")
+        jc = self.joint_compliances(Q)
+        six = self.six_values()
+        springs = [(SPRING_JOINT, j + 1) for j in sorted(jc)] + list(six)
+        ns = max(len(springs), 1)
+        stype = np.zeros(ns, np.int32)
+        sidx = np.zeros(ns, np.int32)
+        cs = np.zeros((6, 6, ns), order="F")
+        cj = np.zeros((ns, Q.shape[0]), order="F")
+        if not springs:   # a rigid robot: one zero base spring
+            stype[0] = SPRING_BASE
+        for s, sp in enumerate(springs):
+            stype[s], sidx[s] = sp
+            if sp[0] == SPRING_JOINT:
+                cj[s] = jc[sp[1] - 1]
+            else:
+                cs[:, :, s] = six[sp]
+        C, K, rank, kinfo = core.tool_compliance(self.chain.core_arrays(), stype=stype, sidx=sidx, cs=cs, cj=cj,
+                                                 q=np.asfortranarray(Q.T))
+        if return_stiffness:
+            return C, K, rank.astype(int), kinfo == 0
+        return C
+
+    def stiffness(self, Q):
+        """(C, K, rank, ok) at postures Q; see tool_compliance."""
+        return self.tool_compliance(Q, return_stiffness=True)
+
+    def stiffness_indices(self, Q, lscale: float | None = None):
+        """Stiffness indices kappa_t, kappa_r (N) of the tool stiffness at
+        postures Q (Taghvaeipour et al. 2010 eqs. 31-39, core/sk_indices.f90),
+        made unit-invariant with the length ``lscale`` (m; default the chain's
+        characteristic length). Returns (Indices, ok): NaN where the stiffness
+        does not exist (ok False)."""
+        from .indices import stiffness_indices_where
+        _, K, _, ok = self.stiffness(Q)
+        lscale = self.chain.characteristic_length if lscale is None else float(lscale)
+        return stiffness_indices_where(K, ok, lscale), ok
+
+
+def profile_basis(q: np.ndarray) -> np.ndarray:
+    """(N, 5): 1, cos q, sin q, cos 2q, sin 2q (joint_profile)."""
+    q = np.asarray(q, float)
+    return np.column_stack([np.ones_like(q), np.cos(q), np.sin(q), np.cos(2 * q), np.sin(2 * q)])
+
+
+def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
+    """d2V/dq2 per unit k_s of the gravity compensator (contract s2):
+    s = sqrt(a^2 + b^2 - 2ab cos phi), phi = q + beta, V = k_s (s - s0)^2 / 2
+    -> s'^2 + (s - s0) s''."""
+    a, b, beta, s0 = g["a"], g["b"], g["beta"], g["s0"]
+    phi = np.asarray(q, float) + beta
+    s = np.sqrt(a * a + b * b - 2 * a * b * np.cos(phi))
+    ds = a * b * np.sin(phi) / s
+    dds = (a * b * np.cos(phi) - ds * ds) / s
+    return ds * ds + (s - s0) * dds
+
+
+# ---------------------------------------------------------------------------
+# reading a model file
+
+def _where(path, i, table) -> str:
+    return f"{path}: [[effect]] #{i + 1} ({table.get('kind', '?')}" + \
+        (f", target {table['target']!r})" if "target" in table else ")")
+
+
+def _matrix6(v, where) -> np.ndarray:
+    try:
+        C = np.array(v, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: value must be 6 rows of 6 numbers or a JSON file name") from None
+    if C.shape != (6, 6):
+        raise InputError(f"{where}: value must be a 6x6 matrix, got shape {C.shape}")
+    if not np.all(np.isfinite(C)):
+        raise InputError(f"{where}: value contains NaN or Inf")
+    if np.abs(C - C.T).max() > 1e-9 * max(np.abs(C).max(), 1e-300):
+        raise InputError(f"{where}: value must be symmetric (max |C - C^T| = {np.abs(C - C.T).max():.3g})")
+    return 0.5 * (C + C.T)
+
+
+def _six_value(table, base_dir, where) -> np.ndarray:
+    v = table["value"]
+    if isinstance(v, str):
+        f = (base_dir / v) if not Path(v).is_absolute() else Path(v)
+        if not f.is_file():
+            raise InputError(f"{where}: value file {f} not found")
+        try:
+            data = json.loads(f.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise InputError(f"{where}: cannot read {f} as JSON ({exc})") from None
+        if "compliance" not in data:
+            raise InputError(f"{where}: {f} has no key 'compliance' (expected the output of stiffkit link)")
+        C = _matrix6(data["compliance"], f"{where}: {f}")
+    else:
+        C = _matrix6(v, where)
+    if "rpy" in table:
+        rpy = table["rpy"]
+        if not (isinstance(rpy, list) and len(rpy) == 3):
+            raise InputError(f"{where}: rpy must be [r, p, y]")
+        R = rpy_matrix(rpy)
+        B = np.zeros((6, 6))
+        B[:3, :3] = R
+        B[3:, 3:] = R
+        C = B @ C @ B.T
+    return C
+
+
+def _default_axis(chain: Chain, link: str) -> int:
+    """Beam axis: the spring-frame axis closest to the segment from the
+    link's proximal joint origin to its distal one."""
+    stype, k = chain.link_spring(link)
+    if stype == SPRING_FRAME:
+        seg = chain.jrot[k - 1].T @ chain.jpos[k - 1]
+    else:
+        seg = chain.trot.T @ chain.tpos
+    if np.linalg.norm(seg) == 0:
+        return 0
+    return int(np.argmax(np.abs(seg)))
+
+
+def _number(table, key, where, positive=False) -> float:
+    if key not in table:
+        raise InputError(f"{where}: missing {key!r}")
+    try:
+        v = float(table[key])
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: {key} = {table[key]!r} is not a number") from None
+    if not math.isfinite(v) or (positive and v <= 0):
+        raise InputError(f"{where}: {key} = {v} must be {'positive and ' if positive else ''}finite")
+    return v
+
+
+#: keys an [[effect]] table may carry, per kind (a typo is an error, not a silent default)
+KEYS = {
+    "joint": {"target", "value"},
+    "joint_profile": {"target", "value"},
+    "gravity_compensator": {"target", "a", "b", "beta", "s0", "k_s"},
+    "link": {"target", "template", "axis", "value", "rpy"},
+    "base": {"target", "template", "axis", "value", "rpy"},
+    "tool": {"target", "template", "axis", "value", "rpy"},
+    "point_offset": {"target", "r"},
+}
+
+
+def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path(".")) -> list[Term]:
+    """Terms of one [[effect]] table (raises InputError naming the table)."""
+    where = _where(path, i, table)
+    kind = table.get("kind")
+    if kind not in KINDS:
+        raise InputError(f"{where}: unknown kind {kind!r}; choose one of {', '.join(KINDS)}")
+    unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
+    if unknown:
+        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} for kind {kind!r} "
+                         f"(allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)")
+    target = table.get("target", "all" if kind == "joint" else "")
+    terms = []
+    if kind in ("joint", "joint_profile", "gravity_compensator"):
+        if kind == "joint" and target == "all":
+            joints = chain.actuated
+            if "value" in table and not isinstance(table["value"], (int, float)):
+                raise InputError(f"{where}: with target = 'all' the value must be one number")
+        else:
+            if not target:
+                raise InputError(f"{where}: missing target (a joint name)")
+            k = chain.joint_index(target) if target in chain.joint_names else None
+            if k is None:
+                raise InputError(f"{where}: unknown joint {target!r}; actuated joints: "
+                                 f"{', '.join(chain.actuated)}")
+            if chain.qidx[k] == 0:
+                raise InputError(f"{where}: joint {target!r} is fixed; {kind} needs an actuated joint")
+            joints = [target]
+        for jn in joints:
+            k = chain.joint_index(jn)
+            t = Term(kind=kind, target=jn, effect=i, names=[], spring=(SPRING_JOINT, k + 1), joint=k,
+                     qcol=int(chain.qidx[k]) - 1, source=kind)
+            if kind == "joint":
+                t.names = [f"{jn}.c"]
+                if "value" in table:
+                    t.value = np.array([_number(table, "value", where)])
+            elif kind == "joint_profile":
+                t.names = [f"{jn}.c{m}" for m in range(5)]
+                if "value" in table:
+                    v = np.asarray(table["value"], dtype=float)
+                    if v.shape != (5,) or not np.all(np.isfinite(v)):
+                        raise InputError(f"{where}: value must be [c0, c1, c2, c3, c4]")
+                    t.value = v
+            else:
+                t.names = [f"{jn}.k_s"]
+                t.geometry = {key: _number(table, key, where, positive=key in ("a", "b"))
+                              for key in ("a", "b", "beta", "s0")}
+                if "k_s" in table:
+                    t.value = np.array([_number(table, "k_s", where)])
+            terms.append(t)
+    elif kind in ("link", "base", "tool"):
+        if kind == "link":
+            if not target:
+                raise InputError(f"{where}: missing target (a link name)")
+            if target not in chain.links:
+                raise InputError(f"{where}: unknown link {target!r}; links of the chain: "
+                                 f"{', '.join(chain.links)}")
+            spring = chain.link_spring(target)
+            name = target
+        elif kind == "base":
+            spring, name = (SPRING_BASE, 0), "base"
+        else:
+            spring, name = (SPRING_TOOL, 0), "tool"
+        template = table.get("template", "full")
+        if template not in TEMPLATES:
+            raise InputError(f"{where}: unknown template {template!r}; choose one of {', '.join(TEMPLATES)}")
+        if "axis" in table:
+            if table["axis"] not in ("x", "y", "z"):
+                raise InputError(f"{where}: axis must be 'x', 'y' or 'z'")
+            axis = AXES.index(table["axis"])
+        else:
+            axis = _default_axis(chain, target) if kind == "link" else 2
+        t = Term(kind="six", target=name, effect=i, names=[], spring=spring, template=template,
+                 axis=axis, source=kind)
+        if "value" in table:
+            C = _six_value(table, base_dir, where)
+            t.elements = list(range(21))
+            t.value = np.array([C[a, b] for a, b in SYM])
+        else:
+            t.elements = template_elements(template, axis)
+        t.names = [f"{name}.c{SYM[e][0] + 1}{SYM[e][1] + 1}" for e in t.elements]
+        terms.append(t)
+    else:  # point_offset
+        t = Term(kind="point_offset", target="tool", effect=i, spring=None,
+                 names=["point_offset.rx", "point_offset.ry", "point_offset.rz"], source=kind)
+        if "r" in table:
+            v = np.asarray(table["r"], dtype=float)
+            if v.shape != (3,) or not np.all(np.isfinite(v)):
+                raise InputError(f"{where}: r must be [x, y, z] (m)")
+            t.value = v
+        terms.append(t)
+    return terms
+
+
+def check_terms(terms: list[Term], where: str) -> None:
+    comp = [t for t in terms if t.kind == "gravity_compensator"]
+    for t in comp:
+        if not any(u.kind == "joint" and u.joint == t.joint for u in terms):
+            raise InputError(f"{where}: gravity_compensator on {t.target!r} needs a 'joint' effect on the "
+                             f"same joint (its compliance c_j)")
+    if sum(t.kind == "point_offset" for t in terms) > 1:
+        raise InputError(f"{where}: more than one point_offset effect")
+
+
+def load_model(path) -> Model:
+    """Read a model TOML (contract s2, s5) and its URDF.
+
+    Returns a :class:`Model`; ``model.tool_compliance(Q)`` evaluates a model
+    whose effects all carry values.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such model file")
+    try:
+        doc = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    robot = doc.get("robot")
+    if not isinstance(robot, dict) or "urdf" not in robot:
+        raise InputError(f"{path}: missing [robot] table with urdf = \"robot.urdf\"")
+    base_dir = path.parent
+    urdf = Path(robot["urdf"])
+    urdf = urdf if urdf.is_absolute() else base_dir / urdf
+    chain = load_chain(urdf, robot.get("base_link", "base_link"), robot.get("tool_frame", "tool0"))
+    meas = doc.get("measurements", {})
+    sig_p = meas.get("sigma_position")
+    sig_r = meas.get("sigma_rotation")
+    for key, v in (("sigma_position", sig_p), ("sigma_rotation", sig_r)):
+        if v is not None and not (isinstance(v, (int, float)) and v > 0 and math.isfinite(v)):
+            raise InputError(f"{path}: [measurements] {key} = {v!r} must be a positive number (m or rad)")
+    effects = doc.get("effect", [])
+    if not isinstance(effects, list):
+        raise InputError(f"{path}: 'effect' must be an array of tables [[effect]]")
+    terms = []
+    for i, table in enumerate(effects):
+        terms += expand_effect(chain, table, i, path, base_dir)
+    check_terms(terms, str(path))
+    return Model(chain=chain, effects=effects, terms=terms, path=path,
+                 sigma_position=None if sig_p is None else float(sig_p),
+                 sigma_rotation=None if sig_r is None else float(sig_r), robot_table=robot)
+
+
+def model_from_tables(chain: Chain, effects: list[dict], sigma_position=None, sigma_rotation=None,
+                      where="model") -> Model:
+    """A Model from a chain and effect tables (Python API, synth, diagnosis)."""
+    terms = []
+    for i, table in enumerate(effects):
+        terms += expand_effect(chain, table, i, where)
+    check_terms(terms, where)
+    return Model(chain=chain, effects=list(effects), terms=terms, sigma_position=sigma_position,
+                 sigma_rotation=sigma_rotation)

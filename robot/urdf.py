@@ -1,0 +1,239 @@
+"""A serial chain read from a URDF (parsed by yourdfpy), as the arrays the core wants.
+
+Convention (contract s1): a child frame is ``T_parent * T(origin xyz rpy) *
+Rot(axis, q)``. Fixed joints are kept in the chain (they carry the frames
+of the link springs); revolute (and continuous) joints are the actuated
+ones, numbered q1..qN along the chain.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._core import calib as core
+from ..errors import InputError
+
+ACTUATED = ("revolute", "continuous")
+
+
+@dataclass
+class Chain:
+    """Joints from ``base_link`` to ``tool_frame``.
+
+    Attributes
+    ----------
+    joint_names, joint_types : every joint of the chain (fixed included)
+    parents, children : their parent / child link names
+    jrot (nj, 3, 3), jpos (nj, 3) : origin rotation and translation of each
+        joint in its parent frame
+    jaxis (nj, 3) : unit axis in the joint frame (zero for fixed joints)
+    qidx (nj,) : 1-based index of the joint coordinate, 0 for fixed
+    trot, tpos : tool frame in the last child frame (identity: the tool
+        frame is the last link of the chain)
+    """
+
+    joint_names: list[str]
+    joint_types: list[str]
+    parents: list[str]
+    children: list[str]
+    jrot: np.ndarray
+    jpos: np.ndarray
+    jaxis: np.ndarray
+    qidx: np.ndarray
+    base_link: str
+    tool_frame: str
+    urdf: str = ""
+    trot: np.ndarray = field(default_factory=lambda: np.eye(3))
+    tpos: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @property
+    def dof(self) -> int:
+        return int((self.qidx > 0).sum())
+
+    @property
+    def actuated(self) -> list[str]:
+        """Names of the actuated joints in q order."""
+        return [n for n, k in zip(self.joint_names, self.qidx) if k > 0]
+
+    @property
+    def links(self) -> list[str]:
+        """Links of the chain from base_link to the tool frame."""
+        return [self.base_link] + list(self.children)
+
+    @property
+    def characteristic_length(self) -> float:
+        """The chain's length scale (m): the sum of the joint-origin offsets
+        and the tool offset along the chain, an upper bound of the reach that
+        does not depend on the posture. The default length of the stiffness
+        indices (it scales with the robot, so the indices do not depend on
+        the unit of length)."""
+        total = float(np.linalg.norm(self.jpos, axis=1).sum() + np.linalg.norm(self.tpos))
+        return total if total > 0 else 1.0
+
+    def joint_index(self, name: str) -> int:
+        """0-based index in the chain of the joint called ``name``."""
+        try:
+            return self.joint_names.index(name)
+        except ValueError:
+            raise InputError(f"unknown joint {name!r}; the chain {self.base_link} -> {self.tool_frame} "
+                             f"has joints {', '.join(self.joint_names)}") from None
+
+    def link_spring(self, link: str) -> tuple[int, int]:
+        """(stype, 1-based joint index) of the 6-dof spring of ``link``: at
+        the frame of the joint whose parent is this link (before its
+        rotation); for the last link, the tool frame (stype 4)."""
+        if link not in self.links:
+            raise InputError(f"unknown link {link!r}; the chain {self.base_link} -> {self.tool_frame} "
+                             f"has links {', '.join(self.links)}")
+        if link in self.parents:
+            return 2, self.parents.index(link) + 1
+        return 4, 0
+
+    def is_tool_spring(self, link: str) -> bool:
+        """True when the spring of ``link`` sits at the tool frame (the last
+        link, or the parent of a last fixed joint with the tool at its
+        frame): then it is the ``tool`` spring."""
+        stype, k = self.link_spring(link)
+        if stype == 4:
+            return True
+        return (k == len(self.joint_names) and self.qidx[k - 1] == 0
+                and np.allclose(self.trot, np.eye(3)) and not np.any(self.tpos))
+
+    def core_arrays(self) -> dict:
+        """The chain as Fortran-ordered arrays for the core."""
+        nj = len(self.joint_names)
+        return dict(
+            jrot=np.asfortranarray(np.transpose(self.jrot, (1, 2, 0))) if nj else np.zeros((3, 3, 1), order="F"),
+            jpos=np.asfortranarray(self.jpos.T) if nj else np.zeros((3, 1), order="F"),
+            jaxis=np.asfortranarray(self.jaxis.T) if nj else np.zeros((3, 1), order="F"),
+            qidx=np.asarray(self.qidx, dtype=np.int32) if nj else np.zeros(1, np.int32),
+            trot=np.asfortranarray(self.trot), tpos=np.asarray(self.tpos, float))
+
+    def poses(self, Q) -> dict:
+        """Frames of the chain at postures Q (N, dof), computed by the core's
+        forward kinematics (sk_chain, one call): ``rf`` (N, nj, 3, 3), ``pf``
+        (N, nj, 3) every joint frame F_k before its rotation, ``rt`` (N, 3, 3),
+        ``pt`` (N, 3) the tool frame; base axes and coordinates."""
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        if Q.ndim != 2 or Q.shape[1] != self.dof:
+            raise InputError(f"postures must have shape (N, {self.dof}), got {np.shape(Q)}")
+        return core.chain_poses(self.core_arrays(), np.asfortranarray(Q.T))
+
+    def forward(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """Tool frame (R (3,3), p (3,)) at posture q (the core's forward
+        kinematics, as every other pose of the chain)."""
+        P = self.poses(np.asarray(q, float).reshape(1, -1))
+        return P["rt"][0], P["pt"][0]
+
+
+def _rot_axis(axis, angle) -> np.ndarray:
+    a = np.asarray(axis, float)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def load_chain(urdf_path, base_link: str = "base_link", tool_frame: str = "tool0") -> Chain:
+    """Parse ``urdf_path`` with yourdfpy and extract the chain base_link -> tool_frame.
+
+    Raises InputError naming the file when it cannot be read, when a link is
+    missing, when the tool frame is not reached from base_link by a chain of
+    joints, or when a joint on the chain is not revolute/continuous/fixed.
+    """
+    import yourdfpy
+
+    path = Path(urdf_path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such URDF file")
+    try:
+        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
+                                  build_collision_scene_graph=False, load_collision_meshes=False)
+    except Exception as exc:  # the library raises many kinds on malformed XML
+        raise InputError(f"{path}: cannot parse the URDF ({type(exc).__name__}: {exc})") from None
+    links = set(urdf.link_map)
+    for name, what in ((base_link, "base_link"), (tool_frame, "tool_frame")):
+        if name not in links:
+            raise InputError(f"{path}: {what} {name!r} is not a link of the URDF "
+                             f"(links: {', '.join(sorted(links))})")
+    by_child = {}
+    for j in urdf.robot.joints:
+        if j.child in by_child:
+            raise InputError(f"{path}: link {j.child!r} is the child of two joints "
+                             f"({by_child[j.child].name}, {j.name}): not a tree")
+        by_child[j.child] = j
+    # walk back from the tool frame to the base
+    joints = []
+    link = tool_frame
+    seen = set()
+    while link != base_link:
+        if link in seen:
+            raise InputError(f"{path}: the joints form a loop at link {link!r}")
+        seen.add(link)
+        j = by_child.get(link)
+        if j is None:
+            raise InputError(f"{path}: {tool_frame!r} is not connected to {base_link!r} by a chain of "
+                             f"joints (link {link!r} has no parent joint)")
+        joints.append(j)
+        link = j.parent
+    joints.reverse()
+    if not joints:
+        raise InputError(f"{path}: tool_frame {tool_frame!r} is the base link: no chain")
+    names, types, parents, children = [], [], [], []
+    jrot, jpos, jaxis, qidx = [], [], [], []
+    nq = 0
+    for j in joints:
+        if j.type not in ACTUATED + ("fixed",):
+            raise InputError(f"{path}: joint {j.name!r} on the chain is {j.type!r}; "
+                             f"only revolute, continuous and fixed joints are supported")
+        T = np.eye(4) if j.origin is None else np.asarray(j.origin, float)
+        names.append(j.name)
+        types.append(j.type)
+        parents.append(j.parent)
+        children.append(j.child)
+        jrot.append(T[:3, :3])
+        jpos.append(T[:3, 3])
+        if j.type in ACTUATED:
+            ax = np.asarray(j.axis if j.axis is not None else [1.0, 0.0, 0.0], float)
+            n = np.linalg.norm(ax)
+            if not np.isfinite(n) or n == 0:
+                raise InputError(f"{path}: joint {j.name!r} has a zero axis")
+            jaxis.append(ax / n)
+            nq += 1
+            qidx.append(nq)
+        else:
+            jaxis.append(np.zeros(3))
+            qidx.append(0)
+    if nq == 0:
+        raise InputError(f"{path}: no revolute joint between {base_link!r} and {tool_frame!r}")
+    return Chain(joint_names=names, joint_types=types, parents=parents, children=children,
+                 jrot=np.array(jrot), jpos=np.array(jpos), jaxis=np.array(jaxis),
+                 qidx=np.array(qidx, dtype=np.int32), base_link=base_link, tool_frame=tool_frame,
+                 urdf=str(path))
+
+
+def urdf_text(name: str, joints: list[dict]) -> str:
+    """A URDF document for a chain: joints = [{name, type, parent, child,
+    xyz, rpy, axis}] (used by the synthetic-data generator)."""
+    links = []
+    for j in joints:
+        for ln in (j["parent"], j["child"]):
+            if ln not in links:
+                links.append(ln)
+    out = ['<?xml version="1.0"?>', f'<robot name="{name}">']
+    for ln in links:
+        out.append(f'  <link name="{ln}"/>')
+    for j in joints:
+        xyz = " ".join(f"{v:.17g}" for v in j.get("xyz", (0, 0, 0)))
+        rpy = " ".join(f"{v:.17g}" for v in j.get("rpy", (0, 0, 0)))
+        out.append(f'  <joint name="{j["name"]}" type="{j["type"]}">')
+        out.append(f'    <parent link="{j["parent"]}"/>')
+        out.append(f'    <child link="{j["child"]}"/>')
+        out.append(f'    <origin xyz="{xyz}" rpy="{rpy}"/>')
+        if j["type"] != "fixed":
+            ax = " ".join(f"{v:.17g}" for v in j.get("axis", (0, 0, 1)))
+            out.append(f'    <axis xyz="{ax}"/>')
+            out.append('    <limit lower="-6.2832" upper="6.2832" effort="1000" velocity="1"/>')
+        out.append('  </joint>')
+    out.append('</robot>')
+    return "\n".join(out) + "\n"

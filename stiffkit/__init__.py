@@ -1,0 +1,25 @@
+"""stiffkit: how stiff a robot is, and why it bends the way it does.
+
+Link stiffness from CAD (Gmsh + CalculiX + field fits), manipulator
+stiffness (generalised springs, virtual-joint models), calibration and
+diagnosis against measurements. The numbers are computed in a Fortran core
+(``core/``), wrapped by f2py (``stiffkit._core``); the subpackages follow the
+pipeline: ``meshing`` -> ``fea`` -> ``field`` -> ``robot`` -> ``springs`` /
+``calib``, and ``cli`` is the command line. The commands of the calibration
+contract are callable from Python with the same names (``fit``,
+``diagnose``, ``compare``, ``load_model``).
+"""
+from .calib import compare, diagnose, fit
+from .errors import ConvergenceError, DegenerateError, InputError, SingularError, StiffkitError
+from .field import (METHODS, Compliance, FieldFit, beam_stiffness, cantilever_compliance,
+                    compliance_from_experiments, fit_field, fit_fields, normal_quantile,
+                    section_properties)
+from .robot import load_model
+from .version import __version__
+
+__all__ = [
+    "StiffkitError", "InputError", "DegenerateError", "SingularError", "ConvergenceError",
+    "METHODS", "FieldFit", "Compliance", "fit_field", "fit_fields",
+    "compliance_from_experiments", "section_properties", "cantilever_compliance",
+    "beam_stiffness", "normal_quantile", "load_model", "fit", "diagnose", "compare", "__version__",
+]
