@@ -11,6 +11,9 @@ import math
 from pathlib import Path
 
 from . import synth as S
+from ..robot.model import load_model
+from .compare import compare
+from .measure import read_measurements
 from .diagnose import diagnose, effect_toml
 from .fit import error_stats, format_table
 from ..robot.model import model_from_tables
@@ -27,8 +30,6 @@ def calibration_demo(out="stiffkit-demo", seed: int = 1, sigma: float = 2e-5, n_
     truth = S.kr270_truth(compensator=True)
     S.write_synth(out / "kr270", S.KR270_JOINTS, truth, [{"kind": "joint", "target": "all"}], sigma=sigma,
                   n_configs=n_configs, ranges=S.KR270_RANGES, markers=MARKERS, seed=seed)
-    from .measure import read_measurements
-    from ..robot.model import load_model
 
     m0 = load_model(out / "kr270" / "model.toml")
     meas = read_measurements(out / "kr270" / "measurements.csv", m0.chain.dof)
@@ -86,7 +87,6 @@ def calibration_demo(out="stiffkit-demo", seed: int = 1, sigma: float = 2e-5, n_
         say(f"   {lab:32s}{npar:12d}{rank:6d}{st['max_position_m'] * 1e3:10.4f}{st['rms_position_m'] * 1e3:10.4f}"
             f"{100 * frac:12.1f} %")
     say(f"   noise floor sqrt(3) sigma: {floor * 1e3:.4f} mm; final verdict: {steps[-1][4].verdict}")
-    from .compare import compare
     say("\n== stiffkit compare: J1 vs the final model")
     say(compare(steps[0][4].fit.to_json(), final.to_json(), names=("J1", "final"), parameters=False))
     if plots:

@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import InputError
 from .._core import calib as core
 from .fit import FitResult, Problem, fit, identified_model
+from .fit import as_inputs
 from .measure import Measurements
 from ..robot.model import Model, expand_effect
 
@@ -173,7 +174,6 @@ def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float
         ranked best first (log p of the score test), non-identifiable
         additions; ``.to_json()`` has the contract keys.
     """
-    from .fit import as_inputs
 
     model, meas = as_inputs(model, meas)
     cands = candidate_tables(model)

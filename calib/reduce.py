@@ -13,6 +13,7 @@ rest fixed.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import copy
 
 import numpy as np
 
@@ -128,8 +129,6 @@ def reduced_model(model, red: Reduction):
     springs keep their selected elements, joint compliances not selected
     (merged into their links by M3, or fixed by M5c) are dropped, i.e. fixed
     at 0; joints under a gravity compensator and other kinds are kept whole."""
-    import copy
-
     keep = set(red.selected)
     comp = {t.joint for t in model.terms if t.kind == "gravity_compensator"}
     terms = []

@@ -1,4 +1,4 @@
-"""Synthetic calibration data with a known truth (issue 4).
+"""Synthetic calibration data with a known truth.
 
 ``synthesize`` takes a robot (URDF joint list), a truth (effect tables with
 values: joint and link compliances, joint profiles, gravity compensator,
@@ -16,13 +16,18 @@ klimchik reports, and a gravity compensator on A2.
 from __future__ import annotations
 
 import math
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
-from .measure import Measurements, write_measurements
+from ..field import cantilever_compliance, section_properties
+from ..robot.model import model_from_tables
+from ..robot.model_file import model_toml
 from ..robot.urdf import load_chain, urdf_text
+from .measure import Measurements, write_measurements
+from .problem import Problem
 
 KR270_JOINTS = [
     dict(name="joint_a1", type="revolute", parent="base_link", child="link_1", xyz=(0, 0, 0.675), axis=(0, 0, 1)),
@@ -44,20 +49,8 @@ KR270_COMPENSATOR = dict(a=0.45, b=0.12, beta=0.3, s0=0.25, k_s=5.0e7)
 
 
 def beam_compliance(length, E, nu, outer, inner) -> np.ndarray:
-    """Tip compliance of a tube cantilever along x (Euler-Bernoulli, no shear)."""
-    A = math.pi / 4 * (outer ** 2 - inner ** 2)
-    I = math.pi / 64 * (outer ** 4 - inner ** 4)
-    J = 2 * I
-    G = E / (2 * (1 + nu))
-    L = length
-    C = np.zeros((6, 6))
-    C[0, 0] = L / (E * A)
-    C[1, 1] = C[2, 2] = L ** 3 / (3 * E * I)
-    C[3, 3] = L / (G * J)
-    C[4, 4] = C[5, 5] = L / (E * I)
-    C[1, 5] = C[5, 1] = L ** 2 / (2 * E * I)
-    C[2, 4] = C[4, 2] = -L ** 2 / (2 * E * I)
-    return C
+    """Tip compliance of a tube cantilever along x (eq. 22, Euler-Bernoulli)."""
+    return cantilever_compliance(length, E, nu, section_properties("tube", [outer, inner], nu))
 
 
 def kr270_links() -> dict[str, np.ndarray]:
@@ -123,11 +116,6 @@ def synthesize(joints, truth: list[dict], n_configs: int = 30, loads: str = "ran
     ``replicates`` times (independent noise), so there are
     n_configs * loads_per_config * len(markers) * replicates rows.
     """
-    import tempfile
-
-    from .fit import Problem
-    from ..robot.model import model_from_tables
-
     rng = np.random.default_rng(seed)
     tmp = Path(workdir or tempfile.mkdtemp(prefix="stiffkit_synth_"))
     tmp.mkdir(parents=True, exist_ok=True)
@@ -174,38 +162,6 @@ def strip_values(effects: list[dict]) -> list[dict]:
             e2["template"] = "full"
         out.append(e2)
     return out
-
-
-def model_toml(effects: list[dict], sigma=None, urdf="robot.urdf", tool_frame="tool0",
-               sigma_rotation=None) -> str:
-    import tomli_w
-
-    doc = {"robot": {"urdf": urdf, "base_link": "base_link", "tool_frame": tool_frame}}
-    meas = {}
-    if sigma is not None:
-        meas["sigma_position"] = float(sigma)
-    if sigma_rotation is not None:
-        meas["sigma_rotation"] = float(sigma_rotation)
-    if meas:
-        doc["measurements"] = meas
-    return tomli_w.dumps(doc) + effects_toml(effects)
-
-
-def effects_toml(effects) -> str:
-    """[[effect]] tables, always in the appendable array-of-tables form."""
-    import tomli_w
-
-    return "".join("\n[[effect]]\n" + tomli_w.dumps(_plain(e)) for e in effects)
-
-
-def _plain(v):
-    if isinstance(v, dict):
-        return {k: _plain(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return [_plain(x) for x in v]
-    if isinstance(v, (np.floating, np.integer)):
-        return v.item()
-    return v
 
 
 def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):

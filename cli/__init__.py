@@ -2,6 +2,6 @@
 
 Each module parses its arguments (``register``) and calls its stage
 (``run``); the numbers, tables, plots and files come from the stage."""
-from .main import build_parser, main
+from .app import build_parser, main
 
 __all__ = ["main", "build_parser"]

@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import InputError
 from .._core import calib as core
 from .urdf import Chain, load_chain
+from .indices import stiffness_indices_where
 
 KINDS = ("joint", "link", "base", "tool", "joint_profile", "gravity_compensator", "point_offset")
 TEMPLATES = ("full", "beam", "diagonal")
@@ -222,7 +223,6 @@ class Model:
         made unit-invariant with the length ``lscale`` (m; default the chain's
         characteristic length). Returns (Indices, ok): NaN where the stiffness
         does not exist (ok False)."""
-        from .indices import stiffness_indices_where
         _, K, _, ok = self.stiffness(Q)
         lscale = self.chain.characteristic_length if lscale is None else float(lscale)
         return stiffness_indices_where(K, ok, lscale), ok

@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..robot.model import SPRING_BASE, SPRING_FRAME, SPRING_JOINT
 from .tree import Joint, Spring, TreeResult, evaluate, series
 
 __all__ = ["serial_vjm", "model_tree", "model_vjm"]
@@ -82,7 +83,6 @@ def model_tree(model, Q):
     model.tool_compliance(Q). Joint compliances must not depend on the
     posture here (joint_profile / gravity_compensator: use the model).
     """
-    from ..robot.model import SPRING_BASE, SPRING_FRAME, SPRING_JOINT
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     chain = model.chain
     poses = chain.poses(Q)
