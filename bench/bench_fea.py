@@ -18,6 +18,7 @@
     python bench/bench_fea.py lengths    # also beams of 250 and 500 mm at 2 mm: which
                                          # errors come from the mesh, which from the clamp
 """
+
 from __future__ import annotations
 
 import concurrent.futures as cf
@@ -43,11 +44,14 @@ def _timed_run(cfg: dict, cache: str):
     return r, time.perf_counter() - t0
 
 
-def best_setting(size: float, cache: str, routes=("matrix", "ccx"), optimize: str = "none",
-                 across_factor: float | None = None) -> None:
-    print(f"-- beam 1000 x 10 x 10 mm, C3D10 {size:g} mm, distributing coupling, tip-face field"
-          + (f", mesh optimiser {optimize}" if optimize != "none" else "")
-          + (f", structured mesh, {across_factor * size:g} mm across" if across_factor else ""))
+def best_setting(
+    size: float, cache: str, routes=("matrix", "ccx"), optimize: str = "none", across_factor: float | None = None
+) -> None:
+    print(
+        f"-- beam 1000 x 10 x 10 mm, C3D10 {size:g} mm, distributing coupling, tip-face field"
+        + (f", mesh optimiser {optimize}" if optimize != "none" else "")
+        + (f", structured mesh, {across_factor * size:g} mm across" if across_factor else "")
+    )
     res = {}
     ctx = multiprocessing.get_context("spawn")
     for route in routes:
@@ -66,12 +70,16 @@ def best_setting(size: float, cache: str, routes=("matrix", "ccx"), optimize: st
         extra = ""
         if route == "matrix":
             t = r.solution.timing
-            extra = (f" (ccx assembly {t['ccx_assembly']:.1f} s, read {t['matrix_read']:.1f} s, "
-                     f"CHOLMOD ordering {t['ordering_s']:.1f} s + factor {t['factor_s']:.1f} s + six solves "
-                     f"{t['solve_s']:.2f} s)")
-        print(f"  route {route:6s}: {r.mesh.n_nodes} nodes, wall {wall:.1f} s (mesh {r.timing['mesh']:.1f} s, "
-              f"FEA {r.timing['fea']:.1f} s){extra}; peak memory ccx {st.get('ccx_max_rss_mb', 0):.0f} MB, "
-              f"python (incl. CHOLMOD) {st.get('python_max_rss_mb', 0):.0f} MB")
+            extra = (
+                f" (ccx assembly {t['ccx_assembly']:.1f} s, read {t['matrix_read']:.1f} s, "
+                f"CHOLMOD ordering {t['ordering_s']:.1f} s + factor {t['factor_s']:.1f} s + six solves "
+                f"{t['solve_s']:.2f} s)"
+            )
+        print(
+            f"  route {route:6s}: {r.mesh.n_nodes} nodes, wall {wall:.1f} s (mesh {r.timing['mesh']:.1f} s, "
+            f"FEA {r.timing['fea']:.1f} s){extra}; peak memory ccx {st.get('ccx_max_rss_mb', 0):.0f} MB, "
+            f"python (incl. CHOLMOD) {st.get('python_max_rss_mb', 0):.0f} MB"
+        )
         for trim in (0.0, 0.1):
             cfg2 = copy.deepcopy(cfg)
             cfg2["fit"]["trim"] = trim
@@ -79,19 +87,23 @@ def best_setting(size: float, cache: str, routes=("matrix", "ccx"), optimize: st
             err = rr.closed_form_errors()
             nz = ~np.isnan(err)
             k = int(np.nanargmax(np.abs(err)))
-            bend = np.where(np.isin(np.arange(36), [21]), np.nan, np.abs(err).ravel())   # without k44
+            bend = np.where(np.isin(np.arange(36), [21]), np.nan, np.abs(err).ravel())  # without k44
             zeros = rr.closed_form == 0
-            print(f"    trim {trim:.0%}: max error of the 10 non-zero elements {100 * np.abs(err[nz]).max():.4f} % "
-                  f"({NAMES[k]}); without torsion k44 {100 * np.nanmax(bend):.4f} %; zeros flagged "
-                  f"{int((~rr.compliance.significant & zeros).sum())}/26; sigma {rr.compliance.sigma:.2e} m")
+            print(
+                f"    trim {trim:.0%}: max error of the 10 non-zero elements {100 * np.abs(err[nz]).max():.4f} % "
+                f"({NAMES[k]}); without torsion k44 {100 * np.nanmax(bend):.4f} %; zeros flagged "
+                f"{int((~rr.compliance.significant & zeros).sum())}/26; sigma {rr.compliance.sigma:.2e} m"
+            )
     if len(res) < 2:
         return
     ka, kb = res["matrix"].compliance.matrix, res["ccx"].compliance.matrix
     scale = np.sqrt(np.outer(np.abs(np.diag(ka)), np.abs(np.diag(ka))))
     ta = res["matrix"].timing["mesh"] + res["matrix"].timing["fea"]
     tb = res["ccx"].timing["mesh"] + res["ccx"].timing["fea"]
-    print(f"  matrix vs ccx route: max |dk_ij| / sqrt(k_ii k_jj) = {(np.abs(ka - kb) / scale).max():.2e}; "
-          f"time ratio matrix/ccx = {ta / tb:.2f} ({ta:.1f} s vs {tb:.1f} s)")
+    print(
+        f"  matrix vs ccx route: max |dk_ij| / sqrt(k_ii k_jj) = {(np.abs(ka - kb) / scale).max():.2e}; "
+        f"time ratio matrix/ccx = {ta / tb:.2f} ({ta:.1f} s vs {tb:.1f} s)"
+    )
 
 
 def lengths(cache: str, size: float = 2.0) -> None:
@@ -105,8 +117,10 @@ def lengths(cache: str, size: float = 2.0) -> None:
         cfg["mesh"]["size"] = size
         r = run_link(parse_link(cfg, "bench beam"), cache_dir=cache)
         e = 100 * r.closed_form_errors()
-        print(f"  L = {L:6.0f} mm: k11 {e[0, 0]:+.4f} %  k22 {e[1, 1]:+.4f} %  k44 {e[3, 3]:+.4f} %  "
-              f"k55 {e[4, 4]:+.4f} %  ({r.mesh.n_nodes} nodes)")
+        print(
+            f"  L = {L:6.0f} mm: k11 {e[0, 0]:+.4f} %  k22 {e[1, 1]:+.4f} %  k44 {e[3, 3]:+.4f} %  "
+            f"k55 {e[4, 4]:+.4f} %  ({r.mesh.n_nodes} nodes)"
+        )
 
 
 def table5(sizes, cache: str, jobs: int) -> None:

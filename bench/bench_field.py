@@ -4,6 +4,7 @@ at n = 1331).
 
     python bench/bench_field.py        (or: make bench BENCH=field)
 """
+
 from __future__ import annotations
 
 import time
@@ -48,7 +49,7 @@ def rate(fn, min_time=0.4, repeats=5):
 def main():
     rng = np.random.default_rng(0)
     print(f"{'nodes':>8s} {'method':>14s} {'fits/s':>12s} {'vs numpy':>9s}")
-    for n_side, label in ((11, 1331), (47, 47**3)):
+    for n_side, _label in ((11, 1331), (47, 47**3)):
         pts = cubic_grid(10.0, 10.0 / (n_side - 1))
         d = rigid_displacements(pts, np.zeros(3), [0.1, 0.2, 0.3], elementary_rotation(np.radians(0.1)))
         d += 5e-5 * rng.standard_normal(d.shape)

@@ -8,6 +8,7 @@ Units as in the paper: k11-k33 in mm/N, k44-k66 in rad/(N mm). The parts are
 approximations of the prototype's links (no drawings in the paper), so the
 numbers show the method, not the prototype.
 """
+
 from __future__ import annotations
 
 import tempfile
@@ -20,9 +21,12 @@ from stiffkit.fea.config import load_link
 from stiffkit.fea.job import run_link
 
 ROOT = Path(__file__).resolve().parents[1] / "examples"
-LINKS = [("Foot", "orthoglide_foot.toml"), ("Parallelogram axle", "orthoglide_axle.toml"),
-         ("Parallelogram bar", "orthoglide_bar.toml")]
-SCALE = np.array([1e3, 1e3, 1e3, 1e-3, 1e-3, 1e-3])     # SI -> mm/N, rad/(N mm)
+LINKS = [
+    ("Foot", "orthoglide_foot.toml"),
+    ("Parallelogram axle", "orthoglide_axle.toml"),
+    ("Parallelogram bar", "orthoglide_bar.toml"),
+]
+SCALE = np.array([1e3, 1e3, 1e3, 1e-3, 1e-3, 1e-3])  # SI -> mm/N, rad/(N mm)
 
 
 def row(name, d):
@@ -30,8 +34,7 @@ def row(name, d):
 
 
 def main():
-    print(f"  {'method':40s}" + "".join(f"{h:>11s}" for h in
-                                       ("k11 mm/N", "k22 mm/N", "k33 mm/N", "k44", "k55", "k66")))
+    print(f"  {'method':40s}" + "".join(f"{h:>11s}" for h in ("k11 mm/N", "k22 mm/N", "k33 mm/N", "k44", "k55", "k66")))
     with tempfile.TemporaryDirectory(prefix="bench-og-") as cache:
         for title, toml in LINKS:
             job = load_link(ROOT / toml)

@@ -21,6 +21,7 @@ kinematics (compared with evaluate() + pose building). Goal (issue 5):
 
     python bench/bench_springs.py [N]        (default N = 100000)
 """
+
 from __future__ import annotations
 
 import os
@@ -36,29 +37,36 @@ import numpy as np  # noqa: E402
 
 import stiffkit as sk  # noqa: E402
 from stiffkit.calib import synth as S  # noqa: E402
-from stiffkit.springs import evaluate, model_vjm  # noqa: E402
-from stiffkit.springs import smg  # noqa: E402
+from stiffkit.springs import (  # noqa: E402
+    evaluate,
+    model_vjm,
+    smg,  # noqa: E402
+)
 
 N = int(sys.argv[1]) if len(sys.argv) > 1 and sys.argv[1].isdigit() else 100_000
-N_LOOP = min(N, 2000)     # the per-posture numpy loop is timed on fewer postures
+N_LOOP = min(N, 2000)  # the per-posture numpy loop is timed on fewer postures
 URDF = Path(__file__).resolve().parent.parent / "examples" / "kr270" / "robot.urdf"
 
 # ---------------------------------------------------------------- 6R model
 #: link springs: (link, length m, outer/inner diameter m, beam axis in the spring frame)
-LINKS = [("base_link", 0.675, 0.50, 0.42, "z"), ("link_1", 0.35, 0.45, 0.38, "x"),
-         ("link_2", 1.15, 0.30, 0.26, "x"), ("link_3", 0.60, 0.22, 0.18, "x"),
-         ("link_4", 0.60, 0.18, 0.15, "x"), ("link_5", 0.10, 0.16, 0.12, "x"),
-         ("link_6", 0.115, 0.14, 0.10, "x")]
+LINKS = [
+    ("base_link", 0.675, 0.50, 0.42, "z"),
+    ("link_1", 0.35, 0.45, 0.38, "x"),
+    ("link_2", 1.15, 0.30, 0.26, "x"),
+    ("link_3", 0.60, 0.22, 0.18, "x"),
+    ("link_4", 0.60, 0.18, 0.15, "x"),
+    ("link_5", 0.10, 0.16, 0.12, "x"),
+    ("link_6", 0.115, 0.14, 0.10, "x"),
+]
 
 
 def kr270_effects() -> list[dict]:
     """6 joint + 7 link springs with values (cast aluminium tubes, E = 70 GPa)."""
-    eff = [{"kind": "joint", "target": j["name"], "value": c}
-           for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)]
+    eff = [{"kind": "joint", "target": j["name"], "value": c} for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)]
     for link, length, do, di, axis in LINKS:
         e = {"kind": "link", "target": link, "value": S.beam_compliance(length, 7.0e10, 0.33, do, di).tolist()}
         if axis == "z":
-            e["rpy"] = [0.0, -np.pi / 2, 0.0]          # beam x -> frame z
+            e["rpy"] = [0.0, -np.pi / 2, 0.0]  # beam x -> frame z
         eff.append(e)
     return eff
 
@@ -188,7 +196,7 @@ def numpy_smg_vec(P, theta, links, g):
                 a, b = A + s * wid * z, B + s * wid * z
                 u = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
                 Rl = np.stack([u, np.cross(n, u), n], axis=-1)
-                Wb = transfer_b(b - P)                       # twist at P -> twist at b
+                Wb = transfer_b(b - P)  # twist at P -> twist at b
                 Kb = rot6_b(Rl) @ kloc @ np.swapaxes(rot6_b(Rl), -1, -2)
                 Kb = np.swapaxes(Wb, -1, -2) @ Kb @ Wb
                 xi = np.concatenate([np.cross(n, P - a), n], axis=1)
@@ -206,6 +214,7 @@ class _CoreTimer:
 
     def __init__(self):
         from stiffkit.springs import tree
+
         self.mod, self.orig, self.t = tree._springs, tree._springs.sk_spring_tree, 0.0
 
     def __enter__(self):
@@ -214,6 +223,7 @@ class _CoreTimer:
             out = self.orig(*a)
             self.t = time.perf_counter() - t0
             return out
+
         self.mod.sk_spring_tree = timed
         return self
 
@@ -257,11 +267,15 @@ def main():
     errl = np.abs(C[:N_LOOP] - Cl).max() / np.abs(Cl).max()
     errk = np.max(np.abs(K - Kv).max(axis=(1, 2)) / np.abs(Kv).max(axis=(1, 2)))
     errt = np.abs(res.compliance - C).max() / np.abs(C).max()
-    print(f"  agreement: compliance core vs numpy {err:.1e} (vectorised), {errl:.1e} (loop); stiffness "
-          f"{errk:.1e}; chain vs spring tree {errt:.1e} (relative); rank 6 at {np.mean(ok) * 100:.1f} %")
-    print(f"  speed-up of tool_compliance: x{r_c / r_loop:.0f} vs numpy loop, x{r_c / r_vec:.1f} vs numpy "
-          f"vectorised; goal >= 1e5 postures/s: {'met' if r_c >= 1e5 else 'NOT met'} ({r_c:.3g}/s), "
-          f">= 50x numpy loop: {'met' if r_c / r_loop >= 50 else 'NOT met'}")
+    print(
+        f"  agreement: compliance core vs numpy {err:.1e} (vectorised), {errl:.1e} (loop); stiffness "
+        f"{errk:.1e}; chain vs spring tree {errt:.1e} (relative); rank 6 at {np.mean(ok) * 100:.1f} %"
+    )
+    print(
+        f"  speed-up of tool_compliance: x{r_c / r_loop:.0f} vs numpy loop, x{r_c / r_vec:.1f} vs numpy "
+        f"vectorised; goal >= 1e5 postures/s: {'met' if r_c >= 1e5 else 'NOT met'} ({r_c:.3g}/s), "
+        f">= 50x numpy loop: {'met' if r_c / r_loop >= 50 else 'NOT met'}"
+    )
     print(f"  with K and rank (stiffness): {r_core:.3g}/s, x{r_core / r_loop:.0f} vs numpy loop")
 
     g = smg.SMGGeometry()
@@ -274,11 +288,11 @@ def main():
     row("Fortran core call alone", N, ct.t)
     r_core = row("evaluate() on prebuilt poses (one core call)", N, t_core)
     row("evaluate() + Python pose building", N, t_core + t_build)
-    r_core = N / (t_core + t_build)          # numpy below does its own inverse kinematics
+    r_core = N / (t_core + t_build)  # numpy below does its own inverse kinematics
     t_vec, Kv = timeit(lambda: numpy_smg_vec(P, theta, sl, g), 1)
     r_vec = row("numpy vectorised (eqs. 22-30, with IK)", N, t_vec, r_core)
     m = min(N, N_LOOP)
-    t_loop, _ = timeit(lambda: [numpy_smg_vec(P[i:i + 1], theta[i:i + 1], sl, g) for i in range(m)], 1)
+    t_loop, _ = timeit(lambda: [numpy_smg_vec(P[i : i + 1], theta[i : i + 1], sl, g) for i in range(m)], 1)
     r_loop = row("numpy loop over postures (eqs. 22-30, with IK)", m, t_loop, r_core)
     err = np.max(np.abs(res.stiffness - Kv).max(axis=(1, 2)) / np.abs(Kv).max(axis=(1, 2)))
     print(f"  agreement core vs numpy eqs. 22-30: stiffness {err:.1e} (relative)")

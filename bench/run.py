@@ -4,6 +4,7 @@ Each script prints its own table; figures go into the README's results
 section with the command that reproduces them (`make bench` or
 `python bench/bench_<name>.py`).
 """
+
 from __future__ import annotations
 
 import runpy

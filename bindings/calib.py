@@ -5,6 +5,7 @@ bases, weighted least squares, score tests and tail probabilities.
 A chain is passed as the dict of Fortran-ordered arrays that
 ``stiffkit.robot.Chain.core_arrays()`` returns (jrot, jpos, jaxis, qidx,
 trot, tpos)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,29 +14,45 @@ from . import _calib
 from .errors import check
 
 
-def tool_compliance(chain: dict, stype: np.ndarray, sidx: np.ndarray, cs: np.ndarray, cj: np.ndarray,
-                    q: np.ndarray) -> tuple:
+def tool_compliance(
+    chain: dict, stype: np.ndarray, sidx: np.ndarray, cs: np.ndarray, cj: np.ndarray, q: np.ndarray
+) -> tuple:
     """Tool compliance and stiffness at postures q (ndof, N) Fortran-ordered.
 
     Returns (C (N,6,6), K (N,6,6), rank (N,), kinfo (N,))."""
     c, k, rank, kinfo, info = _calib.sk_tool_compliance(**chain, stype=stype, sidx=sidx, cs=cs, cj=cj, q=q)
-    check(info, "tool_compliance (sk_tool_compliance)",
-          {6: "the chain or spring description is inconsistent (axis not unit, bad index)"})
-    return (np.ascontiguousarray(np.transpose(c, (2, 0, 1))), np.ascontiguousarray(np.transpose(k, (2, 0, 1))),
-            rank, kinfo)
+    check(
+        info,
+        "tool_compliance (sk_tool_compliance)",
+        {6: "the chain or spring description is inconsistent (axis not unit, bad index)"},
+    )
+    return (
+        np.ascontiguousarray(np.transpose(c, (2, 0, 1))),
+        np.ascontiguousarray(np.transpose(k, (2, 0, 1))),
+        rank,
+        kinfo,
+    )
 
 
 def chain_poses(chain: dict, q: np.ndarray) -> dict[str, np.ndarray]:
     """Frames at postures q (ndof, N): rf (N, nj, 3, 3), pf (N, nj, 3), rt (N, 3, 3), pt (N, 3)."""
     rf, pf, rt, pt, info = _calib.sk_chain_poses(**chain, q=q)
-    check(info, "chain poses (sk_chain_poses)",
-          {2: "postures contain NaN or Inf", 6: "the chain description is inconsistent"})
-    return {"rf": np.transpose(rf, (3, 2, 0, 1)), "pf": np.transpose(pf, (2, 1, 0)),
-            "rt": np.transpose(rt, (2, 0, 1)), "pt": pt.T.copy()}
+    check(
+        info,
+        "chain poses (sk_chain_poses)",
+        {2: "postures contain NaN or Inf", 6: "the chain description is inconsistent"},
+    )
+    return {
+        "rf": np.transpose(rf, (3, 2, 0, 1)),
+        "pf": np.transpose(pf, (2, 1, 0)),
+        "rt": np.transpose(rt, (2, 0, 1)),
+        "pt": pt.T.copy(),
+    }
 
 
-def spring_basis(nb: int, chain: dict, stype: np.ndarray, sidx: np.ndarray, q: np.ndarray,
-                 w: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def spring_basis(
+    nb: int, chain: dict, stype: np.ndarray, sidx: np.ndarray, q: np.ndarray, w: np.ndarray, p: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Observation basis B (6, n, nb) of every spring and the tool rotations (n, 3, 3)."""
     b, rt, info = _calib.sk_spring_basis(nb, **chain, stype=stype, sidx=sidx, q=q, w=w, p=p)
     check(info, "observation basis (sk_spring_basis)")
@@ -58,12 +75,14 @@ def wls(a: np.ndarray, y: np.ndarray, rcond: float, gtol: float) -> tuple:
     return theta, stdu, s, v, int(rank), group, res
 
 
-def score(a: np.ndarray, r: np.ndarray, z: np.ndarray, cstart: np.ndarray, rcond: float,
-          ztol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def score(
+    a: np.ndarray, r: np.ndarray, z: np.ndarray, cstart: np.ndarray, rcond: float, ztol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Score statistics, degrees of freedom and projected ranks of candidate
     column blocks z[:, cstart[c]-1 : cstart[c+1]-1] against the model a."""
-    stat, dof, pr, info = _calib.sk_score(np.asfortranarray(a), r, np.asfortranarray(z),
-                                          np.asarray(cstart, np.int32), rcond, ztol)
+    stat, dof, pr, info = _calib.sk_score(
+        np.asfortranarray(a), r, np.asfortranarray(z), np.asarray(cstart, np.int32), rcond, ztol
+    )
     check(info, "score tests (sk_score)")
     return stat, dof, pr
 

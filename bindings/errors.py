@@ -6,6 +6,7 @@ and, optionally, routine-specific explanations, so that the message says
 which routine failed and what was wrong with its input. The table below is
 checked against the Fortran and C definitions by tests/test_architecture.py.
 """
+
 from __future__ import annotations
 
 from ..errors import ConvergenceError, DegenerateError, InputError, SingularError, StiffkitError
@@ -14,8 +15,10 @@ from ..errors import ConvergenceError, DegenerateError, InputError, SingularErro
 INFO: dict[int, tuple[type[StiffkitError], str]] = {
     1: (InputError, "array sizes are too small or inconsistent"),
     2: (InputError, "the input contains NaN or Inf"),
-    3: (DegenerateError, "the geometry does not determine the answer "
-                         "(nodes collinear or coincident: rotation unobservable)"),
+    3: (
+        DegenerateError,
+        "the geometry does not determine the answer (nodes collinear or coincident: rotation unobservable)",
+    ),
     4: (StiffkitError, "LAPACK reported a failure"),
     5: (SingularError, "a matrix that must be inverted is singular"),
     6: (InputError, "an argument is out of its range"),
@@ -26,8 +29,18 @@ INFO: dict[int, tuple[type[StiffkitError], str]] = {
 }
 
 #: the names of the codes in core/sk_errors.f90 (sk_err_<name>), for the table test
-NAMES: dict[int, str] = {1: "size", 2: "nonfinite", 3: "degenerate", 4: "lapack", 5: "singular",
-                         6: "argument", 7: "noconv", 8: "too_few", 31: "io", 32: "nomem"}
+NAMES: dict[int, str] = {
+    1: "size",
+    2: "nonfinite",
+    3: "degenerate",
+    4: "lapack",
+    5: "singular",
+    6: "argument",
+    7: "noconv",
+    8: "too_few",
+    31: "io",
+    32: "nomem",
+}
 
 
 def check(info: int, routine: str, details: dict[int, str] | None = None) -> None:

@@ -1,6 +1,7 @@
 """Typed wrappers of the field-fit, compliance and beam core (``_field``,
 core/sk_api_field.f90): arrays in the core's layout, ``info`` mapped to
 exceptions naming the routine."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -15,45 +16,54 @@ _FIT_DETAILS = {
 }
 
 
-def fit_fields(p: np.ndarray, d: np.ndarray, p0: np.ndarray, method: int, trim: float,
-               pooled: bool) -> tuple:
+def fit_fields(p: np.ndarray, d: np.ndarray, p0: np.ndarray, method: int, trim: float, pooled: bool) -> tuple:
     """Rigid motions of m fields: p (3, n), d (3, n, m) Fortran-ordered.
 
     Returns (t (3,m), phi (3,m), cov (6,6,m), res (3,n,m), used (n,m) bool,
     sigma (m,), niter (m,), sigma_pooled)."""
     t, phi, cov, res, used, sigma, _nused, niter, sigma_pooled, info = _field.sk_fit_fields(
-        p, d, p0, int(method), float(trim), int(bool(pooled)))
+        p, d, p0, int(method), float(trim), int(bool(pooled))
+    )
     check(info, "fit_field (sk_fit_fields)", _FIT_DETAILS)
     return t, phi, cov, res, used != 0, sigma, niter, float(sigma_pooled)
 
 
-def compliance_matrix(w: np.ndarray, x: np.ndarray, cov: np.ndarray, confidence: float,
-                      symmetrize: bool) -> tuple:
+def compliance_matrix(w: np.ndarray, x: np.ndarray, cov: np.ndarray, confidence: float, symmetrize: bool) -> tuple:
     """k = D W^+ with statistics: w (m,6), x (m,6), cov (m,6,6).
 
     Returns (k, kstd, ci, significant bool, stiffness or None, asymmetry, z)."""
     k, kstd, ci, sig, kstiff, asym, z, stiff_info, info = _field.sk_compliance_matrix(
-        np.asfortranarray(w.T), np.asfortranarray(x.T), np.asfortranarray(cov.transpose(1, 2, 0)),
-        float(confidence), int(bool(symmetrize)))
-    check(info, "compliance_from_experiments (sk_compliance_matrix)",
-          {5: "the wrenches do not span all six directions (W is rank deficient)",
-           6: f"confidence must lie in (0, 1), got {confidence}"})
+        np.asfortranarray(w.T),
+        np.asfortranarray(x.T),
+        np.asfortranarray(cov.transpose(1, 2, 0)),
+        float(confidence),
+        int(bool(symmetrize)),
+    )
+    check(
+        info,
+        "compliance_from_experiments (sk_compliance_matrix)",
+        {
+            5: "the wrenches do not span all six directions (W is rank deficient)",
+            6: f"confidence must lie in (0, 1), got {confidence}",
+        },
+    )
     return k, kstd, ci, sig.astype(bool), (kstiff if stiff_info == 0 else None), float(asym), float(z)
 
 
 def section(shape: int, dims: np.ndarray, nu: float) -> np.ndarray:
     """(A, Iy, Iz, J, kappa_y, kappa_z) of a section (shape 1 rectangle, 2 tube)."""
     props, info = _field.sk_section(int(shape), np.asarray(dims, float), float(nu))
-    check(info, "section_properties (sk_section)",
-          {6: f"section dims {list(dims)} or nu {nu} out of range "
-              "(positive sizes, inner < outer, -1 < nu < 0.5)"})
+    check(
+        info,
+        "section_properties (sk_section)",
+        {6: f"section dims {list(dims)} or nu {nu} out of range (positive sizes, inner < outer, -1 < nu < 0.5)"},
+    )
     return props
 
 
 def cantilever(length: float, e: float, g: float, props: np.ndarray, timoshenko: bool) -> np.ndarray:
     """6x6 tip compliance of a cantilever along x (eq. 22)."""
-    c, info = _field.sk_cantilever(float(length), float(e), float(g), np.asarray(props, float),
-                                   int(bool(timoshenko)))
+    c, info = _field.sk_cantilever(float(length), float(e), float(g), np.asarray(props, float), int(bool(timoshenko)))
     check(info, "cantilever_compliance (sk_cantilever)", {6: "length, E, G and section must be positive"})
     return c
 

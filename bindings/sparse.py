@@ -1,18 +1,21 @@
 """Python face of the sparse core (core/sk_cholmod.c, sk_sparse.f90,
 sk_coupling.f90): CalculiX matrix files, one CHOLMOD factorisation for
 several load cases, and the distributing coupling of a reference point."""
+
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
-from . import _sparse
 from ..errors import InputError
+from . import _sparse
 from .errors import check
 
-_IO = {31: "file missing, unreadable or malformed (expected 'row col value' / 'node.direction' lines)",
-       1: "the file's entry count changed while reading, or sizes are inconsistent"}
+_IO = {
+    31: "file missing, unreadable or malformed (expected 'row col value' / 'node.direction' lines)",
+    1: "the file's entry count changed while reading, or sizes are inconsistent",
+}
 
 
 def read_triplets(path) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -43,15 +46,24 @@ def read_dofs(path) -> tuple[np.ndarray, np.ndarray]:
 def cholmod_solve(rows, cols, vals, b) -> tuple[np.ndarray, dict]:
     """x = K^-1 b for every column of b (n, nrhs), one factorisation."""
     b = np.asfortranarray(np.atleast_2d(np.asarray(b, dtype=float).T).T)
-    x, times, lnz, info = _sparse.sk_sparse_solve(np.asarray(rows, dtype=np.int32),
-                                                  np.asarray(cols, dtype=np.int32),
-                                                  np.asarray(vals, dtype=float), b)
-    check(info, "cholmod_solve (sk_sparse_solve)",
-          {5: "the stiffness matrix is not positive definite: the part is not held "
-              "(support selects too few nodes, or the mesh has loose pieces)",
-           1: "triplets out of range (row > col or index > n)"})
-    return x, {"ordering_s": float(times[0]), "factor_s": float(times[1]),
-               "solve_s": float(times[2]), "factor_nnz": float(lnz)}
+    x, times, lnz, info = _sparse.sk_sparse_solve(
+        np.asarray(rows, dtype=np.int32), np.asarray(cols, dtype=np.int32), np.asarray(vals, dtype=float), b
+    )
+    check(
+        info,
+        "cholmod_solve (sk_sparse_solve)",
+        {
+            5: "the stiffness matrix is not positive definite: the part is not held "
+            "(support selects too few nodes, or the mesh has loose pieces)",
+            1: "triplets out of range (row > col or index > n)",
+        },
+    )
+    return x, {
+        "ordering_s": float(times[0]),
+        "factor_s": float(times[1]),
+        "solve_s": float(times[2]),
+        "factor_nnz": float(lnz),
+    }
 
 
 def rigid_solve(rows, cols, vals, n: int, ceq, offsets) -> tuple[np.ndarray, np.ndarray, dict]:
@@ -61,22 +73,40 @@ def rigid_solve(rows, cols, vals, n: int, ceq, offsets) -> tuple[np.ndarray, np.
     (n, 6): every equation under the six unit wrenches, q (6, 6): the
     reference-point compliance, and timings."""
     u, q, times, lnz, info = _sparse.sk_rigid_solve(
-        int(n), np.asarray(rows, dtype=np.int32), np.asarray(cols, dtype=np.int32),
-        np.asarray(vals, dtype=float), np.asfortranarray(np.asarray(ceq, np.int32).T),
-        np.asfortranarray(np.asarray(offsets, float).T))
-    check(info, "rigid_solve (sk_rigid_solve)",
-          {5: "the rigidly coupled stiffness matrix is not positive definite: the part is not held",
-           1: "coupled equations out of range or listed twice",
-           8: "fewer than 3 coupled nodes"})
-    return u, q, {"ordering_s": float(times[0]), "factor_s": float(times[1]),
-                  "solve_s": float(times[2]), "factor_nnz": float(lnz)}
+        int(n),
+        np.asarray(rows, dtype=np.int32),
+        np.asarray(cols, dtype=np.int32),
+        np.asarray(vals, dtype=float),
+        np.asfortranarray(np.asarray(ceq, np.int32).T),
+        np.asfortranarray(np.asarray(offsets, float).T),
+    )
+    check(
+        info,
+        "rigid_solve (sk_rigid_solve)",
+        {
+            5: "the rigidly coupled stiffness matrix is not positive definite: the part is not held",
+            1: "coupled equations out of range or listed twice",
+            8: "fewer than 3 coupled nodes",
+        },
+    )
+    return (
+        u,
+        q,
+        {
+            "ordering_s": float(times[0]),
+            "factor_s": float(times[1]),
+            "solve_s": float(times[2]),
+            "factor_nnz": float(lnz),
+        },
+    )
 
 
 def face_weights(nodes: np.ndarray, face_conn: np.ndarray) -> tuple[np.ndarray, float]:
     """Weights of every node (integrals of the face shape functions over the
     faces (nf, 3|6), 1-based node numbers) and the faces' total area."""
-    w, area, info = _sparse.sk_face_weights(np.asfortranarray(np.asarray(nodes, float).T),
-                                            np.asfortranarray(np.asarray(face_conn, np.int32).T))
+    w, area, info = _sparse.sk_face_weights(
+        np.asfortranarray(np.asarray(nodes, float).T), np.asfortranarray(np.asarray(face_conn, np.int32).T)
+    )
     check(info, "face_weights (sk_face_weights)")
     return w, float(area)
 
@@ -84,17 +114,24 @@ def face_weights(nodes: np.ndarray, face_conn: np.ndarray) -> tuple[np.ndarray, 
 def distributing_loads(points: np.ndarray, weights: np.ndarray, reference) -> np.ndarray:
     """(6, nf, 3) nodal forces of the six unit wrenches at ``reference``
     spread like CalculiX's *DISTRIBUTING over ``points`` (nf, 3)."""
-    g, info = _sparse.sk_distributing_loads(np.asfortranarray(np.asarray(points, float).T),
-                                            np.asarray(weights, float), np.asarray(reference, float))
-    check(info, "distributing_loads (sk_distributing_loads)",
-          {3: "the coupled face nodes are collinear: a moment cannot be spread over them",
-           8: "fewer than 3 weighted nodes on the load face"})
+    g, info = _sparse.sk_distributing_loads(
+        np.asfortranarray(np.asarray(points, float).T), np.asarray(weights, float), np.asarray(reference, float)
+    )
+    check(
+        info,
+        "distributing_loads (sk_distributing_loads)",
+        {
+            3: "the coupled face nodes are collinear: a moment cannot be spread over them",
+            8: "fewer than 3 weighted nodes on the load face",
+        },
+    )
     return np.transpose(g, (2, 1, 0))
 
 
 def work_conjugate(g: np.ndarray, u: np.ndarray) -> np.ndarray:
     """(m, 6) reference motions G^T u of fields u (m, nf, 3), g (6, nf, 3)."""
-    x, info = _sparse.sk_work_conjugate(np.asfortranarray(np.transpose(g, (2, 1, 0))),
-                                        np.asfortranarray(np.transpose(u, (2, 1, 0))))
+    x, info = _sparse.sk_work_conjugate(
+        np.asfortranarray(np.transpose(g, (2, 1, 0))), np.asfortranarray(np.transpose(u, (2, 1, 0)))
+    )
     check(info, "work_conjugate (sk_work_conjugate)")
     return x.T

@@ -1,5 +1,6 @@
 """Typed wrappers of the generalised-spring and stiffness-index core
 (``_springs``, core/sk_api_springs.f90)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,22 +10,34 @@ from .errors import check
 
 _TREE_DETAILS = {
     6: "the tree is malformed (empty series/parallel, bad leaf index or joint type, "
-       "negative joint compliance) or lscale <= 0 or rcond outside [0, 1)",
+    "negative joint compliance) or lscale <= 0 or rcond outside [0, 1)",
     2: "a spring matrix or joint compliance contains NaN or Inf",
 }
 
 
-def spring_tree(prog: np.ndarray, lkind: np.ndarray, lmat: np.ndarray, lrot: np.ndarray,
-                lpos: np.ndarray, jtype: np.ndarray, jcomp: np.ndarray, jpassive: np.ndarray,
-                jaxis: np.ndarray, jpoint: np.ndarray, tpos: np.ndarray, trot: np.ndarray,
-                lscale: float, rcond: float) -> tuple:
+def spring_tree(
+    prog: np.ndarray,
+    lkind: np.ndarray,
+    lmat: np.ndarray,
+    lrot: np.ndarray,
+    lpos: np.ndarray,
+    jtype: np.ndarray,
+    jcomp: np.ndarray,
+    jpassive: np.ndarray,
+    jaxis: np.ndarray,
+    jpoint: np.ndarray,
+    tpos: np.ndarray,
+    trot: np.ndarray,
+    lscale: float,
+    rcond: float,
+) -> tuple:
     """Evaluate a postfix spring-tree program at np postures (sk_springs).
 
     Returns (c, k, free, nfree, rigid, nrigid, ratio) with the 6x6 arrays as
     (np, 6, 6)."""
     c, k, free, nfree, rigid, nrigid, ratio, info = _springs.sk_spring_tree(
-        prog, lkind, lmat, lrot, lpos, jtype, jcomp, jpassive, jaxis, jpoint, tpos, trot,
-        float(lscale), float(rcond))
+        prog, lkind, lmat, lrot, lpos, jtype, jcomp, jpassive, jaxis, jpoint, tpos, trot, float(lscale), float(rcond)
+    )
     check(info, "evaluate (sk_spring_tree)", _TREE_DETAILS)
     mv = lambda a: np.moveaxis(a, 2, 0)  # noqa: E731
     return mv(c), mv(k), mv(free), nfree, mv(rigid), nrigid, ratio
@@ -33,6 +46,9 @@ def spring_tree(prog: np.ndarray, lkind: np.ndarray, lmat: np.ndarray, lrot: np.
 def stiffness_indices(k: np.ndarray, lscale: float) -> tuple:
     """kappa_t, kappa_r (N,), lambda_f, lambda_n (N, 3) of N stiffness matrices (N, 6, 6)."""
     kt, kr, lf, ln, info = _springs.sk_stiffness_indices(np.moveaxis(k, 0, 2), float(lscale))
-    check(info, "stiffness_indices (sk_stiffness_indices)",
-          {6: f"lscale must be > 0, got {lscale}", 2: "the stiffness contains NaN or Inf"})
+    check(
+        info,
+        "stiffness_indices (sk_stiffness_indices)",
+        {6: f"lscale must be > 0, got {lscale}", 2: "the stiffness contains NaN or Inf"},
+    )
     return kt, kr, lf.T, ln.T

@@ -1,4 +1,5 @@
 """Side-by-side comparison of two fit results (JSON of `stiffkit fit --json`)."""
+
 from __future__ import annotations
 
 import json
@@ -38,8 +39,10 @@ def compare(a, b, names=("A", "B"), parameters: bool = True) -> str:
     row("positional MAX (mm)", A["max_position_m"], B["max_position_m"])
     row("positional RMS (mm)", A["rms_position_m"], B["rms_position_m"])
     if "compensated_fraction" in A and "compensated_fraction" in B:
-        lines.append(f"{'compensated fraction':30s}{100 * A['compensated_fraction']:>{w - 2}.1f} %"
-                     f"{100 * B['compensated_fraction']:>{w - 2}.1f} %")
+        lines.append(
+            f"{'compensated fraction':30s}{100 * A['compensated_fraction']:>{w - 2}.1f} %"
+            f"{100 * B['compensated_fraction']:>{w - 2}.1f} %"
+        )
     lines.append(f"{'parameters':30s}{len(A['parameters']):>{w}d}{len(B['parameters']):>{w}d}")
     if "rank" in A and "rank" in B:
         lines.append(f"{'rank':30s}{A['rank']:>{w}d}{B['rank']:>{w}d}")

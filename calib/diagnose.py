@@ -14,6 +14,7 @@
 3. Candidates that explain the same part of the residual (cosine of the
    explained parts above 0.99) are flagged: the data cannot tell them apart.
 """
+
 from __future__ import annotations
 
 import math
@@ -21,20 +22,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
 from .._core import calib as core
-from .fit import FitResult, Problem, fit, identified_model
-from .fit import as_inputs
-from .measure import Measurements
+from ..errors import InputError
 from ..robot.model import Model, expand_effect
+from .fit import FitResult, Problem, as_inputs, fit, identified_model
+from .measure import Measurements
 
 ALPHA = 0.01
-ZTOL = 1e-6          # a projected unit column shorter than this adds nothing
+ZTOL = 1e-6  # a projected unit column shorter than this adds nothing
 DUPLICATE_COS = 0.99
 
-HINT_COMPENSATOR = ("posture-dependent compliance of {j}: if {j} carries a gravity compensator, model it "
-                    "as kind = \"gravity_compensator\" with its geometry a, b, beta, s0 (needs a joint "
-                    "effect on {j}); joint_profile is its generic form")
+HINT_COMPENSATOR = (
+    "posture-dependent compliance of {j}: if {j} carries a gravity compensator, model it "
+    'as kind = "gravity_compensator" with its geometry a, b, beta, s0 (needs a joint '
+    "effect on {j}); joint_profile is its generic form"
+)
 
 
 @dataclass
@@ -60,10 +62,17 @@ class Candidate:
         return math.exp(self.log_p) if self.log_p > -745 else 0.0
 
     def to_json(self) -> dict:
-        d = {"kind": self.kind, "target": self.target, "statistic": self.statistic,
-             "p_value": self.p_value, "explained_fraction": self.explained_fraction,
-             "rms_after_m": self.rms_after_m, "effect": self.effect,
-             "dof": self.dof, "log10_p_value": self.log_p / math.log(10)}
+        d = {
+            "kind": self.kind,
+            "target": self.target,
+            "statistic": self.statistic,
+            "p_value": self.p_value,
+            "explained_fraction": self.explained_fraction,
+            "rms_after_m": self.rms_after_m,
+            "effect": self.effect,
+            "dof": self.dof,
+            "log10_p_value": self.log_p / math.log(10),
+        }
         if self.hint:
             d["hint"] = self.hint
         if self.indistinguishable_from:
@@ -74,12 +83,12 @@ class Candidate:
 @dataclass
 class Diagnosis:
     verdict: str
-    test: str                 # "chi2" or "lack-of-fit F"
+    test: str  # "chi2" or "lack-of-fit F"
     statistic: float
     dof: float
     log_p: float
     sigma_position: float
-    sigma_source: str         # declared | pure error
+    sigma_source: str  # declared | pure error
     fit: FitResult
     candidates: list[Candidate]
     non_identifiable: list[Candidate]
@@ -90,16 +99,24 @@ class Diagnosis:
         return math.exp(self.log_p) if self.log_p > -745 else 0.0
 
     def to_json(self) -> dict:
-        return {"verdict": self.verdict, "sigma_position_m": self.sigma_position,
-                "rms_position_m": self.fit.rms_position,
-                "candidates": [c.to_json() for c in self.candidates],
-                # extensions
-                "test": self.test, "statistic": self.statistic, "dof": self.dof,
-                "p_value": self.p_value, "log10_p_value": self.log_p / math.log(10),
-                "alpha": self.alpha, "sigma_source": self.sigma_source,
-                "noise_floor_position_m": math.sqrt(3) * self.sigma_position,
-                "non_identifiable_candidates": [{"kind": c.kind, "target": c.target, "effect": c.effect}
-                                                for c in self.non_identifiable]}
+        return {
+            "verdict": self.verdict,
+            "sigma_position_m": self.sigma_position,
+            "rms_position_m": self.fit.rms_position,
+            "candidates": [c.to_json() for c in self.candidates],
+            # extensions
+            "test": self.test,
+            "statistic": self.statistic,
+            "dof": self.dof,
+            "p_value": self.p_value,
+            "log10_p_value": self.log_p / math.log(10),
+            "alpha": self.alpha,
+            "sigma_source": self.sigma_source,
+            "noise_floor_position_m": math.sqrt(3) * self.sigma_position,
+            "non_identifiable_candidates": [
+                {"kind": c.kind, "target": c.target, "effect": c.effect} for c in self.non_identifiable
+            ],
+        }
 
 
 def candidate_tables(model: Model) -> list[tuple[dict, str]]:
@@ -116,7 +133,7 @@ def candidate_tables(model: Model) -> list[tuple[dict, str]]:
             out.append(({"kind": "joint_profile", "target": j}, HINT_COMPENSATOR.format(j=j)))
     have = {(t.source, t.target, t.template) for t in model.terms if t.kind == "six"}
     for link in ch.links:
-        if ch.is_tool_spring(link):           # its spring is the tool spring: offered as kind tool
+        if ch.is_tool_spring(link):  # its spring is the tool spring: offered as kind tool
             continue
         for tpl in ("beam", "diagonal", "full"):
             if ("link", link, tpl) not in have:
@@ -124,10 +141,12 @@ def candidate_tables(model: Model) -> list[tuple[dict, str]]:
     last = [ln for ln in ch.links if ch.is_tool_spring(ln)]
     for kind in ("base", "tool"):
         for tpl in ("diagonal", "full"):
-            if (kind, kind, tpl) not in have and not (kind == "tool" and any(
-                    ("link", ln, tpl) in have for ln in last)):
-                hint = (f"the tool spring is also the spring of link {last[0]!r} (same frame)"
-                        if kind == "tool" and last else "")
+            if (kind, kind, tpl) not in have and not (kind == "tool" and any(("link", ln, tpl) in have for ln in last)):
+                hint = (
+                    f"the tool spring is also the spring of link {last[0]!r} (same frame)"
+                    if kind == "tool" and last
+                    else ""
+                )
                 out.append(({"kind": kind, "template": tpl}, hint))
     if not any(t.kind == "point_offset" for t in model.terms):
         out.append(({"kind": "point_offset"}, ""))
@@ -139,7 +158,7 @@ def pure_error(pb: Problem, meas: Measurements) -> tuple[float, int]:
     key = np.round(np.hstack([meas.q, meas.w, meas.p]), 12)
     _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     inv = inv.reshape(-1)
-    y = pb.y[: pb.rows].T            # (n, rows), unweighted
+    y = pb.y[: pb.rows].T  # (n, rows), unweighted
     ss, dof = 0.0, 0
     for g in np.nonzero(counts > 1)[0]:
         rows = y[inv == g]
@@ -156,8 +175,7 @@ def logsf_f(f, d1, d2) -> float:
     return core.f_logsf(f, d1, d2)
 
 
-def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float = ALPHA,
-             kinds=None) -> Diagnosis:
+def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float = ALPHA, kinds=None) -> Diagnosis:
     """Fit ``model``, test its adequacy and rank the missing effects (contract s4).
 
     Parameters
@@ -197,10 +215,12 @@ def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float
     else:
         ss_pe, d_pe = pure_error(pb, meas)
         if d_pe == 0:
-            raise InputError(f"{meas.path}: no [measurements] sigma_position in the model and no "
-                             f"replicated rows (same posture, wrench and point): the noise level is "
-                             f"unknown, so adequacy cannot be tested; declare sigma_position or "
-                             f"repeat measurements")
+            raise InputError(
+                f"{meas.path}: no [measurements] sigma_position in the model and no "
+                f"replicated rows (same posture, wrench and point): the noise level is "
+                f"unknown, so adequacy cannot be tested; declare sigma_position or "
+                f"repeat measurements"
+            )
         s2 = ss_pe / d_pe
         sigma, source = math.sqrt(s2), "pure error"
         d_lof = res.dof - d_pe
@@ -211,7 +231,7 @@ def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float
             log_p = logsf_f(stat, d_lof, d_pe)
         else:
             stat, dof, log_p = 0.0, 0, 0.0
-        scale2 = s2                    # weights were 1: divide sums of squares by sigma^2
+        scale2 = s2  # weights were 1: divide sums of squares by sigma^2
     verdict = "adequate" if log_p >= math.log(alpha) else "inadequate"
 
     # candidate columns, linearised at the fit
@@ -237,8 +257,7 @@ def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float
     rpos = res.r[: 3 * npts].reshape(3, npts)
     ranked, spanned = [], []
     for c, (table, hint) in enumerate(cands):
-        cand = Candidate(kind=table["kind"], target=table.get("target", table["kind"]),
-                         effect=dict(table), hint=hint)
+        cand = Candidate(kind=table["kind"], target=table.get("target", table["kind"]), effect=dict(table), hint=hint)
         if dof_c[c] == 0:
             spanned.append(cand)
             continue
@@ -250,14 +269,14 @@ def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float
             cand.log_p = logsf_f(cand.statistic / cand.dof, cand.dof, d_pe)
         cand.explained_fraction = float(stat_c[c] / rr) if rr > 0 else 0.0
         after = (rpos - pr[: 3 * npts, c].reshape(3, npts)) / wp
-        cand.rms_after_m = float(np.sqrt(np.mean((after ** 2).sum(axis=0))))
+        cand.rms_after_m = float(np.sqrt(np.mean((after**2).sum(axis=0))))
         cand._pr = pr[:, c]
         ranked.append(cand)
     ranked.sort(key=lambda c: (c.log_p, c.dof, -c.statistic))
     # near-duplicates among the significant leaders
     lead = [c for c in ranked[:15] if c.log_p < math.log(alpha)]
     for i, a in enumerate(lead):
-        for b in lead[i + 1:]:
+        for b in lead[i + 1 :]:
             if (a.kind, a.target) == (b.kind, b.target):
                 continue
             na, nb = np.linalg.norm(a._pr), np.linalg.norm(b._pr)
@@ -266,25 +285,41 @@ def diagnose(model: Model, meas: Measurements, sigma_position=None, alpha: float
                 b.indistinguishable_from.append(a.label)
     for c in ranked:
         del c._pr
-    return Diagnosis(verdict=verdict, test=test, statistic=float(stat), dof=float(dof), log_p=float(log_p),
-                     sigma_position=sigma, sigma_source=source, fit=res, candidates=ranked,
-                     non_identifiable=spanned, alpha=alpha)
+    return Diagnosis(
+        verdict=verdict,
+        test=test,
+        statistic=float(stat),
+        dof=float(dof),
+        log_p=float(log_p),
+        sigma_position=sigma,
+        sigma_source=source,
+        fit=res,
+        candidates=ranked,
+        non_identifiable=spanned,
+        alpha=alpha,
+    )
 
 
 def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
     r = dg.fit
-    lines = [f"adequacy ({dg.test}): statistic {dg.statistic:.4g} on {dg.dof:g} dof, "
-             f"log10 p = {dg.log_p / math.log(10):.3g}  ->  {dg.verdict.upper()} (alpha {dg.alpha:g})",
-             f"noise sigma {dg.sigma_position * 1e3:.4g} mm ({dg.sigma_source}); noise floor "
-             f"sqrt(3) sigma = {math.sqrt(3) * dg.sigma_position * 1e3:.4g} mm; positional RMS now "
-             f"{r.rms_position * 1e3:.4g} mm"]
+    lines = [
+        f"adequacy ({dg.test}): statistic {dg.statistic:.4g} on {dg.dof:g} dof, "
+        f"log10 p = {dg.log_p / math.log(10):.3g}  ->  {dg.verdict.upper()} (alpha {dg.alpha:g})",
+        f"noise sigma {dg.sigma_position * 1e3:.4g} mm ({dg.sigma_source}); noise floor "
+        f"sqrt(3) sigma = {math.sqrt(3) * dg.sigma_position * 1e3:.4g} mm; positional RMS now "
+        f"{r.rms_position * 1e3:.4g} mm",
+    ]
     if dg.candidates:
         lines.append("")
-        lines.append(f"{'rank':>4s}  {'candidate':34s}{'dof':>4s}{'statistic':>12s}{'log10 p':>10s}"
-                     f"{'explains':>10s}{'RMS after, mm':>15s}")
+        lines.append(
+            f"{'rank':>4s}  {'candidate':34s}{'dof':>4s}{'statistic':>12s}{'log10 p':>10s}"
+            f"{'explains':>10s}{'RMS after, mm':>15s}"
+        )
         for i, c in enumerate(dg.candidates[:top], 1):
-            lines.append(f"{i:4d}  {c.label:34s}{c.dof:4d}{c.statistic:12.4g}{c.log_p / math.log(10):10.3g}"
-                         f"{100 * c.explained_fraction:9.1f}%{c.rms_after_m * 1e3:15.4g}")
+            lines.append(
+                f"{i:4d}  {c.label:34s}{c.dof:4d}{c.statistic:12.4g}{c.log_p / math.log(10):10.3g}"
+                f"{100 * c.explained_fraction:9.1f}%{c.rms_after_m * 1e3:15.4g}"
+            )
             if c.indistinguishable_from:
                 lines.append(f"{'':6s}the data cannot tell it apart from: {', '.join(c.indistinguishable_from)}")
         best = dg.candidates[0]
@@ -296,9 +331,10 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
                 lines.append(f"hint: {best.hint}")
     if dg.non_identifiable:
         lines.append("")
-        lines.append("non-identifiable additions (spanned by the model, or no influence on these data; "
-                     "not ranked): "
-                     + ", ".join(c.label for c in dg.non_identifiable))
+        lines.append(
+            "non-identifiable additions (spanned by the model, or no influence on these data; "
+            "not ranked): " + ", ".join(c.label for c in dg.non_identifiable)
+        )
     return "\n".join(lines)
 
 

@@ -8,6 +8,7 @@ identifiable / non-identifiable / semi-identifiable groups (M4a).
 Nonlinear effects (gravity compensator, point offset) are identified by
 Levenberg-Marquardt on top of the same linear solver.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -19,16 +20,39 @@ from ..errors import InputError
 from ..robot.model import Model, load_model
 from .measure import Measurements, read_measurements
 from .problem import Problem
-from .results import (FitResult, error_stats, format_parameters, format_table, identified_model,
-                      model_tables_with_values, write_model)
+from .results import (
+    FitResult,
+    error_stats,
+    format_parameters,
+    format_table,
+    identified_model,
+    model_tables_with_values,
+    write_model,
+)
 
-__all__ = ["fit", "solve_wls", "equilibrate", "coupling_relations", "coupling_groups", "as_inputs", "Problem",
-           "FitResult", "error_stats", "identified_model", "format_table", "format_parameters",
-           "model_tables_with_values", "write_model", "GROUP_NAMES", "RCOND", "GTOL"]
+__all__ = [
+    "fit",
+    "solve_wls",
+    "equilibrate",
+    "coupling_relations",
+    "coupling_groups",
+    "as_inputs",
+    "Problem",
+    "FitResult",
+    "error_stats",
+    "identified_model",
+    "format_table",
+    "format_parameters",
+    "model_tables_with_values",
+    "write_model",
+    "GROUP_NAMES",
+    "RCOND",
+    "GTOL",
+]
 
 GROUP_NAMES = {1: "identifiable", 2: "non-identifiable", 3: "semi-identifiable"}
-RCOND = 1e-10      # singular values below RCOND * s_max are zero (unit-norm columns)
-GTOL = 1e-6        # M4a: a row of V below this norm counts as zero
+RCOND = 1e-10  # singular values below RCOND * s_max are zero (unit-norm columns)
+GTOL = 1e-6  # M4a: a row of V below this norm counts as zero
 
 
 def equilibrate(A, nonlinear):
@@ -52,8 +76,10 @@ def solve_wls(A, b, rcond=RCOND, gtol=GTOL, scale=None):
     """Core weighted least squares (rows already weighted); ``scale``
     multiplies the columns before the core and the solution after."""
     if A.shape[0] < A.shape[1]:
-        raise InputError(f"{A.shape[0]} observations for {A.shape[1]} parameters: fewer rows than "
-                         f"parameters (add measurements or remove effects)")
+        raise InputError(
+            f"{A.shape[0]} observations for {A.shape[1]} parameters: fewer rows than "
+            f"parameters (add measurements or remove effects)"
+        )
     f = np.ones(A.shape[1]) if scale is None else scale
     theta, stdu, s, v, rank, group, res = core.wls(A * f, b, rcond, gtol)
     return theta * f, stdu * f, s, v, rank, group, res
@@ -104,8 +130,14 @@ def as_inputs(model, meas):
     return model, meas
 
 
-def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 50,
-        problem: Problem | None = None, theta0=None) -> FitResult:
+def fit(
+    model: Model,
+    meas: Measurements,
+    sigma_position=None,
+    max_iter: int = 50,
+    problem: Problem | None = None,
+    theta0=None,
+) -> FitResult:
     """Identify the free parameters of ``model`` from ``meas`` (contract s4).
 
     Parameters
@@ -132,8 +164,10 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
     npar = pb.npar
     nobs = pb.rows * meas.n
     if npar > nobs:
-        raise InputError(f"{meas.path}: {meas.n} rows give {nobs} observations for {npar} free parameters "
-                         f"({', '.join(pb.names[:8])}{', ...' if npar > 8 else ''}): fewer rows than parameters")
+        raise InputError(
+            f"{meas.path}: {meas.n} rows give {nobs} observations for {npar} free parameters "
+            f"({', '.join(pb.names[:8])}{', ...' if npar > 8 else ''}): fewer rows than parameters"
+        )
     y = pb.weighted(pb.y)
     theta = np.zeros(npar) if theta0 is None else np.array(theta0, float)
     nonlinear = any(t.free and t.nonlinear for t in pb.terms)
@@ -152,13 +186,14 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
             # compensated joints: iterate on their stiffness 1/c, in which
             # c_eff = 1 / (1/c + k_s h(q)) has a straight valley, not a curved one
             comp = {t.joint for t in pb.terms if t.kind == "gravity_compensator"}
-            inv = np.array([t.kind == "joint" and t.joint in comp for t in pb.terms if t.free
-                            for _ in t.names], dtype=bool)
+            inv = np.array(
+                [t.kind == "joint" and t.joint in comp for t in pb.terms if t.free for _ in t.names], dtype=bool
+            )
             converged = False
             for it in range(1, max_iter + 1):
                 use = inv & (theta > 0) if it > 1 else np.zeros(npar, bool)
                 Az = A.copy()
-                Az[:, use] = A[:, use] * (-theta[use] ** 2)          # d/d(1/c) = -c^2 d/dc
+                Az[:, use] = A[:, use] * (-(theta[use] ** 2))  # d/d(1/c) = -c^2 d/dc
                 if lam > 0:
                     d = np.linalg.norm(Az, axis=0)
                     Aa = np.vstack([Az, np.sqrt(lam) * np.diag(d)])
@@ -177,8 +212,9 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
                     # a relative decrease below 1e-4 is far below one unit of chi2
                     # at any noise level: stop (the noise-free case converges
                     # quadratically down to round-off first)
-                    small = cost - c2 <= 1e-4 * cost + 1e-300 or \
-                        np.all(np.abs(delta) <= 1e-10 * (np.abs(trial) + 1e-300))
+                    small = cost - c2 <= 1e-4 * cost + 1e-300 or np.all(
+                        np.abs(delta) <= 1e-10 * (np.abs(trial) + 1e-300)
+                    )
                     theta, pred, J, b, cost = trial, p2, J2, b2, c2
                     A = pb.weighted(J)
                     lam = lam / 10.0 if lam > 1e-12 else 0.0
@@ -188,14 +224,14 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
                 else:
                     lam = max(lam * 10.0, 1e-6)
                     if lam > 1e12:
-                        converged = True   # no further decrease possible
+                        converged = True  # no further decrease possible
                         break
         pred, J = pb.evaluate(theta)
         A = pb.weighted(J)
         b = y - pb.weighted(pred)
         eq = equilibrate(A, nlmask)
         _, stdu, s, v, rank, group, _ = solve_wls(A, b, scale=eq)
-        A = A * eq           # equilibrated: for the score tests of the diagnosis
+        A = A * eq  # equilibrated: for the score tests of the diagnosis
     else:
         A = np.zeros((nobs, 0))
         b = y - pb.weighted(pred)
@@ -212,8 +248,26 @@ def fit(model: Model, meas: Measurements, sigma_position=None, max_iter: int = 5
     groups = [GROUP_NAMES.get(int(g), "non-identifiable") for g in group]
     std = np.where(np.asarray(group) == 1, stdu * scale, np.nan)
     couplings = coupling_relations(names, v, rank) if npar else []
-    return FitResult(names=names, values=theta, std=std, groups=groups, rank=rank, nobs=nobs,
-                     measured=meas.d.copy(), predicted=pred[0:3].T.copy(), chi2=chi2, dof=dof,
-                     sigma=sigma, sigma_declared=pb.sigma_declared, iterations=it, converged=converged,
-                     couplings=couplings, singular_values=s, problem=pb, theta=theta, A=A, r=b,
-                     pred6=pred)
+    return FitResult(
+        names=names,
+        values=theta,
+        std=std,
+        groups=groups,
+        rank=rank,
+        nobs=nobs,
+        measured=meas.d.copy(),
+        predicted=pred[0:3].T.copy(),
+        chi2=chi2,
+        dof=dof,
+        sigma=sigma,
+        sigma_declared=pb.sigma_declared,
+        iterations=it,
+        converged=converged,
+        couplings=couplings,
+        singular_values=s,
+        problem=pb,
+        theta=theta,
+        A=A,
+        r=b,
+        pred6=pred,
+    )

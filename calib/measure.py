@@ -6,6 +6,7 @@ then labelled by line), ``q1..qN`` (rad),
 optional ``px py pz`` (m, tool frame; 0 if absent), ``dx dy dz`` (m, base
 axes) and optional ``rx ry rz`` (rad). Extra columns are ignored.
 """
+
 from __future__ import annotations
 
 import csv
@@ -27,24 +28,31 @@ ROT = ["rx", "ry", "rz"]
 class Measurements:
     """Rows of a measurement file (arrays row-aligned)."""
 
-    q: np.ndarray          # (n, dof)
-    w: np.ndarray          # (n, 6)
-    p: np.ndarray          # (n, 3)
-    d: np.ndarray          # (n, 3)
-    r: np.ndarray | None   # (n, 3) or None
+    q: np.ndarray  # (n, dof)
+    w: np.ndarray  # (n, 6)
+    p: np.ndarray  # (n, 3)
+    d: np.ndarray  # (n, 3)
+    r: np.ndarray | None  # (n, 3) or None
     config: list[str]
-    lines: list[int]       # 1-based line numbers in the file
+    lines: list[int]  # 1-based line numbers in the file
     path: str = "measurements"
 
     @property
     def n(self) -> int:
         return self.q.shape[0]
 
-    def subset(self, idx) -> "Measurements":
+    def subset(self, idx) -> Measurements:
         idx = np.asarray(idx)
-        return Measurements(self.q[idx], self.w[idx], self.p[idx], self.d[idx],
-                            None if self.r is None else self.r[idx],
-                            [self.config[i] for i in idx], [self.lines[i] for i in idx], self.path)
+        return Measurements(
+            self.q[idx],
+            self.w[idx],
+            self.p[idx],
+            self.d[idx],
+            None if self.r is None else self.r[idx],
+            [self.config[i] for i in idx],
+            [self.lines[i] for i in idx],
+            self.path,
+        )
 
 
 def read_measurements(path, dof: int) -> Measurements:
@@ -57,18 +65,22 @@ def read_measurements(path, dof: int) -> Measurements:
     if not path.is_file():
         raise InputError(f"{path}: no such measurement file")
     qcols = [f"q{i}" for i in range(1, dof + 1)]
-    with path.open(newline="", encoding="utf-8-sig") as fh:     # a spreadsheet's BOM is not a column name
+    with path.open(newline="", encoding="utf-8-sig") as fh:  # a spreadsheet's BOM is not a column name
         reader = csv.reader(fh)
         try:
             header = [h.strip() for h in next(reader)]
         except StopIteration:
-            raise InputError(f"{path}: empty file; expected a header with config, "
-                             f"{', '.join(qcols)}, {', '.join(WRENCH)}, {', '.join(DEFL)}") from None
+            raise InputError(
+                f"{path}: empty file; expected a header with config, "
+                f"{', '.join(qcols)}, {', '.join(WRENCH)}, {', '.join(DEFL)}"
+            ) from None
         required = qcols + WRENCH + DEFL
         missing = [c for c in required if c not in header]
         if missing:
-            raise InputError(f"{path}, line 1: missing column(s) {', '.join(missing)} "
-                             f"(the robot has {dof} joints; header has: {', '.join(header)})")
+            raise InputError(
+                f"{path}, line 1: missing column(s) {', '.join(missing)} "
+                f"(the robot has {dof} joints; header has: {', '.join(header)})"
+            )
         has_p = any(c in header for c in POINT)
         has_r = any(c in header for c in ROT)
         for group, name in ((POINT, "point"), (ROT, "rotation")):
@@ -88,8 +100,10 @@ def read_measurements(path, dof: int) -> Measurements:
             for c in labels:
                 i = idx[c]
                 if i >= len(row):
-                    raise InputError(f"{path}, line {lineno}: field {c!r} is missing "
-                                     f"(row has {len(row)} fields, header {len(header)})")
+                    raise InputError(
+                        f"{path}, line {lineno}: field {c!r} is missing "
+                        f"(row has {len(row)} fields, header {len(header)})"
+                    )
                 if c == "config":
                     continue
                 vals[c] = parse_number(row[i], path, lineno, c)
@@ -103,9 +117,16 @@ def read_measurements(path, dof: int) -> Measurements:
         return np.array([[r[c] for c in names] for r in rows], dtype=float)
 
     n = len(rows)
-    return Measurements(q=cols(qcols), w=cols(WRENCH), p=cols(POINT) if has_p else np.zeros((n, 3)),
-                        d=cols(DEFL), r=cols(ROT) if has_r else None, config=configs, lines=lines,
-                        path=str(path))
+    return Measurements(
+        q=cols(qcols),
+        w=cols(WRENCH),
+        p=cols(POINT) if has_p else np.zeros((n, 3)),
+        d=cols(DEFL),
+        r=cols(ROT) if has_r else None,
+        config=configs,
+        lines=lines,
+        path=str(path),
+    )
 
 
 def write_measurements(path, meas: Measurements) -> None:

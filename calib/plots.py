@@ -1,5 +1,6 @@
 """PNG figures of a fit: residual vectors per configuration, residual
 histograms per axis with the noise level, measured vs predicted."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,8 +10,10 @@ import numpy as np
 
 def _plt():
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     return plt
 
 
@@ -38,25 +41,45 @@ def fit_plots(res, outdir, label: str = "fit") -> list[str]:
     pos = point_positions(res)
     before, after = res.measured, res.residuals
     span = max(np.ptp(pos, axis=0).max(), 1e-3)
-    scale = 0.08 * span / max(np.linalg.norm(before, axis=1).max(), 1e-300)   # arrow metres per metre
+    scale = 0.08 * span / max(np.linalg.norm(before, axis=1).max(), 1e-300)  # arrow metres per metre
     rscale = 0.08 * span / max(np.linalg.norm(after, axis=1).max(), 1e-300)
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
     for ax, (i, j, name) in zip(axes, [(0, 1, "top view (x, y)"), (0, 2, "side view (x, z)")]):
         ax.scatter(pos[:, i], pos[:, j], s=8, c="k", zorder=3)
-        ax.quiver(pos[:, i], pos[:, j], before[:, i] * scale, before[:, j] * scale, angles="xy",
-                  scale_units="xy", scale=1, color="0.7", width=0.003,
-                  label=f"measured deflection (x {scale:.3g})")
-        ax.quiver(pos[:, i], pos[:, j], after[:, i] * rscale, after[:, j] * rscale, angles="xy",
-                  scale_units="xy", scale=1, color="C3", width=0.004,
-                  label=f"residual after fit (x {rscale:.3g})")
+        ax.quiver(
+            pos[:, i],
+            pos[:, j],
+            before[:, i] * scale,
+            before[:, j] * scale,
+            angles="xy",
+            scale_units="xy",
+            scale=1,
+            color="0.7",
+            width=0.003,
+            label=f"measured deflection (x {scale:.3g})",
+        )
+        ax.quiver(
+            pos[:, i],
+            pos[:, j],
+            after[:, i] * rscale,
+            after[:, j] * rscale,
+            angles="xy",
+            scale_units="xy",
+            scale=1,
+            color="C3",
+            width=0.004,
+            label=f"residual after fit (x {rscale:.3g})",
+        )
         ax.set_aspect("equal")
         ax.set_title(name)
         ax.set_xlabel("xyz"[i] + " (m)")
         ax.set_ylabel("xyz"[j] + " (m)")
     axes[0].legend(loc="best", fontsize=8)
-    fig.suptitle(f"{label}: residual vectors per configuration (max residual "
-                 f"{np.linalg.norm(after, axis=1).max() * 1e3:.3g} mm, max deflection "
-                 f"{np.linalg.norm(before, axis=1).max() * 1e3:.3g} mm)")
+    fig.suptitle(
+        f"{label}: residual vectors per configuration (max residual "
+        f"{np.linalg.norm(after, axis=1).max() * 1e3:.3g} mm, max deflection "
+        f"{np.linalg.norm(before, axis=1).max() * 1e3:.3g} mm)"
+    )
     fig.tight_layout()
     f = out / f"{label}_residual_vectors.png"
     fig.savefig(f, dpi=110)
@@ -71,12 +94,11 @@ def fit_plots(res, outdir, label: str = "fit") -> list[str]:
         if np.isfinite(sig) and sig > 0:
             s = sig * 1e3
             x = np.linspace(min(e.min(), -4 * s), max(e.max(), 4 * s), 200)
-            ax.plot(x, np.exp(-0.5 * (x / s) ** 2) / (s * np.sqrt(2 * np.pi)), "k-",
-                    label=f"noise N(0, {s:.3g} mm)")
+            ax.plot(x, np.exp(-0.5 * (x / s) ** 2) / (s * np.sqrt(2 * np.pi)), "k-", label=f"noise N(0, {s:.3g} mm)")
             ax.axvline(-s, color="k", ls=":")
             ax.axvline(s, color="k", ls=":")
             ax.legend(fontsize=8)
-        ax.set_title(f"{'xyz'[i]}: RMS {np.sqrt(np.mean(e ** 2)):.3g} mm")
+        ax.set_title(f"{'xyz'[i]}: RMS {np.sqrt(np.mean(e**2)):.3g} mm")
         ax.set_xlabel("residual (mm)")
     fig.suptitle(f"{label}: residual histograms per axis (sigma {'declared' if res.sigma_declared else 'estimated'})")
     fig.tight_layout()
@@ -146,8 +168,9 @@ def candidates_plot(dg, path, top: int = 12) -> str:
     axes[1].set_xlabel("residual explained (%)")
     for yi, c in zip(y, cands):
         if c.indistinguishable_from:
-            axes[1].text(1, yi, "cannot be told apart from " + ", ".join(c.indistinguishable_from[:2]),
-                         fontsize=6, va="center")
+            axes[1].text(
+                1, yi, "cannot be told apart from " + ", ".join(c.indistinguishable_from[:2]), fontsize=6, va="center"
+            )
     fig.suptitle(f"diagnose: {dg.verdict} (log10 p = {dg.log_p / np.log(10):.3g}); candidates best first")
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -6,6 +6,7 @@ The observation basis of every spring comes from the core in one call
 model's parameters (joint compliances, profiles, gravity compensators,
 6-dof springs, point offset).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,11 +28,9 @@ class Problem:
     per point offset.
     """
 
-    def __init__(self, model: Model, meas: Measurements, extra_terms=(), sigma_position=None,
-                 sigma_rotation=None):
+    def __init__(self, model: Model, meas: Measurements, extra_terms=(), sigma_position=None, sigma_rotation=None):
         if meas.q.shape[1] != model.chain.dof:
-            raise InputError(f"{meas.path}: rows have {meas.q.shape[1]} joint values, the robot has "
-                             f"{model.chain.dof}")
+            raise InputError(f"{meas.path}: rows have {meas.q.shape[1]} joint values, the robot has {model.chain.dof}")
         self.model = model
         self.meas = meas
         self.terms = list(model.terms)
@@ -89,10 +88,15 @@ class Problem:
         p = self.meas.p if r is None else self.meas.p + np.asarray(r, float)
         stype = np.array([s[0] for s in self.springs], np.int32)
         sidx = np.array([s[1] for s in self.springs], np.int32)
-        B, Rt = core.spring_basis(self.nb, ch.core_arrays(), stype=stype, sidx=sidx,
-                                             q=np.asfortranarray(self.meas.q.T),
-                                             w=np.asfortranarray(self.meas.w.T),
-                                             p=np.asfortranarray(p.T))
+        B, Rt = core.spring_basis(
+            self.nb,
+            ch.core_arrays(),
+            stype=stype,
+            sidx=sidx,
+            q=np.asfortranarray(self.meas.q.T),
+            w=np.asfortranarray(self.meas.w.T),
+            p=np.asfortranarray(p.T),
+        )
         out = (B, Rt)
         if len(self._cache) > 4:
             self._cache.clear()
@@ -140,8 +144,8 @@ class Problem:
                 h = compensator_h(q[:, t.qcol], t.geometry)
                 den = 1.0 + c * ks[0] * h
                 ceff = c / den
-                dc = 1.0 / den ** 2
-                dk = -c * c * h / den ** 2
+                dc = 1.0 / den**2
+                dk = -c * c * h / den**2
                 if jac and sl is not None:
                     J[:, :, sl] = (g * dk)[:, :, None]
             else:
@@ -160,7 +164,7 @@ class Problem:
     def offset_columns(pred, Rt):
         """d(point deflection)/dr (3, n, 3) = [dphi]x R_tool at the prediction
         (the point deflection is dt + dphi x R_tool (p + r))."""
-        dphi = pred[3:6].T                              # (n, 3)
+        dphi = pred[3:6].T  # (n, 3)
         out = np.empty((3, dphi.shape[0], 3))
         for i in range(3):
             out[:, :, i] = np.cross(dphi, Rt[:, :, i]).T

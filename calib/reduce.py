@@ -10,21 +10,22 @@ G3 into coupled groups, M5b/c selection of an independent subset (greedy,
 in order of physical preference: spring diagonals, couplings, joints), the
 rest fixed.
 """
+
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 import copy
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .._core import calib as core
-from .fit import coupling_groups, fit, solve_wls
 from ..robot.model import SYM
+from .fit import coupling_groups, fit, solve_wls
 
 
 @dataclass
 class Reduction:
-    rows: list[tuple[str, str, str, int]]     # (approach, step, description, parameters left)
+    rows: list[tuple[str, str, str, int]]  # (approach, step, description, parameters left)
     aggregated: list[str] = field(default_factory=list)
     g1: list[str] = field(default_factory=list)
     g2: list[str] = field(default_factory=list)
@@ -34,16 +35,21 @@ class Reduction:
     fixed: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict:
-        return {"steps": [{"approach": a, "step": s, "description": d, "parameters": n}
-                          for a, s, d, n in self.rows],
-                "aggregated": self.aggregated, "identifiable": self.g1, "non_identifiable": self.g2,
-                "semi_identifiable": self.g3, "coupled_groups": self.groups,
-                "selected": self.selected, "fixed": self.fixed}
+        return {
+            "steps": [{"approach": a, "step": s, "description": d, "parameters": n} for a, s, d, n in self.rows],
+            "aggregated": self.aggregated,
+            "identifiable": self.g1,
+            "non_identifiable": self.g2,
+            "semi_identifiable": self.g3,
+            "coupled_groups": self.groups,
+            "selected": self.selected,
+            "fixed": self.fixed,
+        }
 
 
 def _preference(name: str) -> int:
     tail = name.rsplit(".", 1)[-1]
-    if len(tail) == 3 and tail[0] == "c" and tail[1:].isdigit():     # six-spring element
+    if len(tail) == 3 and tail[0] == "c" and tail[1:].isdigit():  # six-spring element
         return 0 if tail[1] == tail[2] else 1
     if tail == "c":
         return 2
@@ -57,12 +63,23 @@ def reduce_model(model, meas, sigma_position=None) -> Reduction:
     nj = sum(1 for t in terms if t.kind == "joint" and t.free)
     six = [t for t in terms if t.kind == "six" and t.free]
     other = sum(len(t.names) for t in terms if t.kind not in ("joint", "six") and t.free)
-    rows = [("", "original", f"{nj} joints + {len(six)} 6-dof springs (36 per spring)"
-             + (f" + {other} other" if other else ""), nj + 36 * len(six) + other),
-            ("physical", "M1 symmetrisation", "21 per 6-dof spring", nj + 21 * len(six) + other),
-            ("physical", "M2 sparsing", "templates: " + ", ".join(f"{t.target} {t.template or 'value'}"
-                                                                for t in six) if six else "no 6-dof springs",
-             nj + sum(len(t.elements) for t in six) + other)]
+    rows = [
+        (
+            "",
+            "original",
+            f"{nj} joints + {len(six)} 6-dof springs (36 per spring)" + (f" + {other} other" if other else ""),
+            nj + 36 * len(six) + other,
+        ),
+        ("physical", "M1 symmetrisation", "21 per 6-dof spring", nj + 21 * len(six) + other),
+        (
+            "physical",
+            "M2 sparsing",
+            "templates: " + ", ".join(f"{t.target} {t.template or 'value'}" for t in six)
+            if six
+            else "no 6-dof springs",
+            nj + sum(len(t.elements) for t in six) + other,
+        ),
+    ]
     # M3: joints whose parent-link spring has the rotation about the same axis
     aggregated = []
     chain = model.chain
@@ -78,8 +95,14 @@ def reduce_model(model, meas, sigma_position=None) -> Reduction:
                 aggregated.append(t.names[0])
                 break
     keep = [i for i, n in enumerate(names) if n not in aggregated]
-    rows.append(("physical", "M3 aggregation", f"{len(aggregated)} joint compliance(s) merged into their "
-                 f"link springs", len(keep)))
+    rows.append(
+        (
+            "physical",
+            "M3 aggregation",
+            f"{len(aggregated)} joint compliance(s) merged into their link springs",
+            len(keep),
+        )
+    )
     A = res.A[:, keep]
     kn = [names[i] for i in keep]
     if not kn:
@@ -88,9 +111,14 @@ def reduce_model(model, meas, sigma_position=None) -> Reduction:
     g1 = [n for n, g in zip(kn, group) if g == 1]
     g2 = [n for n, g in zip(kn, group) if g == 2]
     g3 = [n for n, g in zip(kn, group) if g == 3]
-    rows.append(("algebraic", "M4a partitioning / M4b elimination",
-                 f"G1 identifiable {len(g1)}, G2 non-identifiable {len(g2)}, G3 semi-identifiable {len(g3)}",
-                 len(g1) + len(g3)))
+    rows.append(
+        (
+            "algebraic",
+            "M4a partitioning / M4b elimination",
+            f"G1 identifiable {len(g1)}, G2 non-identifiable {len(g2)}, G3 semi-identifiable {len(g3)}",
+            len(g1) + len(g3),
+        )
+    )
     groups = coupling_groups(kn, v, rank, group)
     # M5b/c: independent subset of G1 + G3, preferring spring diagonals
     idx = [i for i, n in enumerate(kn) if n not in g2]
@@ -101,16 +129,22 @@ def reduce_model(model, meas, sigma_position=None) -> Reduction:
     sel = core.select_independent(sub / d, np.array(order), 1e-6)
     selected = [kn[idx[k]] for k in range(len(idx)) if sel[k]]
     fixed = [kn[idx[k]] for k in range(len(idx)) if not sel[k]]
-    rows.append(("algebraic", "M5a splitting / M5b selection / M5c assigning",
-                 f"{len(groups)} coupled group(s); {len(selected) - len(g1)} of {len(g3)} semi-identifiable "
-                 f"selected, {len(fixed)} fixed", len(selected)))
-    return Reduction(rows=rows, aggregated=aggregated, g1=g1, g2=g2, g3=g3, groups=groups,
-                     selected=selected, fixed=fixed)
+    rows.append(
+        (
+            "algebraic",
+            "M5a splitting / M5b selection / M5c assigning",
+            f"{len(groups)} coupled group(s); {len(selected) - len(g1)} of {len(g3)} semi-identifiable "
+            f"selected, {len(fixed)} fixed",
+            len(selected),
+        )
+    )
+    return Reduction(
+        rows=rows, aggregated=aggregated, g1=g1, g2=g2, g3=g3, groups=groups, selected=selected, fixed=fixed
+    )
 
 
 def format_reduction(r: Reduction) -> str:
-    lines = ["model reduction (klimchik Table 1)",
-             f"{'approach':10s} {'step':46s} {'parameters':>10s}  description"]
+    lines = ["model reduction (klimchik Table 1)", f"{'approach':10s} {'step':46s} {'parameters':>10s}  description"]
     for a, s, d, n in r.rows:
         lines.append(f"{a:10s} {s:46s} {n:10d}  {d}")
     if r.aggregated:

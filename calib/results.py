@@ -1,6 +1,7 @@
 """The result of a fit: identified parameters with their groups and
 standard errors, residuals, the klimchik Table 2 statistics, and the
 identified model written back as a model file (contract s4, s5)."""
+
 from __future__ import annotations
 
 import copy
@@ -15,8 +16,15 @@ from ..robot.model import SYM, Model
 from ..robot.model_file import effects_toml
 from .problem import Problem
 
-__all__ = ["FitResult", "error_stats", "identified_model", "format_table", "format_parameters",
-           "model_tables_with_values", "write_model"]
+__all__ = [
+    "FitResult",
+    "error_stats",
+    "identified_model",
+    "format_table",
+    "format_parameters",
+    "model_tables_with_values",
+    "write_model",
+]
 
 
 @dataclass
@@ -25,15 +33,15 @@ class FitResult:
 
     names: list[str]
     values: np.ndarray
-    std: np.ndarray                 # NaN where the parameter is not identifiable
+    std: np.ndarray  # NaN where the parameter is not identifiable
     groups: list[str]
     rank: int
     nobs: int
-    measured: np.ndarray            # (n, 3) measured point deflections
-    predicted: np.ndarray           # (n, 3)
-    chi2: float                     # weighted residual sum of squares
+    measured: np.ndarray  # (n, 3) measured point deflections
+    predicted: np.ndarray  # (n, 3)
+    chi2: float  # weighted residual sum of squares
     dof: int
-    sigma: float                    # sigma used for the standard errors
+    sigma: float  # sigma used for the standard errors
     sigma_declared: bool
     iterations: int
     converged: bool
@@ -41,8 +49,8 @@ class FitResult:
     singular_values: np.ndarray
     problem: Problem = field(repr=False)
     theta: np.ndarray = field(repr=False)
-    A: np.ndarray = field(repr=False)          # weighted Jacobian at the solution
-    r: np.ndarray = field(repr=False)          # weighted residual
+    A: np.ndarray = field(repr=False)  # weighted Jacobian at the solution
+    r: np.ndarray = field(repr=False)  # weighted residual
     pred6: np.ndarray = field(repr=False)
 
     @property
@@ -71,21 +79,31 @@ class FitResult:
 
     def to_json(self) -> dict:
         after = error_stats(self.residuals)
-        out = {"rms_position_m": after["rms_position_m"], "max_position_m": after["max_position_m"],
-               "axes": after["axes"], "compensated_fraction": self.compensated_fraction,
-               "parameters": [{"name": n, "value": float(v),
-                               "std": None if not np.isfinite(s) else float(s), "group": g}
-                              for n, v, s, g in zip(self.names, self.values, self.std, self.groups)],
-               # extensions
-               "before": error_stats(self.measured), "rank": self.rank,
-               "n_parameters": len(self.names), "n_rows": int(self.measured.shape[0]),
-               "n_observations": self.nobs, "chi2": self.chi2, "dof": self.dof,
-               "sigma_m": self.sigma if np.isfinite(self.sigma) else None,
-               "sigma_declared": self.sigma_declared,
-               "iterations": self.iterations, "converged": self.converged,
-               "couplings": self.couplings,
-               "model": str(self.model.path) if self.model.path else None,
-               "measurements": self.problem.meas.path}
+        out = {
+            "rms_position_m": after["rms_position_m"],
+            "max_position_m": after["max_position_m"],
+            "axes": after["axes"],
+            "compensated_fraction": self.compensated_fraction,
+            "parameters": [
+                {"name": n, "value": float(v), "std": None if not np.isfinite(s) else float(s), "group": g}
+                for n, v, s, g in zip(self.names, self.values, self.std, self.groups)
+            ],
+            # extensions
+            "before": error_stats(self.measured),
+            "rank": self.rank,
+            "n_parameters": len(self.names),
+            "n_rows": int(self.measured.shape[0]),
+            "n_observations": self.nobs,
+            "chi2": self.chi2,
+            "dof": self.dof,
+            "sigma_m": self.sigma if np.isfinite(self.sigma) else None,
+            "sigma_declared": self.sigma_declared,
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "couplings": self.couplings,
+            "model": str(self.model.path) if self.model.path else None,
+            "measurements": self.problem.meas.path,
+        }
         return out
 
 
@@ -93,10 +111,11 @@ def error_stats(e: np.ndarray) -> dict:
     """MAX and RMS per axis and positional of (n, 3) errors (Table 2)."""
     e = np.asarray(e, float)
     norm = np.linalg.norm(e, axis=1)
-    axes = {ax: {"rms_m": float(np.sqrt(np.mean(e[:, i] ** 2))), "max_m": float(np.abs(e[:, i]).max())}
-            for i, ax in enumerate("xyz")}
-    return {"rms_position_m": float(np.sqrt(np.mean(norm ** 2))), "max_position_m": float(norm.max()),
-            "axes": axes}
+    axes = {
+        ax: {"rms_m": float(np.sqrt(np.mean(e[:, i] ** 2))), "max_m": float(np.abs(e[:, i]).max())}
+        for i, ax in enumerate("xyz")
+    }
+    return {"rms_position_m": float(np.sqrt(np.mean(norm**2))), "max_position_m": float(norm.max()), "axes": axes}
 
 
 def identified_model(res: FitResult) -> Model:
@@ -116,18 +135,22 @@ def format_table(res: FitResult, unit: float = 1e-3, label: str = "") -> str:
     """Residual table like klimchik Table 2, in mm."""
     before, after = res.table()["before"], res.table()["after"]
     u = "mm" if unit == 1e-3 else "um" if unit == 1e-6 else "m"
-    head = (f"{'':34s}{'x':>15s}{'y':>15s}{'z':>15s}{'positional':>15s}\n"
-            f"{'errors, ' + u:34s}" + "".join(f"{'MAX':>7s}{'RMS':>8s}" for _ in range(4)))
+    head = f"{'':34s}{'x':>15s}{'y':>15s}{'z':>15s}{'positional':>15s}\n{'errors, ' + u:34s}" + "".join(
+        f"{'MAX':>7s}{'RMS':>8s}" for _ in range(4)
+    )
 
     def row(name, st):
         cells = [(st["axes"][a]["max_m"], st["axes"][a]["rms_m"]) for a in "xyz"]
         cells.append((st["max_position_m"], st["rms_position_m"]))
         return f"{name:34s}" + "".join(f"{m / unit:7.3f}{r / unit:8.3f}" for m, r in cells)
 
-    lines = [head, row("deflections without compensation", before),
-             row(f"after compensation{(' (' + label + ')') if label else ''}"[:33], after),
-             f"compensated fraction {100 * res.compensated_fraction:.1f} %   "
-             f"({res.problem.meas.n} rows, {len(res.names)} parameters, rank {res.rank})"]
+    lines = [
+        head,
+        row("deflections without compensation", before),
+        row(f"after compensation{(' (' + label + ')') if label else ''}"[:33], after),
+        f"compensated fraction {100 * res.compensated_fraction:.1f} %   "
+        f"({res.problem.meas.n} rows, {len(res.names)} parameters, rank {res.rank})",
+    ]
     return "\n".join(lines)
 
 
@@ -137,8 +160,10 @@ def format_parameters(res: FitResult) -> str:
         sd = f"{s:12.3e}" if np.isfinite(s) else f"{'-':>12s}"
         lines.append(f"{n:24s}{v:14.5e}{sd}  {g}")
     counts = {g: res.groups.count(g) for g in ("identifiable", "semi-identifiable", "non-identifiable")}
-    lines.append(f"groups: {counts['identifiable']} identifiable (G1), {counts['semi-identifiable']} "
-                 f"semi-identifiable (G3), {counts['non-identifiable']} non-identifiable (G2); rank {res.rank}")
+    lines.append(
+        f"groups: {counts['identifiable']} identifiable (G1), {counts['semi-identifiable']} "
+        f"semi-identifiable (G3), {counts['non-identifiable']} non-identifiable (G2); rank {res.rank}"
+    )
     for c in res.couplings:
         lines.append(f"coupled (only their combination is identifiable): {', '.join(c)}")
     return "\n".join(lines)
@@ -177,8 +202,11 @@ def write_model(res: FitResult, path) -> None:
     """Write the identified model (URDF reference, sigma, effects with values)."""
     path = Path(path)
     model = res.model
-    robot = dict(model.robot_table) if model.robot_table else {
-        "base_link": model.chain.base_link, "tool_frame": model.chain.tool_frame}
+    robot = (
+        dict(model.robot_table)
+        if model.robot_table
+        else {"base_link": model.chain.base_link, "tool_frame": model.chain.tool_frame}
+    )
     urdf = Path(model.chain.urdf).resolve()
     try:
         robot["urdf"] = os.path.relpath(urdf, path.resolve().parent)
@@ -192,7 +220,9 @@ def write_model(res: FitResult, path) -> None:
         meas["sigma_rotation"] = model.sigma_rotation
     if meas:
         doc["measurements"] = meas
-    head = (f"# identified by stiffkit fit from {res.problem.meas.path}: positional RMS "
-            f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
-            f"# non-identifiable and semi-identifiable parameters hold the minimum-norm solution\n")
+    head = (
+        f"# identified by stiffkit fit from {res.problem.meas.path}: positional RMS "
+        f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
+        f"# non-identifiable and semi-identifiable parameters hold the minimum-norm solution\n"
+    )
     path.write_text(head + tomli_w.dumps(doc) + effects_toml(model_tables_with_values(res)))

@@ -13,6 +13,7 @@ KUKA KR 270 R2700 datasheet (approximate: A1 height 675 mm, A1-A2 offset
 215 mm), aluminium-tube link compliances, joint compliances of the magnitude
 klimchik reports, and a gravity compensator on A2.
 """
+
 from __future__ import annotations
 
 import math
@@ -36,14 +37,13 @@ KR270_JOINTS = [
     dict(name="joint_a4", type="revolute", parent="link_3", child="link_4", xyz=(0.600, 0, 0.041), axis=(1, 0, 0)),
     dict(name="joint_a5", type="revolute", parent="link_4", child="link_5", xyz=(0.600, 0, 0), axis=(0, 1, 0)),
     dict(name="joint_a6", type="revolute", parent="link_5", child="link_6", xyz=(0.100, 0, 0), axis=(1, 0, 0)),
-    dict(name="joint_tool", type="fixed", parent="link_6", child="tool0", xyz=(0.115, 0, 0),
-         rpy=(0, math.pi / 2, 0)),
+    dict(name="joint_tool", type="fixed", parent="link_6", child="tool0", xyz=(0.115, 0, 0), rpy=(0, math.pi / 2, 0)),
 ]
 
 #: posture ranges (rad) used to draw calibration configurations
 KR270_RANGES = [(-2.5, 2.5), (-1.4, 0.2), (-1.0, 1.2), (-2.5, 2.5), (0.4, 1.9), (-2.5, 2.5)]
 
-KR270_JOINT_C = [3.0e-7, 2.0e-7, 3.0e-7, 1.5e-6, 1.6e-6, 2.5e-6]     # rad/(N m)
+KR270_JOINT_C = [3.0e-7, 2.0e-7, 3.0e-7, 1.5e-6, 1.6e-6, 2.5e-6]  # rad/(N m)
 
 KR270_COMPENSATOR = dict(a=0.45, b=0.12, beta=0.3, s0=0.25, k_s=5.0e7)
 
@@ -57,9 +57,11 @@ def kr270_links() -> dict[str, np.ndarray]:
     """Link spring compliances of the KR-270-like robot (cast aluminium-alloy
     tubes, E = 70 GPa)."""
     E, nu = 7.0e10, 0.33
-    return {"link_2": beam_compliance(1.150, E, nu, 0.30, 0.26),
-            "link_3": beam_compliance(0.600, E, nu, 0.22, 0.18),
-            "link_4": beam_compliance(0.600, E, nu, 0.18, 0.15)}
+    return {
+        "link_2": beam_compliance(1.150, E, nu, 0.30, 0.26),
+        "link_3": beam_compliance(0.600, E, nu, 0.22, 0.18),
+        "link_4": beam_compliance(0.600, E, nu, 0.18, 0.15),
+    }
 
 
 def kr270_truth(joints=True, links=True, compensator=True, offset=None) -> list[dict]:
@@ -104,11 +106,23 @@ def make_loads(kind, n, rng, force=2500.0, moment=300.0, Rtool=None, mass_offset
     raise InputError(f"unknown load kind {kind!r}; choose random or gravity")
 
 
-def synthesize(joints, truth: list[dict], n_configs: int = 30, loads: str = "random",
-               loads_per_config: int = 3, markers=((0.0, 0.0, 0.25),), sigma: float = 2e-5,
-               sigma_rotation: float | None = None, replicates: int = 1, ranges=None,
-               force: float = 2500.0, moment: float = 300.0, seed=0, workdir=None,
-               tool_frame: str = "tool0"):
+def synthesize(
+    joints,
+    truth: list[dict],
+    n_configs: int = 30,
+    loads: str = "random",
+    loads_per_config: int = 3,
+    markers=((0.0, 0.0, 0.25),),
+    sigma: float = 2e-5,
+    sigma_rotation: float | None = None,
+    replicates: int = 1,
+    ranges=None,
+    force: float = 2500.0,
+    moment: float = 300.0,
+    seed=0,
+    workdir=None,
+    tool_frame: str = "tool0",
+):
     """Measurement rows of ``truth`` on the robot ``joints``.
 
     Returns (chain, truth_model, measurements). Each configuration gets
@@ -119,7 +133,7 @@ def synthesize(joints, truth: list[dict], n_configs: int = 30, loads: str = "ran
     rng = np.random.default_rng(seed)
     tmp = Path(workdir or tempfile.mkdtemp(prefix="stiffkit_synth_"))
     tmp.mkdir(parents=True, exist_ok=True)
-    if isinstance(joints, (str, Path)):          # an existing URDF: copy it
+    if isinstance(joints, (str, Path)):  # an existing URDF: copy it
         text = Path(joints).read_text()
         (tmp / "robot.urdf").write_text(text)
         chain = load_chain(tmp / "robot.urdf", "base_link", tool_frame)
@@ -132,7 +146,7 @@ def synthesize(joints, truth: list[dict], n_configs: int = 30, loads: str = "ran
     Rt = np.array([chain.forward(q)[0] for q in Qc])
     rows_q, rows_w, rows_p, rows_c = [], [], [], []
     for i in range(n_configs):
-        W = make_loads(loads, loads_per_config, rng, force, moment, np.repeat(Rt[i:i + 1], loads_per_config, 0))
+        W = make_loads(loads, loads_per_config, rng, force, moment, np.repeat(Rt[i : i + 1], loads_per_config, 0))
         for k in range(loads_per_config):
             for mk in markers:
                 for _ in range(replicates):
@@ -141,9 +155,16 @@ def synthesize(joints, truth: list[dict], n_configs: int = 30, loads: str = "ran
                     rows_p.append(mk)
                     rows_c.append(f"c{i + 1}")
     n = len(rows_q)
-    meas = Measurements(q=np.array(rows_q), w=np.array(rows_w), p=np.array(rows_p, float),
-                        d=np.zeros((n, 3)), r=None if sigma_rotation is None else np.zeros((n, 3)),
-                        config=rows_c, lines=list(range(2, n + 2)), path="synthetic")
+    meas = Measurements(
+        q=np.array(rows_q),
+        w=np.array(rows_w),
+        p=np.array(rows_p, float),
+        d=np.zeros((n, 3)),
+        r=None if sigma_rotation is None else np.zeros((n, 3)),
+        config=rows_c,
+        lines=list(range(2, n + 2)),
+        path="synthetic",
+    )
     truth_model = model_from_tables(chain, truth, where="truth")
     pb = Problem(truth_model, meas)
     pred, _ = pb.evaluate(np.zeros(0), jac=False)
@@ -172,10 +193,10 @@ def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):
     sigma = kw.get("sigma", 2e-5)
     sr = kw.get("sigma_rotation")
     tool = kw.get("tool_frame", "tool0") if isinstance(joints, (str, Path)) else joints[-1]["child"]
-    (out / "model.toml").write_text(model_toml(fit_effects, sigma if declare_sigma and sigma > 0 else None,
-                                               tool_frame=tool, sigma_rotation=sr))
-    (out / "truth.toml").write_text(model_toml(truth, sigma if sigma > 0 else None, tool_frame=tool,
-                                               sigma_rotation=sr))
+    (out / "model.toml").write_text(
+        model_toml(fit_effects, sigma if declare_sigma and sigma > 0 else None, tool_frame=tool, sigma_rotation=sr)
+    )
+    (out / "truth.toml").write_text(model_toml(truth, sigma if sigma > 0 else None, tool_frame=tool, sigma_rotation=sr))
     write_measurements(out / "measurements.csv", meas)
     return out
 

@@ -5,6 +5,7 @@ Each subcommand lives in its own module that provides ``register(sub)``
 ``stiffkit --help`` is fast and a broken optional dependency only affects
 its own command.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -45,8 +46,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="stiffkit",
         description="How stiff a robot is, and why it bends the way it does.",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     from ..version import __version__
+
     parser.add_argument("--version", action="version", version=f"stiffkit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for modname, _summary in COMMANDS:

@@ -7,6 +7,7 @@ significant compliance elements (vs the closed form when the shape has one,
 else vs a Richardson extrapolation of the finest meshes), the element that
 limits it, wall time and peak memory. A PNG plots error and time vs size.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -41,9 +42,13 @@ def _list(text, kind, what):
 
 
 def register(sub) -> None:
-    p = sub.add_parser("convergence", help="mesh-convergence study of a link (orders x sizes)",
-                       description=__doc__, epilog=HELP,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "convergence",
+        help="mesh-convergence study of a link (orders x sizes)",
+        description=__doc__,
+        epilog=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("link", help="LINK.toml of the part")
     p.add_argument("--orders", default="1,2", help="element orders, e.g. 1,2 (default %(default)s)")
     p.add_argument("--sizes", default="5,3,2", help="element sizes in geometry units (default %(default)s)")

@@ -19,6 +19,7 @@ calib  A KR-270-like robot measured under load (synthetic, with a known
        what the diagnosis names, refit, and watch the error fall to the
        noise floor; tables printed, figures in --out.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -29,8 +30,12 @@ from ..field.demo import field_demo
 
 
 def register(sub) -> None:
-    p = sub.add_parser("demo", help="run the main job on a built-in example",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "demo",
+        help="run the main job on a built-in example",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--only", choices=["field", "fea", "calib"], help="run one part of the demo only")
     p.add_argument("--no-fea", action="store_true", help="skip the real FEA run")

@@ -15,6 +15,7 @@ Fits the model, then
 Nonlinear candidates are linearised at the current fit; a gravity
 compensator is proposed through its generic form joint_profile, with a hint.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,9 +37,13 @@ example:
 
 
 def register(sub) -> None:
-    p = sub.add_parser("diagnose", help="test the model against the noise; rank the missing effects",
-                       description=__doc__, epilog=HELP,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "diagnose",
+        help="test the model against the noise; rank the missing effects",
+        description=__doc__,
+        epilog=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("model", help="model TOML")
     p.add_argument("measurements", help="measurement CSV")
     p.add_argument("--json", help="write the diagnosis to this JSON file")
@@ -46,8 +51,9 @@ def register(sub) -> None:
     p.add_argument("--sigma", type=float, help="override sigma_position (m)")
     p.add_argument("--top", type=int, default=10, help="candidates to print")
     p.add_argument("--plots", metavar="DIR", help="PNGs: the candidates, and the fit's residual figures")
-    p.add_argument("--kinds", help="comma-separated candidate kinds to score (default: every kind), "
-                                   "e.g. joint,link,point_offset")
+    p.add_argument(
+        "--kinds", help="comma-separated candidate kinds to score (default: every kind), e.g. joint,link,point_offset"
+    )
     p.set_defaults(func=run)
 
 
@@ -70,7 +76,6 @@ def run(args) -> int:
             json.dump(dg.to_json(), fh, indent=1)
         print(f"wrote {args.json}")
     if args.plots:
-
         Path(args.plots).mkdir(parents=True, exist_ok=True)
         files = fit_plots(dg.fit, args.plots, label="diagnose")
         if dg.candidates:

@@ -5,6 +5,7 @@ displacement field per load case; get (t, phi) per case with covariances,
 the noise estimate, and, with six or more load cases and their wrenches,
 the compliance matrix with confidence intervals and zero-element tests.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -13,9 +14,8 @@ import json
 import numpy as np
 
 from ..errors import InputError
-from ..field import compliance_from_experiments, DOF_NAMES, fit_fields
+from ..field import DOF_NAMES, compliance_from_experiments, fit_fields
 from ..io.tables import parse_vector, read_columns
-
 
 HELP = """\
 inputs:
@@ -40,9 +40,13 @@ example:
 
 
 def register(sub) -> None:
-    p = sub.add_parser("field", help="fit node displacement fields; compliance from load cases",
-                       description=__doc__, epilog=HELP,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "field",
+        help="fit node displacement fields; compliance from load cases",
+        description=__doc__,
+        epilog=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("nodes", help="CSV of node positions (x,y,z)")
     p.add_argument("fields", nargs="+", help="CSV of displacements (ux,uy,uz), one per load case")
     p.add_argument("--reference", required=True, help="reference point x,y,z (m)")
@@ -67,14 +71,19 @@ def run(args) -> int:
         disp.append(d)
     ref = parse_vector(args.reference, 3, "--reference")
     fits = fit_fields(nodes, np.array(disp), ref, method=args.method, trim=args.trim, pooled=True)
-    print(f"{len(fits)} field(s), {nodes.shape[0]} nodes, method {args.method}, "
-          f"pooled noise sigma = {fits[0].sigma:.3e} m")
+    print(
+        f"{len(fits)} field(s), {nodes.shape[0]} nodes, method {args.method}, "
+        f"pooled noise sigma = {fits[0].sigma:.3e} m"
+    )
     print(f"{'case':>4s} " + " ".join(f"{n:>13s}" for n in DOF_NAMES) + "   used")
     for j, fit in enumerate(fits, 1):
         print(f"{j:4d} " + " ".join(f"{v:13.5e}" for v in fit.deflection) + f"  {fit.n_used:5d}")
-    out = {"sigma_m": fits[0].sigma,
-           "fits": [{"t": f.t.tolist(), "phi": f.phi.tolist(), "cov": f.cov.tolist(),
-                     "nodes_used": f.n_used} for f in fits]}
+    out = {
+        "sigma_m": fits[0].sigma,
+        "fits": [
+            {"t": f.t.tolist(), "phi": f.phi.tolist(), "cov": f.cov.tolist(), "nodes_used": f.n_used} for f in fits
+        ],
+    }
     wrenches = None
     if args.loads:
         loads = parse_vector(args.loads, 6, "--loads")
@@ -86,13 +95,18 @@ def run(args) -> int:
         if wrenches.shape[0] != len(fits):
             raise InputError(f"{args.wrenches}: {wrenches.shape[0]} wrenches for {len(fits)} load cases")
     if wrenches is not None:
-        comp = compliance_from_experiments(wrenches, fits, confidence=args.confidence,
-                                           symmetrize=args.symmetrize)
+        comp = compliance_from_experiments(wrenches, fits, confidence=args.confidence, symmetrize=args.symmetrize)
         print()
         print(comp.table())
-        out.update({"compliance": comp.matrix.tolist(), "compliance_std": comp.std.tolist(),
-                    "significant": comp.significant.tolist(), "symmetry_error": comp.asymmetry,
-                    "stiffness": None if comp.stiffness is None else comp.stiffness.tolist()})
+        out.update(
+            {
+                "compliance": comp.matrix.tolist(),
+                "compliance_std": comp.std.tolist(),
+                "significant": comp.significant.tolist(),
+                "symmetry_error": comp.asymmetry,
+                "stiffness": None if comp.stiffness is None else comp.stiffness.tolist(),
+            }
+        )
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=1)

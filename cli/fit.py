@@ -10,6 +10,7 @@ identifiable, non-identifiable (does not affect the data) or
 semi-identifiable (only a combination with others is determined; the
 coupled sets are listed).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -65,17 +66,22 @@ example (the loop):
 
 
 def register(sub) -> None:
-    p = sub.add_parser("fit", help="identify a robot's elastostatic parameters from measurements",
-                       description=__doc__, epilog=HELP,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "fit",
+        help="identify a robot's elastostatic parameters from measurements",
+        description=__doc__,
+        epilog=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("model", help="model TOML")
     p.add_argument("measurements", help="measurement CSV")
     p.add_argument("--json", help="write the results to this JSON file")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--write-model", metavar="OUT.toml", help="write the model with identified values")
     p.add_argument("--compare", metavar="OLD.json", help="print a comparison with an earlier fit")
-    p.add_argument("--reduce", action="store_true",
-                   help="reduce the model (M1-M5), print Table 1, fit the independent subset")
+    p.add_argument(
+        "--reduce", action="store_true", help="reduce the model (M1-M5), print Table 1, fit the independent subset"
+    )
     p.add_argument("--sigma", type=float, help="override sigma_position (m)")
     p.add_argument("--quiet", action="store_true", help="table only, no parameter list")
     p.set_defaults(func=run)
@@ -94,8 +100,10 @@ def run(args) -> int:
         full = res
         res = fit(reduced_model(model, red), meas, sigma_position=args.sigma)
         print(f"reduced model: {len(res.names)} free parameters (of {len(full.names)}); the others fixed at 0")
-    print(f"model {args.model}: {len(model.effects)} effect(s), {len(res.names)} parameters; "
-          f"{meas.n} rows from {args.measurements}")
+    print(
+        f"model {args.model}: {len(model.effects)} effect(s), {len(res.names)} parameters; "
+        f"{meas.n} rows from {args.measurements}"
+    )
     print(format_table(res))
     if not args.quiet:
         print()

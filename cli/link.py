@@ -6,6 +6,7 @@ load face (CalculiX), fits the rigid motion of the field nodes around the
 reference point in each case (Pashkevich et al. 2009, s3-s4) and prints the
 compliance with confidence intervals, non-significant elements as '0'.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -56,9 +57,13 @@ examples:
 
 
 def register(sub) -> None:
-    p = sub.add_parser("link", help="a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)",
-                       description=__doc__, epilog=HELP,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "link",
+        help="a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)",
+        description=__doc__,
+        epilog=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("link", help="LINK.toml describing the part, loads, mesh and fit")
     p.add_argument("--json", help="write the results (contract keys) to this JSON file")
     p.add_argument("--vtu", help="write the mesh and the six displacement fields (VTU)")
@@ -81,10 +86,12 @@ def run(args) -> int:
     say = None if args.quiet else (lambda m: print(f"  .. {m}", file=sys.stderr, flush=True))
     res = run_link(job, cache_dir=None if args.no_cache else args.cache, progress=say)
     m = res.mesh
-    print(f"{Path(args.link).name}: {m.n_nodes} nodes, {m.n_elements} {m.ccx_type} "
-          f"({m.mesher}, {job.size:g} {job.units}), route {res.solution.route}"
-          f"{' (cached)' if res.cached else ''}; field {job.region}: {res.field_nodes.size} nodes; "
-          f"sigma = {res.compliance.sigma:.3e} m")
+    print(
+        f"{Path(args.link).name}: {m.n_nodes} nodes, {m.n_elements} {m.ccx_type} "
+        f"({m.mesher}, {job.size:g} {job.units}), route {res.solution.route}"
+        f"{' (cached)' if res.cached else ''}; field {job.region}: {res.field_nodes.size} nodes; "
+        f"sigma = {res.compliance.sigma:.3e} m"
+    )
     print(f"time: mesh {res.timing['mesh']:.1f} s, FEA {res.timing['fea']:.1f} s, fit {res.timing['fit']:.3f} s")
     print(res.table())
     if args.json:

@@ -9,18 +9,19 @@ Three jobs, all evaluated by the Fortran core in one call for every posture:
   tree        your own mechanism: a JSON tree of springs and joints at given
               poses -> tool compliance, stiffness, free and rigid directions.
 """
+
 from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 import numpy as np
-from pathlib import Path
 
 from ..errors import InputError
 from ..io.tables import parse_vector
-from ..springs import evaluate, Joint, load_link_compliance, orthoglide as og, parallel, series, smg, Spring, stiffness_indices
-
+from ..springs import Joint, Spring, evaluate, load_link_compliance, parallel, series, smg, stiffness_indices
+from ..springs import orthoglide as og
 
 HELP_ORTHOGLIDE = """\
 model (see stiffkit/springs/orthoglide.py): three PRPaR legs, L = 310 mm,
@@ -89,42 +90,77 @@ example: a beam behind a passive hinge (rank 5)
 
 
 def register(sub) -> None:
-    p = sub.add_parser("robot", help="manipulator stiffness: Orthoglide, McGill SMG, your spring tree",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "robot",
+        help="manipulator stiffness: Orthoglide, McGill SMG, your spring tree",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     rs = p.add_subparsers(dest="robot", metavar="MODEL")
-    o = rs.add_parser("orthoglide", help="Orthoglide compliance and workspace map",
-                      description="Orthoglide (Pashkevich et al. 2009 s5) compliance.",
-                      epilog=HELP_ORTHOGLIDE, formatter_class=argparse.RawDescriptionHelpFormatter)
+    o = rs.add_parser(
+        "orthoglide",
+        help="Orthoglide compliance and workspace map",
+        description="Orthoglide (Pashkevich et al. 2009 s5) compliance.",
+        epilog=HELP_ORTHOGLIDE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     o.add_argument("--point", default="0,0,0", help="tool point x,y,z in mm (isotropic point 0,0,0)")
     o.add_argument("--links", default="beam", choices=["beam", "fea"], help="Table 7 link data")
-    o.add_argument("--link-file", action="append", default=[], metavar="NAME=PATH",
-                   help="foot|axle|bar compliance from a `stiffkit link` JSON (repeatable)")
-    o.add_argument("--actuator-compliance", type=float, default=0.0,
-                   help="compliance of each linear actuator along its axis, m/N (default rigid)")
+    o.add_argument(
+        "--link-file",
+        action="append",
+        default=[],
+        metavar="NAME=PATH",
+        help="foot|axle|bar compliance from a `stiffkit link` JSON (repeatable)",
+    )
+    o.add_argument(
+        "--actuator-compliance",
+        type=float,
+        default=0.0,
+        help="compliance of each linear actuator along its axis, m/N (default rigid)",
+    )
     o.add_argument("--map", type=int, metavar="N", help="workspace map on an N^3 grid")
     o.add_argument("--png", help="PNG of the map slices (with --map)")
     o.add_argument("--json", help="write results to this JSON file")
     o.set_defaults(func=run_orthoglide)
 
-    s = rs.add_parser("smg", help="McGill SMG stiffness indices along the test trajectory",
-                      description="McGill SMG (Taghvaeipour et al. 2010) stiffness indices.",
-                      epilog=HELP_SMG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    s = rs.add_parser(
+        "smg",
+        help="McGill SMG stiffness indices along the test trajectory",
+        description="McGill SMG (Taghvaeipour et al. 2010) stiffness indices.",
+        epilog=HELP_SMG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     s.add_argument("--postures", type=int, default=401, help="points along the trajectory")
-    s.add_argument("--pi-joints", default="paper", choices=["paper", "both"],
-                   help="paper: one passive joint per Pi link (eq. 23); both: true distal parallelograms")
-    s.add_argument("--link-file", action="append", default=[], metavar="NAME=PATH",
-                   help="proximal|distal link compliance from a `stiffkit link` JSON")
+    s.add_argument(
+        "--pi-joints",
+        default="paper",
+        choices=["paper", "both"],
+        help="paper: one passive joint per Pi link (eq. 23); both: true distal parallelograms",
+    )
+    s.add_argument(
+        "--link-file",
+        action="append",
+        default=[],
+        metavar="NAME=PATH",
+        help="proximal|distal link compliance from a `stiffkit link` JSON",
+    )
     s.add_argument("--lscale", type=float, help="characteristic length for the indices, m")
     s.add_argument("--png", help="PNG of kappa_t, kappa_r along the trajectory (Fig. 10)")
     s.add_argument("--json", help="write results to this JSON file")
     s.set_defaults(func=run_smg)
 
-    t = rs.add_parser("tree", help="tool stiffness of a JSON tree of springs and joints",
-                      description="Evaluate a tree of generalised springs and joints.",
-                      epilog=HELP_TREE, formatter_class=argparse.RawDescriptionHelpFormatter)
+    t = rs.add_parser(
+        "tree",
+        help="tool stiffness of a JSON tree of springs and joints",
+        description="Evaluate a tree of generalised springs and joints.",
+        epilog=HELP_TREE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     t.add_argument("tree", help="TREE.json (see below)")
-    t.add_argument("--rcond", type=float, default=1e-9,
-                   help="eigenvalue ratio below which a direction counts as free or rigid")
+    t.add_argument(
+        "--rcond", type=float, default=1e-9, help="eigenvalue ratio below which a direction counts as free or rigid"
+    )
     t.add_argument("--json", help="write results to this JSON file")
     t.set_defaults(func=run_tree)
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
@@ -158,9 +194,15 @@ def run_orthoglide(args) -> int:
     P = parse_vector(args.point, 3, "--point") * 1e-3
     res = og.compliance(P[None], links, g, args.actuator_compliance)
     C = res.compliance[0]
-    out = {"point_m": P.tolist(), "links": args.links, "rank": int(res.rank[0]),
-           "free_twists": res.free_twists(0).T.tolist(), "compliance_SI": C.tolist(),
-           "stiffness_SI": res.stiffness[0].tolist(), "ratio": float(res.ratio[0])}
+    out = {
+        "point_m": P.tolist(),
+        "links": args.links,
+        "rank": int(res.rank[0]),
+        "free_twists": res.free_twists(0).T.tolist(),
+        "compliance_SI": C.tolist(),
+        "stiffness_SI": res.stiffness[0].tolist(),
+        "ratio": float(res.ratio[0]),
+    }
     print(f"Orthoglide at P = {args.point} mm (links: {args.links}), rank {res.rank[0]}")
     print("compliance (SI: m/N, 1/N, rad/(N m)):")
     print(_fmt6(C))
@@ -175,21 +217,25 @@ def run_orthoglide(args) -> int:
     for name, (a, b) in og.TABLE8.items():
         print(f"  {name:62s} {a:17.2f} {b:22.2f}")
     print(f"  {'stiffkit spring tree (' + args.links + ' links)':62s} {kt:17.2f} {kr:22.2f}")
-    out["isotropic"] = {"k_tran_1e-4_mm_per_N": kt, "k_rot_1e-7_rad_per_N_mm": kr,
-                        "table8": og.TABLE8}
+    out["isotropic"] = {"k_tran_1e-4_mm_per_N": kt, "k_rot_1e-7_rad_per_N_mm": kr, "table8": og.TABLE8}
     if args.map:
         xs, G = og.workspace_grid(args.map, g)
         m = og.compliance(G, links, g, args.actuator_compliance)
-        ct = np.linalg.eigvalsh(m.compliance[:, :3, :3])[:, -1] * 1e3       # mm/N
-        cr = np.linalg.eigvalsh(m.compliance[:, 3:, 3:])[:, -1] * 1e-3      # rad/(N mm)
+        ct = np.linalg.eigvalsh(m.compliance[:, :3, :3])[:, -1] * 1e3  # mm/N
+        cr = np.linalg.eigvalsh(m.compliance[:, 3:, 3:])[:, -1] * 1e-3  # rad/(N mm)
         n = args.map
         ct3, cr3 = ct.reshape(n, n, n), cr.reshape(n, n, n)
-        print(f"\nworkspace map, {n}^3 = {n ** 3} postures in one core call: rank 6 at "
-              f"{np.mean(m.rank == 6) * 100:.1f} %")
+        print(
+            f"\nworkspace map, {n}^3 = {n**3} postures in one core call: rank 6 at {np.mean(m.rank == 6) * 100:.1f} %"
+        )
         print(f"  largest translational compliance: {ct.min():.3e} .. {ct.max():.3e} mm/N")
         print(f"  largest rotational compliance:    {cr.min():.3e} .. {cr.max():.3e} rad/(N mm)")
-        out["map"] = {"grid_mm": (xs * 1e3).tolist(), "ct_max_mm_per_N": ct3.tolist(),
-                      "cr_max_rad_per_N_mm": cr3.tolist(), "rank": m.rank.reshape(n, n, n).tolist()}
+        out["map"] = {
+            "grid_mm": (xs * 1e3).tolist(),
+            "ct_max_mm_per_N": ct3.tolist(),
+            "cr_max_rad_per_N_mm": cr3.tolist(),
+            "rank": m.rank.reshape(n, n, n).tolist(),
+        }
         if args.png:
             _orthoglide_png(args.png, xs * 1e3, ct3, cr3)
             print(f"wrote {args.png}")
@@ -203,13 +249,19 @@ def run_orthoglide(args) -> int:
 
 def _orthoglide_png(path, xs, ct3, cr3) -> None:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     n = len(xs)
     ks = [0, n // 2, n - 1]
     fig, axs = plt.subplots(2, 3, figsize=(13, 8), constrained_layout=True)
-    for row, (field, label) in enumerate(((ct3, "log10 largest translational compliance, mm/N"),
-                                          (cr3, "log10 largest rotational compliance, rad/(N mm)"))):
+    for row, (field, label) in enumerate(
+        (
+            (ct3, "log10 largest translational compliance, mm/N"),
+            (cr3, "log10 largest rotational compliance, rad/(N mm)"),
+        )
+    ):
         lf = np.log10(field)
         levels = np.linspace(lf.min(), lf.max(), 25)
         for col, k in enumerate(ks):
@@ -220,8 +272,10 @@ def _orthoglide_png(path, xs, ct3, cr3) -> None:
             ax.set_ylabel("y, mm")
             ax.set_aspect("equal")
         fig.colorbar(im, ax=axs[row, :], label=label)
-    fig.suptitle("Orthoglide compliance over the 200 mm cube centred on the isotropic point\n"
-                 "(the corner -100,-100,-100 mm lies at 79 % of the way to the parallel singularity P = -L/sqrt(6) (1,1,1))")
+    fig.suptitle(
+        "Orthoglide compliance over the 200 mm cube centred on the isotropic point\n"
+        "(the corner -100,-100,-100 mm lies at 79 % of the way to the parallel singularity P = -L/sqrt(6) (1,1,1))"
+    )
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -231,32 +285,52 @@ def run_smg(args) -> int:
     links = smg.smg_links(_link_files(args.link_file, ("proximal", "distal")))
     if args.postures < 2:
         raise InputError("--postures must be >= 2")
-    tau, P, theta, res, idx = smg.indices_along_trajectory(args.postures, links, g, args.pi_joints,
-                                                           args.lscale)
-    print(f"McGill SMG, {args.postures} postures along the smoothed test trajectory "
-          f"(one core call), Pi-joints: {args.pi_joints}, lscale = {idx.lscale:g} m")
-    print(f"  rank 6 at {np.mean(res.rank == 6) * 100:.1f} % of postures; "
-          f"smallest stiffness eigenvalue ratio {res.ratio.min():.2e}")
-    print(f"  kappa_t: {idx.kappa_t.min():.4g} .. {idx.kappa_t.max():.4g} N "
-          f"(min at tau = {tau[np.argmin(idx.kappa_t)]:.3f})")
-    print(f"  kappa_r: {idx.kappa_r.min():.4g} .. {idx.kappa_r.max():.4g} N "
-          f"(min at tau = {tau[np.argmin(idx.kappa_r)]:.3f})")
+    tau, P, theta, res, idx = smg.indices_along_trajectory(args.postures, links, g, args.pi_joints, args.lscale)
+    print(
+        f"McGill SMG, {args.postures} postures along the smoothed test trajectory "
+        f"(one core call), Pi-joints: {args.pi_joints}, lscale = {idx.lscale:g} m"
+    )
+    print(
+        f"  rank 6 at {np.mean(res.rank == 6) * 100:.1f} % of postures; "
+        f"smallest stiffness eigenvalue ratio {res.ratio.min():.2e}"
+    )
+    print(
+        f"  kappa_t: {idx.kappa_t.min():.4g} .. {idx.kappa_t.max():.4g} N "
+        f"(min at tau = {tau[np.argmin(idx.kappa_t)]:.3f})"
+    )
+    print(
+        f"  kappa_r: {idx.kappa_r.min():.4g} .. {idx.kappa_r.max():.4g} N "
+        f"(min at tau = {tau[np.argmin(idx.kappa_r)]:.3f})"
+    )
     if args.png:
         _smg_png(args.png, tau, P, theta, idx)
         print(f"wrote {args.png}")
     if args.json:
-        Path(args.json).write_text(json.dumps({
-            "tau": tau.tolist(), "P_m": P.tolist(), "theta_rad": theta.tolist(),
-            "kappa_t_N": idx.kappa_t.tolist(), "kappa_r_N": idx.kappa_r.tolist(),
-            "rank": res.rank.tolist(), "lscale_m": idx.lscale, "pi_joints": args.pi_joints}, indent=1))
+        Path(args.json).write_text(
+            json.dumps(
+                {
+                    "tau": tau.tolist(),
+                    "P_m": P.tolist(),
+                    "theta_rad": theta.tolist(),
+                    "kappa_t_N": idx.kappa_t.tolist(),
+                    "kappa_r_N": idx.kappa_r.tolist(),
+                    "rank": res.rank.tolist(),
+                    "lscale_m": idx.lscale,
+                    "pi_joints": args.pi_joints,
+                },
+                indent=1,
+            )
+        )
         print(f"wrote {args.json}")
     return 0
 
 
 def _smg_png(path, tau, P, theta, idx) -> None:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     fig, axs = plt.subplots(1, 3, figsize=(15, 4.2), constrained_layout=True)
     axs[0].plot((P[:, 0] - P[0, 0]) * 1e3, (P[:, 2] - P[0, 2]) * 1e3, "k-")
     axs[0].set_xlabel("x, mm")
@@ -278,7 +352,7 @@ def _smg_png(path, tau, P, theta, idx) -> None:
 def _node(d, base: Path):
     if not isinstance(d, dict) or len(d) != 1:
         raise InputError(f"a tree node is one of {{series|parallel|spring|joint: ...}}, got {d!r:.80}")
-    (key, val), = d.items()
+    ((key, val),) = d.items()
     if key in ("series", "parallel"):
         if not isinstance(val, list) or not val:
             raise InputError(f"{key}: needs a non-empty list of nodes")
@@ -298,8 +372,13 @@ def _node(d, base: Path):
         comp = val.get("compliance", 0.0)
         if "stiffness" in val:
             comp = 1.0 / float(val["stiffness"])
-        return Joint(val.get("type", "revolute"), val["axis"], val.get("point", [0, 0, 0]),
-                     compliance=float(comp), passive=bool(val.get("passive", False)))
+        return Joint(
+            val.get("type", "revolute"),
+            val["axis"],
+            val.get("point", [0, 0, 0]),
+            compliance=float(comp),
+            passive=bool(val.get("passive", False)),
+        )
     raise InputError(f"unknown tree node {key!r}: use series, parallel, spring or joint")
 
 
@@ -313,10 +392,11 @@ def run_tree(args) -> int:
         raise InputError(f"{path}: no 'tree' key (see stiffkit robot tree --help)")
     tree = _node(spec["tree"], path.parent)
     tool = np.asarray(spec.get("tool", [0, 0, 0]), dtype=float)
-    res = evaluate(tree, tool=tool, tool_rot=spec.get("tool_axes"), lscale=spec.get("lscale"),
-                   rcond=args.rcond)
-    print(f"{path}: rank {res.rank[0]} ({res.nfree[0]} free, {res.nrigid[0]} rigid), "
-          f"eigenvalue ratio {res.ratio[0]:.3e}, lscale {res.lscale:g} m")
+    res = evaluate(tree, tool=tool, tool_rot=spec.get("tool_axes"), lscale=spec.get("lscale"), rcond=args.rcond)
+    print(
+        f"{path}: rank {res.rank[0]} ({res.nfree[0]} free, {res.nrigid[0]} rigid), "
+        f"eigenvalue ratio {res.ratio[0]:.3e}, lscale {res.lscale:g} m"
+    )
     print("compliance" + (" (on the wrenches the free motions leave)" if res.nfree[0] else "") + ":")
     print(_fmt6(res.compliance[0]))
     print("stiffness" + (" (on the motions the rigid directions leave)" if res.nrigid[0] else "") + ":")
@@ -324,11 +404,17 @@ def run_tree(args) -> int:
     for name, arr in (("free twist (t, phi)", res.free_twists(0)), ("rigid wrench (f, m)", res.rigid_wrenches(0))):
         for v in arr.T:
             print(f"{name}: " + " ".join(f"{x:10.3e}" for x in v))
-    out = {"rank": int(res.rank[0]), "compliance": res.compliance[0].tolist(),
-           "stiffness": res.stiffness[0].tolist(), "free_twists": res.free_twists(0).T.tolist(),
-           "rigid_wrenches": res.rigid_wrenches(0).T.tolist(), "ratio": float(res.ratio[0]),
-           "lscale": res.lscale, "compliance_exists": bool(res.nfree[0] == 0),
-           "stiffness_exists": bool(res.nrigid[0] == 0)}
+    out = {
+        "rank": int(res.rank[0]),
+        "compliance": res.compliance[0].tolist(),
+        "stiffness": res.stiffness[0].tolist(),
+        "free_twists": res.free_twists(0).T.tolist(),
+        "rigid_wrenches": res.rigid_wrenches(0).T.tolist(),
+        "ratio": float(res.ratio[0]),
+        "lscale": res.lscale,
+        "compliance_exists": bool(res.nfree[0] == 0),
+        "stiffness_exists": bool(res.nrigid[0] == 0),
+    }
     if res.nrigid[0] == 0:
         idx = stiffness_indices(res.stiffness[0], res.lscale)
         out.update(kappa_t=float(idx.kappa_t[0]), kappa_r=float(idx.kappa_r[0]))

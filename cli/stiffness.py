@@ -13,6 +13,7 @@ with a characteristic length (--lscale, default the chain's length: the sum
 of its joint offsets). Where K does not exist the indices are NaN (null in
 JSON) and the posture's index status says why.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -53,8 +54,7 @@ INDICES: dict = {"kappa": (_kappa, "N")}
 
 def index_status(ok, rank) -> list[str]:
     """Per posture: "ok", or why the indices do not exist."""
-    return ["ok" if o else f"undefined: no stiffness matrix (compliance rank {int(r)} < 6)"
-            for o, r in zip(ok, rank)]
+    return ["ok" if o else f"undefined: no stiffness matrix (compliance rank {int(r)} < 6)" for o, r in zip(ok, rank)]
 
 
 def compute_indices(C, K, ok, lscale) -> tuple[dict, dict]:
@@ -68,19 +68,23 @@ def compute_indices(C, K, ok, lscale) -> tuple[dict, dict]:
 
 
 def register(sub) -> None:
-    p = sub.add_parser("stiffness", help="tool compliance and stiffness of a model with values",
-                       description=__doc__, epilog=HELP,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "stiffness",
+        help="tool compliance and stiffness of a model with values",
+        description=__doc__,
+        epilog=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("model", help="model TOML whose effects carry values")
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--posture", help="q1,q2,...,qN (rad)")
     g.add_argument("--trajectory", help="CSV with columns q1..qN")
     p.add_argument("--json", help="write compliance, stiffness, rank, indices per posture to JSON")
-    p.add_argument("--npz", help="write arrays q, compliance, stiffness, rank, ok, kappa_t, kappa_r, "
-                                 "indices_ok, lscale to NPZ")
+    p.add_argument(
+        "--npz", help="write arrays q, compliance, stiffness, rank, ok, kappa_t, kappa_r, indices_ok, lscale to NPZ"
+    )
     p.add_argument("--plot", help="PNG of the principal compliances and the indices along the postures")
-    p.add_argument("--lscale", type=float,
-                   help="characteristic length of the indices, m (default: the chain's length)")
+    p.add_argument("--lscale", type=float, help="characteristic length of the indices, m (default: the chain's length)")
     p.set_defaults(func=run)
 
 
@@ -118,32 +122,48 @@ def run(args) -> int:
             print(_matrix(K[i]))
             print("  indices: " + ", ".join(f"{n} = {v[i]:.6g} {units[n]}" for n, v in indices.items()))
         else:
-            print(f"  stiffness: does not exist (compliance rank {rank[i]} < 6: the model has no "
-                  f"spring for some tool directions, or the posture is singular)")
+            print(
+                f"  stiffness: does not exist (compliance rank {rank[i]} < 6: the model has no "
+                f"spring for some tool directions, or the posture is singular)"
+            )
             print(f"  indices: {', '.join(indices)} = NaN ({status[i]})")
     if len(Q) > 3:
         print(f"... {len(Q)} postures in all; {int(ok.sum())} with a stiffness matrix")
     if not ok.all():
         bad = np.flatnonzero(~ok) + 1
-        print(f"indices undefined (NaN, no stiffness matrix) at {bad.size} posture(s): "
-              f"{', '.join(map(str, bad[:20]))}{' ...' if bad.size > 20 else ''}")
-    print(f"indices: Taghvaeipour et al. 2010 eqs. 31-39 with the length scale {lscale:.6g} m "
-          f"({'--lscale' if args.lscale is not None else 'the chain length'}); N whatever the unit")
+        print(
+            f"indices undefined (NaN, no stiffness matrix) at {bad.size} posture(s): "
+            f"{', '.join(map(str, bad[:20]))}{' ...' if bad.size > 20 else ''}"
+        )
+    print(
+        f"indices: Taghvaeipour et al. 2010 eqs. 31-39 with the length scale {lscale:.6g} m "
+        f"({'--lscale' if args.lscale is not None else 'the chain length'}); N whatever the unit"
+    )
     if args.json:
-        out = {"postures": [{"q": Q[i].tolist(), "compliance": C[i].tolist(),
-                             "stiffness": K[i].tolist() if ok[i] else None, "rank": int(rank[i]),
-                             "indices": {n: _null(v[i]) for n, v in indices.items()},
-                             "indices_status": status[i]}
-                            for i in range(len(Q))],
-               "frame": "tool-frame origin, base axes; twist (t, phi), wrench (f, m)",
-               "indices_lscale_m": lscale, "indices_units": units,
-               "indices_note": "null where the stiffness does not exist (see indices_status)"}
+        out = {
+            "postures": [
+                {
+                    "q": Q[i].tolist(),
+                    "compliance": C[i].tolist(),
+                    "stiffness": K[i].tolist() if ok[i] else None,
+                    "rank": int(rank[i]),
+                    "indices": {n: _null(v[i]) for n, v in indices.items()},
+                    "indices_status": status[i],
+                }
+                for i in range(len(Q))
+            ],
+            "frame": "tool-frame origin, base axes; twist (t, phi), wrench (f, m)",
+            "indices_lscale_m": lscale,
+            "indices_units": units,
+            "indices_note": "null where the stiffness does not exist (see indices_status)",
+        }
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=1, allow_nan=False)
         print(f"wrote {args.json}")
     if args.npz:
-        np.savez(args.npz, q=Q, compliance=C, stiffness=K, rank=rank, ok=ok, lscale=lscale,
-                 indices_ok=ok.copy(), **indices)
+        np.savez(
+            args.npz, q=Q, compliance=C, stiffness=K, rank=rank, ok=ok, lscale=lscale, indices_ok=ok.copy(), **indices
+        )
         print(f"wrote {args.npz}")
     if args.plot:
         _plot(args.plot, Q, C, ok, indices, units, lscale)
@@ -155,8 +175,10 @@ def _plot(path, Q, C, ok, indices, units, lscale) -> None:
     """Principal compliances and the indices along the postures; singular
     postures (no stiffness, indices undefined) marked in grey."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     et = np.linalg.eigvalsh(C[:, :3, :3])
     er = np.linalg.eigvalsh(C[:, 3:, 3:])
     fig, ax = plt.subplots(1, 3, figsize=(15, 4))
@@ -168,10 +190,9 @@ def _plot(path, Q, C, ok, indices, units, lscale) -> None:
     ax[0].set_ylabel("translational compliance (mm/kN)")
     ax[1].set_ylabel("rotational compliance (urad/(N m))")
     for name, v in indices.items():
-        ax[2].plot(x, v, marker=mk, label=name)      # NaN leaves a gap
+        ax[2].plot(x, v, marker=mk, label=name)  # NaN leaves a gap
     ax[2].set_yscale("log")
-    ax[2].set_ylabel(f"stiffness index ({', '.join(sorted(set(units.values())))}), "
-                     f"l = {lscale:.3g} m")
+    ax[2].set_ylabel(f"stiffness index ({', '.join(sorted(set(units.values())))}), l = {lscale:.3g} m")
     # runs of consecutive postures without a stiffness, one grey band each
     edges = np.diff(np.r_[0, (~ok).astype(int), 0])
     runs = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))

@@ -8,6 +8,7 @@ KR 270 R2700 datasheet dimensions; joint compliances of klimchik's
 magnitude; aluminium-tube links 2-4; a gravity compensator on A2) or a truth
 model TOML whose effects carry values (its URDF is copied).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,9 +33,13 @@ markers: points on the tool (tool frame), each measured for every load.
 
 
 def register(sub) -> None:
-    p = sub.add_parser("synth", help="synthetic calibration data with a known truth",
-                       description=__doc__, epilog=HELP,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "synth",
+        help="synthetic calibration data with a known truth",
+        description=__doc__,
+        epilog=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("robot", help="kr270 or a truth model TOML with values")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--configs", type=int, default=30, help="number of robot configurations")
@@ -50,8 +55,12 @@ def register(sub) -> None:
     p.add_argument("--no-compensator", action="store_true", help="kr270: no gravity compensator")
     p.add_argument("--no-links", action="store_true", help="kr270: rigid links")
     p.add_argument("--offset", help="kr270: unknown marker offset r = x,y,z (m, tool frame)")
-    p.add_argument("--fit", choices=["joints", "truth"], default="joints",
-                   help="effects of model.toml: joints only (J1) or the truth's effects")
+    p.add_argument(
+        "--fit",
+        choices=["joints", "truth"],
+        default="joints",
+        help="effects of model.toml: joints only (J1) or the truth's effects",
+    )
     p.set_defaults(func=run)
 
 
@@ -60,10 +69,17 @@ MARKERS = [(0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2), (-0.1, -0.1, 0.
 
 def run(args) -> int:
 
-
-    kw = dict(n_configs=args.configs, loads=args.loads, loads_per_config=args.loads_per_config,
-              markers=MARKERS[: args.markers], sigma=args.sigma, replicates=args.replicates,
-              force=args.force, moment=args.moment, seed=args.seed)
+    kw = dict(
+        n_configs=args.configs,
+        loads=args.loads,
+        loads_per_config=args.loads_per_config,
+        markers=MARKERS[: args.markers],
+        sigma=args.sigma,
+        replicates=args.replicates,
+        force=args.force,
+        moment=args.moment,
+        seed=args.seed,
+    )
     if args.robot == "kr270":
         offset = parse_vector(args.offset, 3, "--offset") if args.offset else None
         truth = S.kr270_truth(links=not args.no_links, compensator=not args.no_compensator, offset=offset)
@@ -73,7 +89,7 @@ def run(args) -> int:
         path = Path(args.robot)
         if not path.is_file():
             raise InputError(f"{path}: no such truth model (give kr270 or a TOML with values)")
-        m = load_model(path)          # checks the file
+        m = load_model(path)  # checks the file
         truth = m.effects
         for t in m.terms:
             if t.free:

@@ -138,7 +138,7 @@ contains
             sz(:), vz(:, :), coef(:)
         logical, allocatable :: zero(:)
         real(dp) :: zref
-        integer :: n, p, ncand, c, rank, i, k0, nc, k
+        integer :: n, p, ncand, c, rank, k0, nc, k
         n = size(a, 1)
         p = size(a, 2)
         ncand = size(cstart) - 1

@@ -6,6 +6,7 @@ an element-face surface; every step's *CLOAD has OP=NEW; the job name is
 given without ``.inp``; exit status 201 is an input error whose text is in
 ccx's output; a malformed deck can make ccx loop, so every run has a timeout.
 """
+
 from __future__ import annotations
 
 import os
@@ -31,12 +32,14 @@ class CcxError(StiffkitError):
 def ccx_executable() -> str:
     exe = shutil.which(os.environ.get("STIFFKIT_CCX", "ccx"))
     if exe is None:
-        raise CcxError("the CalculiX solver `ccx` is not on PATH (Debian package calculix-ccx; "
-                       "`make install` installs it)")
+        raise CcxError(
+            "the CalculiX solver `ccx` is not on PATH (Debian package calculix-ccx; `make install` installs it)"
+        )
     return exe
 
 
 # ---------------------------------------------------------------- decks
+
 
 def _write_mesh(fh, nodes: np.ndarray, elements: np.ndarray, ccx_type: str) -> None:
     fh.write("*NODE, NSET=NALL\n")
@@ -51,7 +54,7 @@ def _write_set(fh, kind: str, name: str, items) -> None:
     fh.write(f"*{kind}, {kind}={name}\n")
     items = np.asarray(items, dtype=np.int64)
     for k in range(0, items.size, 12):
-        fh.write(", ".join(str(int(v)) for v in items[k:k + 12]) + "\n")
+        fh.write(", ".join(str(int(v)) for v in items[k : k + 12]) + "\n")
 
 
 def _write_material(fh, E: float, nu: float, density: float | None) -> None:
@@ -72,8 +75,19 @@ class StaticDeck:
     amplitudes: np.ndarray
 
 
-def write_static_deck(path, mesh, E: float, nu: float, fixed_nodes, load_faces, load_nodes,
-                      reference_point, coupling: str, amplitudes, print_all: bool = True) -> StaticDeck:
+def write_static_deck(
+    path,
+    mesh,
+    E: float,
+    nu: float,
+    fixed_nodes,
+    load_faces,
+    load_nodes,
+    reference_point,
+    coupling: str,
+    amplitudes,
+    print_all: bool = True,
+) -> StaticDeck:
     """Six *STATIC steps, one unit-direction wrench each (scaled by
     ``amplitudes``), at a reference node coupled to the load face:
     ``coupling = "distributing"`` (*COUPLING + *DISTRIBUTING on the element
@@ -98,8 +112,7 @@ def write_static_deck(path, mesh, E: float, nu: float, fixed_nodes, load_faces, 
             fh.write("*SURFACE, NAME=SLOAD, TYPE=ELEMENT\n")
             for e, s in load_faces:
                 fh.write(f"{int(e)}, S{int(s)}\n")
-            fh.write(f"*COUPLING, REF NODE={ref}, SURFACE=SLOAD, CONSTRAINT NAME=CLOAD\n"
-                     "*DISTRIBUTING\n1, 6\n")
+            fh.write(f"*COUPLING, REF NODE={ref}, SURFACE=SLOAD, CONSTRAINT NAME=CLOAD\n*DISTRIBUTING\n1, 6\n")
         else:
             fh.write(f"*RIGID BODY, NSET=NLOAD, REF NODE={ref}, ROT NODE={rot}\n")
         _write_material(fh, E, nu, None)
@@ -135,6 +148,7 @@ def write_matrix_deck(path, mesh, E: float, nu: float, density: float, fixed_nod
 
 # ---------------------------------------------------------------- runs
 
+
 def peak_rss_mb(pid="self") -> float:
     """High-water resident memory (VmHWM) of a live process, MB; 0 if unknown.
     (getrusage's ru_maxrss of a child includes its parent's memory at fork
@@ -161,7 +175,7 @@ def _error_text(log: str, limit: int = 6) -> str:
     out = []
     for i, ln in enumerate(lines):
         if "*ERROR" in ln.upper():
-            block = [ln.strip()] + [x.strip() for x in lines[i + 1:i + 4] if x.strip()]
+            block = [ln.strip()] + [x.strip() for x in lines[i + 1 : i + 4] if x.strip()]
             out.append(" ".join(block))
     return " | ".join(out[:limit])
 
@@ -177,15 +191,21 @@ def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1, progress=None
     deck = Path(deck)
     # line-buffered output (C stdio via stdbuf, gfortran units) so that the
     # log shows ccx's progress while it runs
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads), CCX_NPROC_STIFFNESS=str(threads),
-               CCX_NPROC_EQUATION_SOLVER=str(threads), GFORTRAN_UNBUFFERED_PRECONNECTED="y")
+    env = dict(
+        os.environ,
+        OMP_NUM_THREADS=str(threads),
+        CCX_NPROC_STIFFNESS=str(threads),
+        CCX_NPROC_EQUATION_SOLVER=str(threads),
+        GFORTRAN_UNBUFFERED_PRECONNECTED="y",
+    )
     stdbuf = shutil.which("stdbuf")
     cmd = ([stdbuf, "-oL"] if stdbuf else []) + [exe, "-i", deck.stem]
     logf = deck.with_suffix(".log")
     t0 = time.perf_counter()
     with open(logf, "w") as out:
-        proc = subprocess.Popen(cmd, cwd=deck.parent, stdout=out,
-                                stderr=subprocess.STDOUT, env=env, start_new_session=True)
+        proc = subprocess.Popen(
+            cmd, cwd=deck.parent, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True
+        )
         rss = 0.0
         polls = 0
         seen = 0
@@ -195,7 +215,7 @@ def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1, progress=None
                 rc = os.waitstatus_to_exitcode(status)
                 proc.returncode = rc
                 break
-            if polls % 5 == 0:                    # sample ccx's peak memory every ~0.1 s
+            if polls % 5 == 0:  # sample ccx's peak memory every ~0.1 s
                 rss = max(rss, peak_rss_mb(proc.pid))
             if progress is not None and polls % 50 == 0:
                 try:
@@ -209,8 +229,7 @@ def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1, progress=None
             if time.perf_counter() - t0 > timeout:
                 os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
-                raise CcxError(f"ccx on {deck.name} did not finish within {timeout:.0f} s "
-                               f"(log: {logf})")
+                raise CcxError(f"ccx on {deck.name} did not finish within {timeout:.0f} s (log: {logf})")
             time.sleep(0.02)
     log = logf.read_text(errors="replace")
     seconds = time.perf_counter() - t0
@@ -233,8 +252,11 @@ def ccx_version() -> str:
 
 # ---------------------------------------------------------------- .dat
 
-_HEADER = re.compile(r"^\s*(?P<what>[a-z][a-z ]*?)\s*\((?P<comp>[^)]*)\)\s*for set\s+(?P<set>\S+)"
-                     r"\s+and time\s+(?P<time>\S+)", re.IGNORECASE)
+_HEADER = re.compile(
+    r"^\s*(?P<what>[a-z][a-z ]*?)\s*\((?P<comp>[^)]*)\)\s*for set\s+(?P<set>\S+)"
+    r"\s+and time\s+(?P<time>\S+)",
+    re.IGNORECASE,
+)
 _EXP3 = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d{2,4})$")
 
 
@@ -254,10 +276,10 @@ def _number(tok: str) -> float:
 
 @dataclass
 class DatBlock:
-    what: str          # e.g. "displacements"
+    what: str  # e.g. "displacements"
     set: str
     time: float
-    ids: np.ndarray    # (k,) node numbers
+    ids: np.ndarray  # (k,) node numbers
     values: np.ndarray  # (k, ncomp)
 
 
@@ -273,8 +295,9 @@ def parse_dat(text: str, source: str = ".dat") -> list[DatBlock]:
         if cur is not None:
             ncomp = len(rows[0]) - 1 if rows else 0
             arr = np.array(rows, dtype=float).reshape(-1, ncomp + 1) if rows else np.zeros((0, 1))
-            blocks.append(DatBlock(what=cur[0], set=cur[1], time=cur[2],
-                                   ids=arr[:, 0].astype(np.int64), values=arr[:, 1:]))
+            blocks.append(
+                DatBlock(what=cur[0], set=cur[1], time=cur[2], ids=arr[:, 0].astype(np.int64), values=arr[:, 1:])
+            )
 
     for lineno, line in enumerate(text.splitlines(), 1):
         s = line.strip()
@@ -291,20 +314,22 @@ def parse_dat(text: str, source: str = ".dat") -> list[DatBlock]:
             rows = []
             continue
         if cur is None:
-            continue                      # preamble (e.g. eigenvalue tables we do not use)
+            continue  # preamble (e.g. eigenvalue tables we do not use)
         toks = s.split()
         try:
             node = int(toks[0])
             vals = [_number(t) for t in toks[1:]]
         except ValueError:
-            if toks[0].isalpha():         # a block we do not parse (e.g. 'total force')
+            if toks[0].isalpha():  # a block we do not parse (e.g. 'total force')
                 close()
                 cur, rows = None, []
                 continue
             raise CcxError(f"{source}, line {lineno}: cannot read {s[:60]!r}") from None
         if not vals or (rows and len(vals) != len(rows[0]) - 1):
-            raise CcxError(f"{source}, line {lineno}: expected {len(rows[0]) - 1 if rows else 'some'} "
-                           f"values after the node number, got {len(vals)}")
+            raise CcxError(
+                f"{source}, line {lineno}: expected {len(rows[0]) - 1 if rows else 'some'} "
+                f"values after the node number, got {len(vals)}"
+            )
         if not all(np.isfinite(vals)):
             raise CcxError(f"{source}, line {lineno}: non-finite value in {s[:60]!r}")
         rows.append([node] + vals)
@@ -318,13 +343,14 @@ def displacements_from_dat(path, n_nodes: int, deck: StaticDeck) -> tuple[np.nda
     path = Path(path)
     if not path.is_file():
         raise CcxError(f"{path}: ccx wrote no .dat file")
-    blocks = [b for b in parse_dat(path.read_text(errors="replace"), str(path))
-              if b.what.startswith("displacements")]
+    blocks = [b for b in parse_dat(path.read_text(errors="replace"), str(path)) if b.what.startswith("displacements")]
     alln = [b for b in blocks if b.set.upper() in ("NALL", "NLOAD")]
     refb = [b for b in blocks if b.set.upper() == "NREF"]
     if len(alln) != 6 or len(refb) != 6:
-        raise CcxError(f"{path}: expected 6 load cases of displacements, found {len(alln)} "
-                       f"(field) and {len(refb)} (reference node)")
+        raise CcxError(
+            f"{path}: expected 6 load cases of displacements, found {len(alln)} "
+            f"(field) and {len(refb)} (reference node)"
+        )
     U = np.zeros((6, n_nodes, 3))
     ref = np.zeros((6, 6))
     for j, (b, r) in enumerate(zip(alln, refb)):

@@ -5,6 +5,7 @@ whose lengths are in metres (the file's ``geometry.units`` converted at this
 boundary). Every problem raises :class:`ConfigError` naming the file, the
 key and what was wrong.
 """
+
 from __future__ import annotations
 
 import copy
@@ -12,10 +13,10 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-try:                                   # Python >= 3.11
+try:  # Python >= 3.11
     import tomllib
-except ImportError:                    # pragma: no cover
-    import tomli as tomllib            # type: ignore
+except ImportError:  # pragma: no cover
+    import tomli as tomllib  # type: ignore
 
 from ..errors import InputError
 
@@ -36,8 +37,12 @@ def paper_beam(size_mm: float = 5.0, route: str = "matrix") -> dict:
         "geometry": {"shape": "box", "size": [1000.0, 10.0, 10.0], "units": "mm"},
         "material": {"E": 2.0e11, "nu": 0.266},
         "support": {"plane": "x-min"},
-        "load": {"plane": "x-max", "reference_point": [1000.0, 0.0, 0.0],
-                 "coupling": "distributing", "amplitudes": "auto"},
+        "load": {
+            "plane": "x-max",
+            "reference_point": [1000.0, 0.0, 0.0],
+            "coupling": "distributing",
+            "amplitudes": "auto",
+        },
         "field": {"region": "face"},
         "mesh": {"mesher": "gmsh", "order": 2, "size": float(size_mm)},
         "fit": {"method": "lin", "trim": 0.0, "confidence": 0.99},
@@ -54,43 +59,43 @@ class LinkJob:
     """A checked LINK.toml; lengths in metres unless named *_units."""
 
     source: str
-    geometry: dict                    # shape/size/... in geometry units, or step (absolute path)
+    geometry: dict  # shape/size/... in geometry units, or step (absolute path)
     units: str
-    scale: float                      # geometry unit -> m
+    scale: float  # geometry unit -> m
     E: float
     nu: float
     density: float
     support_plane: str
     load_plane: str
-    reference_point: list             # m
+    reference_point: list  # m
     coupling: str
-    amplitudes: object                # "auto" or [6 floats] N, N m
+    amplitudes: object  # "auto" or [6 floats] N, N m
     region: str
-    region_size: float                # m
+    region_size: float  # m
     mesher: str
     order: int
-    size: float                       # geometry units
+    size: float  # geometry units
     refine: float | None
-    refine_radius: float | None       # geometry units
-    optimize: str                     # none | netgen
+    refine_radius: float | None  # geometry units
+    optimize: str  # none | netgen
     method: str
     trim: float
     confidence: float
     symmetrize: bool
     route: str
-    plane_tolerance: float | None     # m
+    plane_tolerance: float | None  # m
     ccx_timeout: float
     approximation: dict | None = None  # single-beam approximation: length (m), section, dims (m)
-    pooled: bool = True               # one noise estimate for the six fields (paper s3.4)
-    structured: bool = False          # transfinite tet mesh (built-in box only)
-    across_factor: float = 1.0        # structured: element size across the section / size
+    pooled: bool = True  # one noise estimate for the six fields (paper s3.4)
+    structured: bool = False  # transfinite tet mesh (built-in box only)
+    across_factor: float = 1.0  # structured: element size across the section / size
     raw: dict = field(default_factory=dict)
 
     @property
     def size_m(self) -> float:
         return self.size * self.scale
 
-    def with_mesh(self, order: int | None = None, size: float | None = None) -> "LinkJob":
+    def with_mesh(self, order: int | None = None, size: float | None = None) -> LinkJob:
         job = copy.deepcopy(self)
         if order is not None:
             job.order = int(order)
@@ -114,8 +119,11 @@ class LinkJob:
         elif g.get("shape") in ("tube", "rod"):
             L = g["length"] * self.scale
             d = g.get("inner_diameter", 0.0) * self.scale if g["shape"] == "tube" else 0.0
-            sec = ("tube", [g["outer_diameter"] * self.scale, d]) if d > 0 else \
-                ("circle", [g["outer_diameter"] * self.scale])
+            sec = (
+                ("tube", [g["outer_diameter"] * self.scale, d])
+                if d > 0
+                else ("circle", [g["outer_diameter"] * self.scale])
+            )
         else:
             return None
         if any(abs(a - b) > 1e-9 * L for a, b in zip(self.reference_point, [L, 0.0, 0.0])):
@@ -142,8 +150,9 @@ def _get(tbl: dict, key: str, where: str, path: str, kind=None, default=...):
             raise ConfigError(f"{path}: [{where}] {key} = {v!r} must be a string")
         return v
     if kind is list:
-        if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                                              and math.isfinite(x) for x in v):
+        if not isinstance(v, list) or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v
+        ):
             raise ConfigError(f"{path}: [{where}] {key} = {v!r} must be a list of numbers")
         return [float(x) for x in v]
     return v
@@ -167,12 +176,10 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     for section in ("geometry", "material", "support", "load"):
         if section not in data or not isinstance(data[section], dict):
             raise ConfigError(f"{path}: section [{section}] is missing")
-    known = {"geometry", "material", "support", "load", "field", "mesh", "fit", "solver",
-             "approximation"}
+    known = {"geometry", "material", "support", "load", "field", "mesh", "fit", "solver", "approximation"}
     unknown = set(data) - known
     if unknown:
-        raise ConfigError(f"{path}: unknown section(s) {', '.join(sorted(unknown))}; "
-                          f"known: {', '.join(sorted(known))}")
+        raise ConfigError(f"{path}: unknown section(s) {', '.join(sorted(unknown))}; known: {', '.join(sorted(known))}")
     g = data["geometry"]
     units = _get(g, "units", "geometry", path, str, "mm")
     if units not in UNITS:
@@ -193,21 +200,23 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         if shape == "box":
             size = _get(g, "size", "geometry", path, list)
             if len(size) != 3 or min(size) <= 0:
-                raise ConfigError(f"{path}: [geometry] size = {size!r}: three positive lengths "
-                                  "[along x, y, z]")
+                raise ConfigError(f"{path}: [geometry] size = {size!r}: three positive lengths [along x, y, z]")
             geometry["size"] = size
         else:
             geometry["length"] = _positive(_get(g, "length", "geometry", path, float), "geometry", "length", path)
-            geometry["outer_diameter"] = _positive(_get(g, "outer_diameter", "geometry", path, float),
-                                                   "geometry", "outer_diameter", path)
+            geometry["outer_diameter"] = _positive(
+                _get(g, "outer_diameter", "geometry", path, float), "geometry", "outer_diameter", path
+            )
             if shape == "tube":
                 d = _get(g, "inner_diameter", "geometry", path, float)
                 if not 0 < d < geometry["outer_diameter"]:
-                    raise ConfigError(f"{path}: [geometry] inner_diameter = {d!r} must lie in "
-                                      f"(0, outer_diameter = {geometry['outer_diameter']})")
+                    raise ConfigError(
+                        f"{path}: [geometry] inner_diameter = {d!r} must lie in "
+                        f"(0, outer_diameter = {geometry['outer_diameter']})"
+                    )
                 geometry["inner_diameter"] = d
     else:
-        raise ConfigError(f"{path}: [geometry] needs step = \"part.step\" or shape = \"box\" | \"tube\" | \"rod\"")
+        raise ConfigError(f'{path}: [geometry] needs step = "part.step" or shape = "box" | "tube" | "rod"')
 
     m = data["material"]
     E = _positive(_get(m, "E", "material", path, float), "material", "E", path)
@@ -220,19 +229,22 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     ld = data["load"]
     lplane = _choice(_get(ld, "plane", "load", path, str), PLANES, "load", "plane", path)
     if lplane == sup:
-        raise ConfigError(f"{path}: [load] plane = {lplane!r} is also the support plane: the load "
-                          "face must differ from the clamped face")
+        raise ConfigError(
+            f"{path}: [load] plane = {lplane!r} is also the support plane: the load "
+            "face must differ from the clamped face"
+        )
     ref = _get(ld, "reference_point", "load", path, list)
     if len(ref) != 3:
         raise ConfigError(f"{path}: [load] reference_point = {ref!r}: three coordinates")
-    coupling = _choice(_get(ld, "coupling", "load", path, str, "distributing"), COUPLINGS, "load",
-                       "coupling", path)
+    coupling = _choice(_get(ld, "coupling", "load", path, str, "distributing"), COUPLINGS, "load", "coupling", path)
     amps = ld.get("amplitudes", "auto")
     if amps != "auto":
         amps = _get(ld, "amplitudes", "load", path, list)
         if len(amps) != 6 or min(amps) <= 0:
-            raise ConfigError(f"{path}: [load] amplitudes = {amps!r}: \"auto\" or six positive "
-                              "numbers [Fx, Fy, Fz, Mx, My, Mz] in N and N m")
+            raise ConfigError(
+                f'{path}: [load] amplitudes = {amps!r}: "auto" or six positive '
+                "numbers [Fx, Fy, Fz, Mx, My, Mz] in N and N m"
+            )
     fl = data.get("field", {})
     region = _choice(_get(fl, "region", "field", path, str, "face"), REGIONS, "field", "region", path)
     rsize = _get(fl, "size", "field", path, float, 0.0)
@@ -246,8 +258,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     if refine is not None and not 0 < refine < 1:
         raise ConfigError(f"{path}: [mesh] refine = {refine!r}: a size factor in (0, 1)")
     rr = _get(me, "refine_radius", "mesh", path, float, None) if "refine_radius" in me else None
-    optimize = _choice(_get(me, "optimize", "mesh", path, str, "none"), ("none", "netgen"), "mesh",
-                       "optimize", path)
+    optimize = _choice(_get(me, "optimize", "mesh", path, str, "none"), ("none", "netgen"), "mesh", "optimize", path)
     structured = me.get("structured", False)
     if not isinstance(structured, bool):
         raise ConfigError(f"{path}: [mesh] structured = {structured!r}: true or false")
@@ -258,17 +269,22 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         raise ConfigError(f"{path}: [mesh] across_factor needs structured = true")
     if structured:
         if geometry.get("shape") != "box":
-            raise ConfigError(f"{path}: [mesh] structured = true is only for the built-in "
-                              f"[geometry] shape = \"box\", not "
-                              f"{geometry.get('shape') or 'step = ' + repr(g.get('step'))}")
+            raise ConfigError(
+                f"{path}: [mesh] structured = true is only for the built-in "
+                f'[geometry] shape = "box", not '
+                f"{geometry.get('shape') or 'step = ' + repr(g.get('step'))}"
+            )
         if mesher != "gmsh":
-            raise ConfigError(f"{path}: [mesh] structured = true needs mesher = \"gmsh\", not {mesher!r}")
+            raise ConfigError(f'{path}: [mesh] structured = true needs mesher = "gmsh", not {mesher!r}')
         if refine is not None:
-            raise ConfigError(f"{path}: [mesh] structured = true and refine exclude each other "
-                              "(a structured mesh has one size along and one across)")
+            raise ConfigError(
+                f"{path}: [mesh] structured = true and refine exclude each other "
+                "(a structured mesh has one size along and one across)"
+            )
         if optimize != "none":
-            raise ConfigError(f"{path}: [mesh] structured = true needs optimize = \"none\" "
-                              "(the optimiser would unstructure it)")
+            raise ConfigError(
+                f'{path}: [mesh] structured = true needs optimize = "none" (the optimiser would unstructure it)'
+            )
     fit = data.get("fit", {})
     method = _choice(_get(fit, "method", "fit", path, str, "lin"), FIT_METHODS, "fit", "method", path)
     trim = _get(fit, "trim", "fit", path, float, 0.0)
@@ -290,22 +306,52 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     approx = None
     if "approximation" in data:
         ap = data["approximation"]
-        sec = _choice(_get(ap, "section", "approximation", path, str), ("rectangle", "square", "tube", "circle"),
-                      "approximation", "section", path)
+        sec = _choice(
+            _get(ap, "section", "approximation", path, str),
+            ("rectangle", "square", "tube", "circle"),
+            "approximation",
+            "section",
+            path,
+        )
         dims = _get(ap, "dims", "approximation", path, list)
         if not dims or min(dims) < 0:
             raise ConfigError(f"{path}: [approximation] dims = {dims!r}: section sizes in {units}")
         length = _positive(_get(ap, "length", "approximation", path, float), "approximation", "length", path)
         approx = {"length": length * scale, "section": sec, "dims": [d * scale for d in dims]}
-    return LinkJob(source=path, geometry=geometry, units=units, scale=scale, E=E, nu=nu,
-                   density=density, support_plane=sup, load_plane=lplane,
-                   reference_point=[v * scale for v in ref], coupling=coupling, amplitudes=amps,
-                   region=region, region_size=rsize * scale, mesher=mesher, order=order,
-                   size=msize, refine=refine, refine_radius=rr, optimize=optimize, method=method, trim=trim,
-                   confidence=conf, symmetrize=sym, route=route,
-                   plane_tolerance=None if tol is None else tol * scale, ccx_timeout=timeout,
-                   approximation=approx, pooled=pooled, structured=structured,
-                   across_factor=across, raw=data)
+    return LinkJob(
+        source=path,
+        geometry=geometry,
+        units=units,
+        scale=scale,
+        E=E,
+        nu=nu,
+        density=density,
+        support_plane=sup,
+        load_plane=lplane,
+        reference_point=[v * scale for v in ref],
+        coupling=coupling,
+        amplitudes=amps,
+        region=region,
+        region_size=rsize * scale,
+        mesher=mesher,
+        order=order,
+        size=msize,
+        refine=refine,
+        refine_radius=rr,
+        optimize=optimize,
+        method=method,
+        trim=trim,
+        confidence=conf,
+        symmetrize=sym,
+        route=route,
+        plane_tolerance=None if tol is None else tol * scale,
+        ccx_timeout=timeout,
+        approximation=approx,
+        pooled=pooled,
+        structured=structured,
+        across_factor=across,
+        raw=data,
+    )
 
 
 def load_link(path) -> LinkJob:

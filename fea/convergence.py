@@ -7,6 +7,7 @@ error of the non-zero compliance elements against the closed form when the
 shape has one (eq. 22), else against a Richardson extrapolation of the
 finest meshes of the same order.
 """
+
 from __future__ import annotations
 
 import concurrent.futures as cf
@@ -29,7 +30,7 @@ class RunRecord:
     nodes: int
     elements: int
     seconds: float
-    memory_mb: float          # peak resident memory of the run's processes (ccx, CHOLMOD)
+    memory_mb: float  # peak resident memory of the run's processes (ccx, CHOLMOD)
     compliance: np.ndarray
     significant: np.ndarray
     cached: bool
@@ -42,10 +43,18 @@ def _one(job: LinkJob, order: int, size: float, cache_dir: str) -> dict:
     r = run_link(job.with_mesh(order=order, size=size), cache_dir=cache_dir)
     st = r.solution.stats
     wall = r.solution.timing.get("mesh", 0.0) + r.solution.timing.get("fea", 0.0) + r.timing["fit"]
-    return dict(order=order, size=size, nodes=r.mesh.n_nodes, elements=r.mesh.n_elements,
-                seconds=wall, memory_mb=max(st.get("ccx_max_rss_mb", 0.0), st.get("python_max_rss_mb", 0.0)),
-                compliance=r.compliance.matrix, significant=r.compliance.significant,
-                cached=r.cached, route=r.solution.route)
+    return dict(
+        order=order,
+        size=size,
+        nodes=r.mesh.n_nodes,
+        elements=r.mesh.n_elements,
+        seconds=wall,
+        memory_mb=max(st.get("ccx_max_rss_mb", 0.0), st.get("python_max_rss_mb", 0.0)),
+        compliance=r.compliance.matrix,
+        significant=r.compliance.significant,
+        cached=r.cached,
+        route=r.solution.route,
+    )
 
 
 def richardson(sizes: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float, bool]:
@@ -67,7 +76,7 @@ def richardson(sizes: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float
         big = np.abs(d23) > 1e-12 * np.abs(np.diagonal(v[-1])).max()
         if big.any():
             ratio = float(np.median(d12[big] / d23[big]))
-            f = lambda q: (h1 ** q - h2 ** q) / (h2 ** q - h3 ** q) - ratio   # noqa: E731
+            f = lambda q: (h1**q - h2**q) / (h2**q - h3**q) - ratio  # noqa: E731
             lo, hi = 0.5, 8.0
             if ratio > 0 and f(lo) * f(hi) < 0:
                 for _ in range(60):
@@ -75,7 +84,7 @@ def richardson(sizes: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float
                     lo, hi = (mid, hi) if f(lo) * f(mid) > 0 else (lo, mid)
                 p, estimated = 0.5 * (lo + hi), True
     ha, hb = h[-2], h[-1]
-    k0 = v[-1] + (v[-1] - v[-2]) * hb ** p / (ha ** p - hb ** p)
+    k0 = v[-1] + (v[-1] - v[-2]) * hb**p / (ha**p - hb**p)
     return k0, p, estimated
 
 
@@ -102,9 +111,11 @@ def run_study(job: LinkJob, orders, sizes, cache_dir: str, jobs: int = 1, progre
     def report(done, rec):
         if progress:
             bar = "#" * done + "." * (len(pairs) - done)
-            out.write(f"\r[{bar}] {done}/{len(pairs)}  order {rec.order} size {rec.size:g}: "
-                      f"{rec.nodes} nodes, {rec.seconds:.1f} s{' (cache)' if rec.cached else ''}"
-                      f"   elapsed {time.perf_counter() - t0:.0f} s\n")
+            out.write(
+                f"\r[{bar}] {done}/{len(pairs)}  order {rec.order} size {rec.size:g}: "
+                f"{rec.nodes} nodes, {rec.seconds:.1f} s{' (cache)' if rec.cached else ''}"
+                f"   elapsed {time.perf_counter() - t0:.0f} s\n"
+            )
             out.flush()
 
     if progress:
@@ -134,41 +145,64 @@ def run_study(job: LinkJob, orders, sizes, cache_dir: str, jobs: int = 1, progre
             refs[o] = (k0, p, est)
             _errors(rs, k0, finest.significant)
         basis = "Richardson extrapolation of the finest meshes of each order"
-    return {"records": records, "basis": basis, "richardson": refs,
-            "units": job.units, "scale": job.scale}
+    return {"records": records, "basis": basis, "richardson": refs, "units": job.units, "scale": job.scale}
 
 
 def table(study: dict) -> str:
-    lines = [f"mesh convergence: max relative error of the significant compliance elements vs "
-             f"{study['basis']}",
-             f"{'order':>5s} {'element':>7s} {'size':>7s} {'nodes':>8s} {'error %':>9s} {'worst':>6s} "
-             f"{'time s':>8s} {'mem MB':>8s} {'route':>7s}"]
+    lines = [
+        f"mesh convergence: max relative error of the significant compliance elements vs {study['basis']}",
+        f"{'order':>5s} {'element':>7s} {'size':>7s} {'nodes':>8s} {'error %':>9s} {'worst':>6s} "
+        f"{'time s':>8s} {'mem MB':>8s} {'route':>7s}",
+    ]
     for o, (_k0, p, est) in sorted(study.get("richardson", {}).items()):
-        how = ("observed on the three finest meshes" if est else
-               "assumed (fewer than three meshes, or differences not shrinking)")
+        how = (
+            "observed on the three finest meshes"
+            if est
+            else "assumed (fewer than three meshes, or differences not shrinking)"
+        )
         lines.append(f"  order {o}: k(h) = k0 + C h^p with p = {p:.2f}, {how}")
     for r in study["records"]:
-        lines.append(f"{r.order:5d} {('C3D10' if r.order == 2 else 'C3D4'):>7s} "
-                     f"{r.size:5g}{study['units']:>2s} {r.nodes:8d} {100 * r.error:9.4f} {r.worst:>6s} "
-                     f"{r.seconds:8.1f} {r.memory_mb:8.0f} {r.route:>7s}")
+        lines.append(
+            f"{r.order:5d} {('C3D10' if r.order == 2 else 'C3D4'):>7s} "
+            f"{r.size:5g}{study['units']:>2s} {r.nodes:8d} {100 * r.error:9.4f} {r.worst:>6s} "
+            f"{r.seconds:8.1f} {r.memory_mb:8.0f} {r.route:>7s}"
+        )
     return "\n".join(lines)
 
 
 def to_json(study: dict) -> dict:
-    return {"basis": study["basis"], "units": study["units"],
-            "richardson": {str(o): {"p": p, "observed": est, "extrapolated_compliance": k0.tolist()}
-                           for o, (k0, p, est) in study.get("richardson", {}).items()},
-            "runs": [{"order": r.order, "size": r.size, "nodes": r.nodes, "elements": r.elements,
-                      "max_relative_error": r.error, "worst_element": r.worst,
-                      "wall_time_s": r.seconds, "memory_mb": r.memory_mb, "route": r.route,
-                      "cached": r.cached, "compliance": r.compliance.tolist()}
-                     for r in study["records"]]}
+    return {
+        "basis": study["basis"],
+        "units": study["units"],
+        "richardson": {
+            str(o): {"p": p, "observed": est, "extrapolated_compliance": k0.tolist()}
+            for o, (k0, p, est) in study.get("richardson", {}).items()
+        },
+        "runs": [
+            {
+                "order": r.order,
+                "size": r.size,
+                "nodes": r.nodes,
+                "elements": r.elements,
+                "max_relative_error": r.error,
+                "worst_element": r.worst,
+                "wall_time_s": r.seconds,
+                "memory_mb": r.memory_mb,
+                "route": r.route,
+                "cached": r.cached,
+                "compliance": r.compliance.tolist(),
+            }
+            for r in study["records"]
+        ],
+    }
 
 
 def plot(study: dict, path) -> Path:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     path = Path(path)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
     for o in sorted({r.order for r in study["records"]}):

@@ -2,6 +2,7 @@
 compliance (Pashkevich et al. 2009 eq. 22, optionally Timoshenko) and the
 6x6 beam stiffness of Taghvaeipour et al. 2010 eq. 24 (core/sk_beams.f90).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,8 +28,9 @@ def section_properties(shape: str, dims, nu: float = 0.3) -> dict:
     elif shape == "circle":
         dims = [dims[0], 0.0]
     if shape not in _SECTIONS or len(dims) != 2:
-        raise InputError(f"unknown section {shape!r} with dims {dims}: use square [a], "
-                         "rectangle [b, h], tube [D, d] or circle [D]")
+        raise InputError(
+            f"unknown section {shape!r} with dims {dims}: use square [a], rectangle [b, h], tube [D, d] or circle [D]"
+        )
     props = core.section(_SECTIONS[shape], np.array(dims), nu)
     return dict(zip(("A", "Iy", "Iz", "J", "kappa_y", "kappa_z"), props.tolist()))
 
@@ -37,8 +39,7 @@ def _props(section: dict) -> np.ndarray:
     return np.array([section[k] for k in ("A", "Iy", "Iz", "J", "kappa_y", "kappa_z")])
 
 
-def cantilever_compliance(length: float, E: float, nu: float, section: dict,
-                          timoshenko: bool = False) -> np.ndarray:
+def cantilever_compliance(length: float, E: float, nu: float, section: dict, timoshenko: bool = False) -> np.ndarray:
     """Tip compliance of a cantilever along x (paper eq. 22), 6x6."""
     G = E / (2.0 * (1.0 + nu))
     return core.cantilever(length, E, G, _props(section), timoshenko)

@@ -3,10 +3,11 @@
 Python face of core/sk_compliance.f90 (Pashkevich et al. 2009: k = D W^+,
 eqs. 2-3; intervals and zero-element tests from the field covariances).
 """
+
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -21,12 +22,12 @@ __all__ = ["Compliance", "compliance_from_experiments", "normal_quantile"]
 class Compliance:
     """Compliance matrix k (deflection = k wrench) with its statistics."""
 
-    matrix: np.ndarray          # (6, 6)
-    std: np.ndarray             # (6, 6) standard deviation of each element
-    ci: np.ndarray              # (6, 6) confidence half-width at `confidence`
-    significant: np.ndarray     # (6, 6) bool: interval excludes zero
+    matrix: np.ndarray  # (6, 6)
+    std: np.ndarray  # (6, 6) standard deviation of each element
+    ci: np.ndarray  # (6, 6) confidence half-width at `confidence`
+    significant: np.ndarray  # (6, 6) bool: interval excludes zero
     stiffness: np.ndarray | None  # k^-1, None where k is singular
-    asymmetry: float            # max |k_ij - k_ji| / sqrt(|k_ii k_jj|) before symmetrising
+    asymmetry: float  # max |k_ij - k_ji| / sqrt(|k_ii k_jj|) before symmetrising
     confidence: float
     z: float
     symmetrized: bool = False
@@ -39,8 +40,10 @@ class Compliance:
 
     def table(self, unit_scale: Sequence[float] | None = None) -> str:
         """Readable table: each element with its +- half-width; zeros marked."""
-        lines = [f"compliance (rows {', '.join(DOF_NAMES)}; columns {', '.join(LOAD_NAMES)}), "
-                 f"+- {100 * self.confidence:g} % interval, '0' = not significant"]
+        lines = [
+            f"compliance (rows {', '.join(DOF_NAMES)}; columns {', '.join(LOAD_NAMES)}), "
+            f"+- {100 * self.confidence:g} % interval, '0' = not significant"
+        ]
         for i in range(6):
             cells = []
             for j in range(6):
@@ -56,11 +59,14 @@ class Compliance:
     __str__ = table
 
     def __repr__(self) -> str:
-        return f"Compliance(significant={int(self.significant.sum())}/36, confidence={self.confidence})\n" + self.table()
+        return (
+            f"Compliance(significant={int(self.significant.sum())}/36, confidence={self.confidence})\n" + self.table()
+        )
 
 
-def compliance_from_experiments(wrenches, fits, confidence: float = 0.99,
-                                symmetrize: bool = False, covariances=None) -> Compliance:
+def compliance_from_experiments(
+    wrenches, fits, confidence: float = 0.99, symmetrize: bool = False, covariances=None
+) -> Compliance:
     """Compliance k = D W^+ (eq. 2; eq. 3 for six axis loads) with statistics.
 
     Parameters
@@ -76,8 +82,7 @@ def compliance_from_experiments(wrenches, fits, confidence: float = 0.99,
         raise InputError(f"wrenches must have shape (m, 6), got {w.shape}")
     if isinstance(fits, np.ndarray) or covariances is not None:
         x = np.asarray(fits, dtype=float)
-        cov = (np.zeros((x.shape[0], 6, 6)) if covariances is None
-               else np.asarray(covariances, dtype=float))
+        cov = np.zeros((x.shape[0], 6, 6)) if covariances is None else np.asarray(covariances, dtype=float)
         sigma = float("nan")
     else:
         fits = list(fits)
@@ -85,15 +90,27 @@ def compliance_from_experiments(wrenches, fits, confidence: float = 0.99,
         cov = np.array([f.cov for f in fits])
         sigma = float(np.mean([f.sigma for f in fits])) if fits else float("nan")
     if x.shape != w.shape:
-        raise InputError(f"{x.shape[0] if x.ndim else 0} deflections for {w.shape[0]} wrenches: "
-                         f"need one (t, phi) per wrench, shape {w.shape}")
+        raise InputError(
+            f"{x.shape[0] if x.ndim else 0} deflections for {w.shape[0]} wrenches: "
+            f"need one (t, phi) per wrench, shape {w.shape}"
+        )
     if cov.shape != (w.shape[0], 6, 6):
         raise InputError(f"covariances must have shape ({w.shape[0]}, 6, 6), got {cov.shape}")
     if w.shape[0] < 6:
         raise InputError(f"need at least 6 experiments, got {w.shape[0]}")
     k, kstd, ci, sig, kstiff, asym, z = core.compliance_matrix(w, x, cov, confidence, symmetrize)
-    return Compliance(matrix=k, std=kstd, ci=ci, significant=sig, stiffness=kstiff, asymmetry=asym,
-                      confidence=float(confidence), z=z, symmetrized=bool(symmetrize), sigma=sigma)
+    return Compliance(
+        matrix=k,
+        std=kstd,
+        ci=ci,
+        significant=sig,
+        stiffness=kstiff,
+        asymmetry=asym,
+        confidence=float(confidence),
+        z=z,
+        symmetrized=bool(symmetrize),
+        sigma=sigma,
+    )
 
 
 def normal_quantile(level: float) -> float:

@@ -6,6 +6,7 @@ The paper's illustrative example: the 1000 x 10 x 10 mm steel cantilever
 gross outliers, fitted, turned into a compliance with intervals and zero
 tests, and compared with the closed form (eq. 22).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,10 +21,10 @@ def field_demo(seed: int = 1) -> dict:
     L, b, E, nu = 1.0, 0.01, 2.0e11, 0.266
     sec = section_properties("square", [b], nu)
     k_true = cantilever_compliance(L, E, nu, sec)
-    loads = np.diag([1000.0, 1.0, 1.0, 1.0, 1.0, 1.0])        # paper s4.2
-    pts = square_grid(b, 0.001, x=L)                           # tip face, 1 mm step
+    loads = np.diag([1000.0, 1.0, 1.0, 1.0, 1.0, 1.0])  # paper s4.2
+    pts = square_grid(b, 0.001, x=L)  # tip face, 1 mm step
     ref = np.array([L, 0.0, 0.0])
-    sigma = 5e-8                                               # 5e-5 mm (Table 4)
+    sigma = 5e-8  # 5e-5 mm (Table 4)
     fields = cantilever_fields(k_true, loads, pts, ref, sigma=sigma, outlier_fraction=0.05, rng=seed)
     print("stiffkit demo: field fit of a noisy cantilever tip (paper s4, synthetic FEA field)")
     print(f"  beam 1000 x 10 x 10 mm, E = {E:.3g} Pa, nu = {nu}; {pts.shape[0]} nodes on the tip face;")

@@ -5,6 +5,7 @@ LIN eq. 17, SVD eqs. 6-10 with Table 1, noise eq. 21, covariance eq. 20).
 Arrays are normalised once here and handed to the core, which does the
 numbers.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -66,8 +67,7 @@ class FieldFit:
 
     def __repr__(self) -> str:
         sd = np.sqrt(np.diag(self.cov))
-        rows = [f"FieldFit(method={self.method!r}, nodes={self.n_used}/{self.nodes_used.size}, "
-                f"sigma={self.sigma:.4g})"]
+        rows = [f"FieldFit(method={self.method!r}, nodes={self.n_used}/{self.nodes_used.size}, sigma={self.sigma:.4g})"]
         for name, v, s in zip(DOF_NAMES, self.deflection, sd):
             rows.append(f"  {name:5s} {v: .9e} +- {s:.3e}")
         return "\n".join(rows)
@@ -101,15 +101,27 @@ def _fit(p, d_f, ref, method, trim, pooled) -> list[FieldFit]:
     """Core call on p (n,3) and d_f (3,n,m) Fortran-ordered; results are
     views into the arrays the core filled (no copies)."""
     t, phi, cov, res, used, sigma, niter, sigma_pooled = core.fit_fields(
-        p.T, d_f, ref, _method_code(method, trim), trim, pooled)
-    return [FieldFit(t[:, j], phi[:, j], float(sigma_pooled if pooled else sigma[j]),
-                     res[:, :, j].T, cov[:, :, j], used[:, j], method, int(niter[j]),
-                     float(sigma[j]))
-            for j in range(d_f.shape[2])]
+        p.T, d_f, ref, _method_code(method, trim), trim, pooled
+    )
+    return [
+        FieldFit(
+            t[:, j],
+            phi[:, j],
+            float(sigma_pooled if pooled else sigma[j]),
+            res[:, :, j].T,
+            cov[:, :, j],
+            used[:, j],
+            method,
+            int(niter[j]),
+            float(sigma[j]),
+        )
+        for j in range(d_f.shape[2])
+    ]
 
 
-def fit_fields(points, displacements, reference, method: str = "lin", trim: float = 0.0,
-               pooled: bool = True) -> list[FieldFit]:
+def fit_fields(
+    points, displacements, reference, method: str = "lin", trim: float = 0.0, pooled: bool = True
+) -> list[FieldFit]:
     """Fit m displacement fields (m, n, 3) that share node positions (n, 3).
 
     With ``pooled`` the noise is estimated once over all fields (paper
@@ -119,11 +131,11 @@ def fit_fields(points, displacements, reference, method: str = "lin", trim: floa
     p = _points(points)
     d = np.asarray(displacements, dtype=float)
     if d.ndim != 3 or d.shape[1:] != p.shape:
-        raise InputError(f"displacements must have shape (m, {p.shape[0]}, 3) to match points "
-                         f"{p.shape}, got {d.shape}")
+        raise InputError(f"displacements must have shape (m, {p.shape[0]}, 3) to match points {p.shape}, got {d.shape}")
     # (n,3) C-order -> (3,n) F-order without copy; (m,n,3) -> (3,n,m)
-    return _fit(np.ascontiguousarray(p), np.asfortranarray(d.transpose(2, 1, 0)),
-                _reference(reference), method, trim, pooled)
+    return _fit(
+        np.ascontiguousarray(p), np.asfortranarray(d.transpose(2, 1, 0)), _reference(reference), method, trim, pooled
+    )
 
 
 def fit_field(points, displacements, reference, method: str = "lin", trim: float = 0.0) -> FieldFit:

@@ -3,6 +3,7 @@
 Only data generation lives here (the truth to test against); every
 estimate is computed by the core.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -69,8 +70,9 @@ def rigid_displacements(points, reference, t, R) -> np.ndarray:
     return q @ (R.T - np.eye(3)) + np.asarray(t, float)
 
 
-def cantilever_fields(compliance, wrenches, points, reference, sigma=0.0, outlier_fraction=0.0,
-                      outlier_scale=50.0, rng=None):
+def cantilever_fields(
+    compliance, wrenches, points, reference, sigma=0.0, outlier_fraction=0.0, outlier_scale=50.0, rng=None
+):
     """Displacement fields of m load cases: the rigid motion k W_j of the
     reference point applied to the nodes, plus i.i.d. noise (eq. 18) and,
     optionally, gross outliers on a fraction of the nodes (s3.4)."""

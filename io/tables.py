@@ -1,4 +1,5 @@
 """Small readers that name the file, row and field of every problem."""
+
 from __future__ import annotations
 
 import csv
@@ -28,8 +29,7 @@ def read_columns(path, columns: list[str], what: str = "table") -> np.ndarray:
             raise InputError(f"{path}: empty file, expected a header with {', '.join(columns)}") from None
         missing = [c for c in columns if c not in header]
         if missing:
-            raise InputError(f"{path}: missing column(s) {', '.join(missing)} "
-                             f"(header has: {', '.join(header)})")
+            raise InputError(f"{path}: missing column(s) {', '.join(missing)} (header has: {', '.join(header)})")
         idx = [header.index(c) for c in columns]
         rows = []
         for lineno, row in enumerate(reader, start=2):

@@ -6,6 +6,7 @@ are in the geometry's own unit (``scale`` converts them to metres); the
 returned :class:`~stiffkit.meshing.mesh.Mesh` is in metres and in CalculiX
 node order.
 """
+
 from __future__ import annotations
 
 import logging
@@ -22,8 +23,7 @@ from .mesh import PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geo
 
 logger = logging.getLogger(__name__)
 
-CAD_SUFFIXES = {".step": "STEP", ".stp": "STEP", ".brep": "BREP", ".brp": "BREP",
-                ".iges": "IGES", ".igs": "IGES"}
+CAD_SUFFIXES = {".step": "STEP", ".stp": "STEP", ".brep": "BREP", ".brp": "BREP", ".iges": "IGES", ".igs": "IGES"}
 #: geometry unit -> OpenCASCADE target unit of STEP/IGES import
 OCC_UNITS = {"mm": "MM", "m": "M", "cm": "CM", "in": "INCH"}
 
@@ -31,7 +31,7 @@ OCC_UNITS = {"mm": "MM", "m": "M", "cm": "CM", "in": "INCH"}
 def _gmsh():
     try:
         import gmsh
-    except ImportError as exc:              # pragma: no cover - installed by make
+    except ImportError as exc:  # pragma: no cover - installed by make
         raise InputError(f"the gmsh Python module is not installed ({exc}); run `make install`") from None
     return gmsh
 
@@ -55,8 +55,9 @@ def _add_geometry(gmsh, geometry: dict, units: str) -> None:
         path = Path(geometry["step"])
         kind = CAD_SUFFIXES.get(path.suffix.lower())
         if kind is None:
-            raise InputError(f"{path}: unknown CAD format {path.suffix!r}; use STEP (.step/.stp), "
-                             "BREP (.brep) or IGES (.iges/.igs)")
+            raise InputError(
+                f"{path}: unknown CAD format {path.suffix!r}; use STEP (.step/.stp), BREP (.brep) or IGES (.iges/.igs)"
+            )
         if not path.is_file():
             raise InputError(f"{path}: CAD file not found")
         gmsh.option.setString("Geometry.OCCTargetUnit", OCC_UNITS.get(units, "MM"))
@@ -71,19 +72,23 @@ def _add_geometry(gmsh, geometry: dict, units: str) -> None:
     where = geometry.get("step", geometry.get("shape"))
     if not vols:
         nsurf = len(gmsh.model.getEntities(2))
-        raise MeshError(f"{where}: not a solid: the geometry holds no closed volume "
-                        f"({nsurf} surface(s)); stiffkit meshes one closed solid")
+        raise MeshError(
+            f"{where}: not a solid: the geometry holds no closed volume "
+            f"({nsurf} surface(s)); stiffkit meshes one closed solid"
+        )
     if len(vols) > 1:
-        raise MeshError(f"{where}: {len(vols)} separate solids; stiffkit meshes one closed solid "
-                        "(fuse the bodies in CAD first)")
+        raise MeshError(
+            f"{where}: {len(vols)} separate solids; stiffkit meshes one closed solid (fuse the bodies in CAD first)"
+        )
 
 
 def _refinement(gmsh, size: float, refine: float, radius: float, points: list, planes: list) -> None:
     """Background size field: `refine * size` near the given points and
     axis-aligned planes ((axis, value)), growing to `size` at `radius`."""
     fields = []
-    for expr in ([f"Sqrt((x-({p[0]}))^2+(y-({p[1]}))^2+(z-({p[2]}))^2)" for p in points]
-                 + [f"Fabs({'xyz'[a]}-({v}))" for a, v in planes]):
+    for expr in [f"Sqrt((x-({p[0]}))^2+(y-({p[1]}))^2+(z-({p[2]}))^2)" for p in points] + [
+        f"Fabs({'xyz'[a]}-({v}))" for a, v in planes
+    ]:
         f = gmsh.model.mesh.field.add("MathEval")
         gmsh.model.mesh.field.setString(f, "F", expr)
         t = gmsh.model.mesh.field.add("Threshold")
@@ -117,18 +122,29 @@ def _structured_box(gmsh, size: float, across_factor: float) -> None:
         # OCC pads bounding boxes by ~1e-7: a relative tolerance keeps 10 / 5 at 2
         n = max(1, int(np.ceil(d[axis] / s * (1 - 1e-6))))
         gmsh.model.mesh.setTransfiniteCurve(tag, n + 1)
-    for dim, tag in gmsh.model.getEntities(2):
+    for _dim, tag in gmsh.model.getEntities(2):
         gmsh.model.mesh.setTransfiniteSurface(tag)
-    for dim, tag in gmsh.model.getEntities(3):
+    for _dim, tag in gmsh.model.getEntities(3):
         gmsh.model.mesh.setTransfiniteVolume(tag)
 
 
-def mesh_part(geometry: dict, units: str, scale: float, order: int = 2, size: float = 5.0,
-              mesher: str = "gmsh", refine: float | None = None, refine_radius: float | None = None,
-              refine_points: list | None = None, refine_planes: list | None = None,
-              workdir: str | Path | None = None, tetgen_timeout: float = 600.0,
-              optimize: str = "none", structured: bool = False,
-              across_factor: float = 1.0) -> Mesh:
+def mesh_part(
+    geometry: dict,
+    units: str,
+    scale: float,
+    order: int = 2,
+    size: float = 5.0,
+    mesher: str = "gmsh",
+    refine: float | None = None,
+    refine_radius: float | None = None,
+    refine_points: list | None = None,
+    refine_planes: list | None = None,
+    workdir: str | Path | None = None,
+    tetgen_timeout: float = 600.0,
+    optimize: str = "none",
+    structured: bool = False,
+    across_factor: float = 1.0,
+) -> Mesh:
     """Mesh one solid with quadratic (order 2, C3D10) or linear (order 1,
     C3D4) tetrahedra of about ``size`` (geometry units).
 
@@ -149,8 +165,10 @@ def mesh_part(geometry: dict, units: str, scale: float, order: int = 2, size: fl
         raise InputError(f"mesh.optimize = {optimize!r}: none or netgen")
     if structured:
         if geometry.get("shape") != "box":
-            raise InputError(f"mesh.structured = true: only for the built-in shape 'box', not "
-                             f"{geometry.get('shape', geometry.get('step'))!r}")
+            raise InputError(
+                f"mesh.structured = true: only for the built-in shape 'box', not "
+                f"{geometry.get('shape', geometry.get('step'))!r}"
+            )
         if mesher != "gmsh" or refine or optimize != "none":
             raise InputError("mesh.structured = true: needs mesher = 'gmsh', no refine and optimize = 'none'")
         if not 0 < across_factor <= 1:
@@ -238,6 +256,7 @@ def _read_tetgen(node_file: Path, ele_file: Path, order: int, scale: float) -> M
         lines = [ln for ln in lines if ln]
         head, body = lines[0], lines[1:]
         return head, np.array(body, dtype=float)
+
     _h, nd = table(node_file)
     eh, el = table(ele_file)
     npe = int(eh[1])
@@ -246,7 +265,7 @@ def _read_tetgen(node_file: Path, ele_file: Path, order: int, scale: float) -> M
     idx = nd[:, 0].astype(np.int64)
     lookup = np.zeros(int(idx.max()) + 1, dtype=np.int64)
     lookup[idx] = np.arange(1, idx.size + 1)
-    conn = lookup[el[:, 1:1 + npe].astype(np.int64)]
+    conn = lookup[el[:, 1 : 1 + npe].astype(np.int64)]
     if order == 2:
         conn = conn[:, PERM_TETGEN_TET10]
     return Mesh(nodes=nd[:, 1:4] * scale, elements=conn, mesher="tetgen")
@@ -255,13 +274,14 @@ def _read_tetgen(node_file: Path, ele_file: Path, order: int, scale: float) -> M
 def _tetgen(stl: Path, order: int, size: float, scale: float, timeout: float) -> Mesh:
     exe = shutil.which("tetgen")
     if exe is None:
-        raise InputError("mesh.mesher = 'tetgen' but the tetgen program is not on PATH "
-                         "(Debian package tetgen; `make install` installs it)")
-    vmax = size ** 3 / (6.0 * np.sqrt(2.0))          # regular tetrahedron of edge `size`
+        raise InputError(
+            "mesh.mesher = 'tetgen' but the tetgen program is not on PATH "
+            "(Debian package tetgen; `make install` installs it)"
+        )
+    vmax = size**3 / (6.0 * np.sqrt(2.0))  # regular tetrahedron of edge `size`
     flags = f"-pq1.414a{vmax:.6g}YQ" + ("o2" if order == 2 else "")
     try:
-        proc = subprocess.run([exe, flags, stl.name], cwd=stl.parent, capture_output=True,
-                              text=True, timeout=timeout)
+        proc = subprocess.run([exe, flags, stl.name], cwd=stl.parent, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         raise MeshError(f"tetgen did not finish within {timeout:.0f} s") from None
     node_file = stl.parent / (stl.stem + ".1.node")

@@ -7,6 +7,7 @@ their own mid-side order; the permutation tables below turn it into
 CalculiX's, and :func:`check_geometry` proves it (every mid-side node at the
 midpoint of its edge, every volume positive).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -21,8 +22,7 @@ PERM_TETGEN_TET10 = np.array([0, 1, 2, 3, 6, 7, 9, 5, 8, 4])
 #: CalculiX C3D10 mid-side node k (4..9) sits on the edge between these corners
 CCX_TET10_EDGES = np.array([[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]])
 #: CalculiX tet faces S1..S4 (corners; for C3D10 then mid-sides in face order)
-CCX_TET_FACES = {1: (0, 1, 2, 4, 5, 6), 2: (0, 3, 1, 7, 8, 4),
-                 3: (1, 3, 2, 8, 9, 5), 4: (2, 3, 0, 9, 7, 6)}
+CCX_TET_FACES = {1: (0, 1, 2, 4, 5, 6), 2: (0, 3, 1, 7, 8, 4), 3: (1, 3, 2, 8, 9, 5), 4: (2, 3, 0, 9, 7, 6)}
 PLANES = ("x-min", "x-max", "y-min", "y-max", "z-min", "z-max")
 
 
@@ -32,8 +32,8 @@ class MeshError(InputError):
 
 @dataclass
 class Mesh:
-    nodes: np.ndarray                 # (n, 3) metres
-    elements: np.ndarray              # (ne, 4|10) 1-based, CalculiX order
+    nodes: np.ndarray  # (n, 3) metres
+    elements: np.ndarray  # (ne, 4|10) 1-based, CalculiX order
     mesher: str = "gmsh"
     size_m: float = 0.0
     info: dict = field(default_factory=dict)
@@ -69,7 +69,7 @@ def midside_errors(nodes: np.ndarray, elements: np.ndarray) -> np.ndarray:
     """Distance of each C3D10 mid-side node from its edge midpoint, relative
     to the edge length: (ne, 6). Zero for straight-sided elements."""
     p = nodes[elements - 1]
-    ends = p[:, CCX_TET10_EDGES]                         # (ne, 6, 2, 3)
+    ends = p[:, CCX_TET10_EDGES]  # (ne, 6, 2, 3)
     mid = ends.mean(axis=2)
     length = np.linalg.norm(ends[:, :, 1] - ends[:, :, 0], axis=2)
     return np.linalg.norm(p[:, 4:] - mid, axis=2) / length
@@ -83,15 +83,19 @@ def check_geometry(mesh: Mesh, curved_tol: float = 0.25) -> dict:
     vol = tet_volumes(mesh.nodes, mesh.elements)
     stats = {"min_volume": float(vol.min()), "total_volume": float(vol.sum())}
     if (vol <= 0).any():
-        raise MeshError(f"{int((vol <= 0).sum())} of {vol.size} elements have non-positive volume "
-                        f"(node order wrong for CalculiX {mesh.ccx_type})")
+        raise MeshError(
+            f"{int((vol <= 0).sum())} of {vol.size} elements have non-positive volume "
+            f"(node order wrong for CalculiX {mesh.ccx_type})"
+        )
     if mesh.order == 2:
         err = midside_errors(mesh.nodes, mesh.elements)
         stats["max_midside_offset"] = float(err.max())
         stats["straight_fraction"] = float((err < 1e-9).mean())
         if err.max() > curved_tol:
-            raise MeshError(f"mid-side nodes are not at their edge midpoints (offset up to "
-                            f"{err.max():.3g} edge lengths): wrong C3D10 node order")
+            raise MeshError(
+                f"mid-side nodes are not at their edge midpoints (offset up to "
+                f"{err.max():.3g} edge lengths): wrong C3D10 node order"
+            )
     return stats
 
 
@@ -107,8 +111,7 @@ def plane_nodes(mesh: Mesh, plane: str, tol: float | None = None, what: str = "p
     value = lo[axis] if plane.endswith("min") else hi[axis]
     sel = np.nonzero(np.abs(mesh.nodes[:, axis] - value) <= tol)[0] + 1
     if sel.size == 0:
-        raise MeshError(f"{what} = {plane!r} (at {plane[0]} = {value:.6g} m, tolerance {tol:.3g} m) "
-                        "selects no nodes")
+        raise MeshError(f"{what} = {plane!r} (at {plane[0]} = {value:.6g} m, tolerance {tol:.3g} m) selects no nodes")
     return sel
 
 

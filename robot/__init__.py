@@ -4,9 +4,20 @@ compliance, and the stiffness indices of a tool stiffness.
 
 This stage sits below both ``springs`` and ``calib``: it knows the robot,
 not how its parameters are identified."""
+
 from .indices import Indices, stiffness_indices, stiffness_indices_where
 from .model import Model, Term, load_model, model_from_tables
 from .urdf import Chain, load_chain, urdf_text
 
-__all__ = ["Chain", "load_chain", "urdf_text", "Model", "Term", "load_model", "model_from_tables", "Indices",
-           "stiffness_indices", "stiffness_indices_where"]
+__all__ = [
+    "Chain",
+    "load_chain",
+    "urdf_text",
+    "Model",
+    "Term",
+    "load_model",
+    "model_from_tables",
+    "Indices",
+    "stiffness_indices",
+    "stiffness_indices_where",
+]

@@ -7,6 +7,7 @@ translation is made dimensionless and the moment equation divided by it,
 and both indices come out in N whatever the unit. ``lscale=1`` (in the
 caller's unit) is the literal formula.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

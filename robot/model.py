@@ -5,6 +5,7 @@ expands into *terms* (``joint`` with ``target = "all"`` becomes one term per
 actuated joint), each term owns parameters (free, to identify, or known
 when the table carries a value) and a virtual spring of the chain.
 """
+
 from __future__ import annotations
 
 import json
@@ -15,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
 from .._core import calib as core
-from .urdf import Chain, load_chain
+from ..errors import InputError
 from .indices import stiffness_indices_where
+from .urdf import Chain, load_chain
 
 KINDS = ("joint", "link", "base", "tool", "joint_profile", "gravity_compensator", "point_offset")
 TEMPLATES = ("full", "beam", "diagonal")
@@ -52,9 +53,13 @@ def rpy_matrix(rpy) -> np.ndarray:
     """URDF rpy: R = Rz(y) Ry(p) Rx(r)."""
     r, p, y = (float(v) for v in rpy)
     cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
 
 
 @dataclass
@@ -67,17 +72,17 @@ class Term:
 
     kind: str
     target: str
-    effect: int                      # index of the [[effect]] table
+    effect: int  # index of the [[effect]] table
     names: list[str]
-    spring: tuple[int, int] | None   # (stype, 1-based joint index) or None
-    elements: list[int] = field(default_factory=list)   # six: kept elements
+    spring: tuple[int, int] | None  # (stype, 1-based joint index) or None
+    elements: list[int] = field(default_factory=list)  # six: kept elements
     value: np.ndarray | None = None  # known values of the parameters
-    joint: int = -1                  # 0-based chain index (joint kinds)
-    qcol: int = -1                   # 0-based q column (joint kinds)
-    geometry: dict = field(default_factory=dict)        # compensator a, b, beta, s0
+    joint: int = -1  # 0-based chain index (joint kinds)
+    qcol: int = -1  # 0-based q column (joint kinds)
+    geometry: dict = field(default_factory=dict)  # compensator a, b, beta, s0
     template: str = ""
     axis: int = 0
-    source: str = ""                 # kind as written (link/base/tool)
+    source: str = ""  # kind as written (link/base/tool)
 
     @property
     def free(self) -> bool:
@@ -127,11 +132,12 @@ class Model:
         for t in terms:
             if t.kind in ("joint", "joint_profile"):
                 if t.value is None:
-                    raise InputError(f"effect {t.source or t.kind} on {t.target!r} has no value; "
-                                     f"identify it first (stiffkit fit --write-model)")
+                    raise InputError(
+                        f"effect {t.source or t.kind} on {t.target!r} has no value; "
+                        f"identify it first (stiffkit fit --write-model)"
+                    )
                 c.setdefault(t.joint, np.zeros(Q.shape[0]))
-                c[t.joint] = c[t.joint] + (t.value[0] if t.kind == "joint"
-                                           else profile_basis(Q[:, t.qcol]) @ t.value)
+                c[t.joint] = c[t.joint] + (t.value[0] if t.kind == "joint" else profile_basis(Q[:, t.qcol]) @ t.value)
         for t in terms:
             if t.kind == "gravity_compensator":
                 if t.value is None:
@@ -147,8 +153,10 @@ class Model:
         for t in terms:
             if t.kind == "six":
                 if t.value is None:
-                    raise InputError(f"effect {t.source} on {t.target!r} has no value; "
-                                     f"identify it first (stiffkit fit --write-model)")
+                    raise InputError(
+                        f"effect {t.source} on {t.target!r} has no value; "
+                        f"identify it first (stiffkit fit --write-model)"
+                    )
                 C = np.zeros((6, 6))
                 for e, v in zip(t.elements, t.value):
                     a, b = SYM[e]
@@ -175,7 +183,7 @@ class Model:
         out, col = {}, 0
         for sp in springs:
             n = 1 if sp[0] == SPRING_JOINT else 6
-            out[sp] = jac[:, col:col + n].copy()
+            out[sp] = jac[:, col : col + n].copy()
             col += n
         return out
 
@@ -199,7 +207,7 @@ class Model:
         sidx = np.zeros(ns, np.int32)
         cs = np.zeros((6, 6, ns), order="F")
         cj = np.zeros((ns, Q.shape[0]), order="F")
-        if not springs:   # a rigid robot: one zero base spring
+        if not springs:  # a rigid robot: one zero base spring
             stype[0] = SPRING_BASE
         for s, sp in enumerate(springs):
             stype[s], sidx[s] = sp
@@ -207,8 +215,9 @@ class Model:
                 cj[s] = jc[sp[1] - 1]
             else:
                 cs[:, :, s] = six[sp]
-        C, K, rank, kinfo = core.tool_compliance(self.chain.core_arrays(), stype=stype, sidx=sidx, cs=cs, cj=cj,
-                                                 q=np.asfortranarray(Q.T))
+        C, K, rank, kinfo = core.tool_compliance(
+            self.chain.core_arrays(), stype=stype, sidx=sidx, cs=cs, cj=cj, q=np.asfortranarray(Q.T)
+        )
         if return_stiffness:
             return C, K, rank.astype(int), kinfo == 0
         return C
@@ -249,9 +258,11 @@ def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
 # ---------------------------------------------------------------------------
 # reading a model file
 
+
 def _where(path, i, table) -> str:
-    return f"{path}: [[effect]] #{i + 1} ({table.get('kind', '?')}" + \
-        (f", target {table['target']!r})" if "target" in table else ")")
+    return f"{path}: [[effect]] #{i + 1} ({table.get('kind', '?')}" + (
+        f", target {table['target']!r})" if "target" in table else ")"
+    )
 
 
 def _matrix6(v, where) -> np.ndarray:
@@ -340,8 +351,10 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
         raise InputError(f"{where}: unknown kind {kind!r}; choose one of {', '.join(KINDS)}")
     unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
     if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} for kind {kind!r} "
-                         f"(allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)")
+        raise InputError(
+            f"{where}: unknown key(s) {', '.join(unknown)} for kind {kind!r} "
+            f"(allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)"
+        )
     target = table.get("target", "all" if kind == "joint" else "")
     terms = []
     if kind in ("joint", "joint_profile", "gravity_compensator"):
@@ -354,15 +367,22 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
                 raise InputError(f"{where}: missing target (a joint name)")
             k = chain.joint_index(target) if target in chain.joint_names else None
             if k is None:
-                raise InputError(f"{where}: unknown joint {target!r}; actuated joints: "
-                                 f"{', '.join(chain.actuated)}")
+                raise InputError(f"{where}: unknown joint {target!r}; actuated joints: {', '.join(chain.actuated)}")
             if chain.qidx[k] == 0:
                 raise InputError(f"{where}: joint {target!r} is fixed; {kind} needs an actuated joint")
             joints = [target]
         for jn in joints:
             k = chain.joint_index(jn)
-            t = Term(kind=kind, target=jn, effect=i, names=[], spring=(SPRING_JOINT, k + 1), joint=k,
-                     qcol=int(chain.qidx[k]) - 1, source=kind)
+            t = Term(
+                kind=kind,
+                target=jn,
+                effect=i,
+                names=[],
+                spring=(SPRING_JOINT, k + 1),
+                joint=k,
+                qcol=int(chain.qidx[k]) - 1,
+                source=kind,
+            )
             if kind == "joint":
                 t.names = [f"{jn}.c"]
                 if "value" in table:
@@ -376,8 +396,9 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
                     t.value = v
             else:
                 t.names = [f"{jn}.k_s"]
-                t.geometry = {key: _number(table, key, where, positive=key in ("a", "b"))
-                              for key in ("a", "b", "beta", "s0")}
+                t.geometry = {
+                    key: _number(table, key, where, positive=key in ("a", "b")) for key in ("a", "b", "beta", "s0")
+                }
                 if "k_s" in table:
                     t.value = np.array([_number(table, "k_s", where)])
             terms.append(t)
@@ -386,8 +407,7 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
             if not target:
                 raise InputError(f"{where}: missing target (a link name)")
             if target not in chain.links:
-                raise InputError(f"{where}: unknown link {target!r}; links of the chain: "
-                                 f"{', '.join(chain.links)}")
+                raise InputError(f"{where}: unknown link {target!r}; links of the chain: {', '.join(chain.links)}")
             spring = chain.link_spring(target)
             name = target
         elif kind == "base":
@@ -403,8 +423,7 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
             axis = AXES.index(table["axis"])
         else:
             axis = _default_axis(chain, target) if kind == "link" else 2
-        t = Term(kind="six", target=name, effect=i, names=[], spring=spring, template=template,
-                 axis=axis, source=kind)
+        t = Term(kind="six", target=name, effect=i, names=[], spring=spring, template=template, axis=axis, source=kind)
         if "value" in table:
             C = _six_value(table, base_dir, where)
             t.elements = list(range(21))
@@ -414,8 +433,14 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
         t.names = [f"{name}.c{SYM[e][0] + 1}{SYM[e][1] + 1}" for e in t.elements]
         terms.append(t)
     else:  # point_offset
-        t = Term(kind="point_offset", target="tool", effect=i, spring=None,
-                 names=["point_offset.rx", "point_offset.ry", "point_offset.rz"], source=kind)
+        t = Term(
+            kind="point_offset",
+            target="tool",
+            effect=i,
+            spring=None,
+            names=["point_offset.rx", "point_offset.ry", "point_offset.rz"],
+            source=kind,
+        )
         if "r" in table:
             v = np.asarray(table["r"], dtype=float)
             if v.shape != (3,) or not np.all(np.isfinite(v)):
@@ -429,8 +454,10 @@ def check_terms(terms: list[Term], where: str) -> None:
     comp = [t for t in terms if t.kind == "gravity_compensator"]
     for t in comp:
         if not any(u.kind == "joint" and u.joint == t.joint for u in terms):
-            raise InputError(f"{where}: gravity_compensator on {t.target!r} needs a 'joint' effect on the "
-                             f"same joint (its compliance c_j)")
+            raise InputError(
+                f"{where}: gravity_compensator on {t.target!r} needs a 'joint' effect on the "
+                f"same joint (its compliance c_j)"
+            )
     if sum(t.kind == "point_offset" for t in terms) > 1:
         raise InputError(f"{where}: more than one point_offset effect")
 
@@ -450,7 +477,7 @@ def load_model(path) -> Model:
         raise InputError(f"{path}: not valid TOML ({exc})") from None
     robot = doc.get("robot")
     if not isinstance(robot, dict) or "urdf" not in robot:
-        raise InputError(f"{path}: missing [robot] table with urdf = \"robot.urdf\"")
+        raise InputError(f'{path}: missing [robot] table with urdf = "robot.urdf"')
     base_dir = path.parent
     urdf = Path(robot["urdf"])
     urdf = urdf if urdf.is_absolute() else base_dir / urdf
@@ -468,17 +495,25 @@ def load_model(path) -> Model:
     for i, table in enumerate(effects):
         terms += expand_effect(chain, table, i, path, base_dir)
     check_terms(terms, str(path))
-    return Model(chain=chain, effects=effects, terms=terms, path=path,
-                 sigma_position=None if sig_p is None else float(sig_p),
-                 sigma_rotation=None if sig_r is None else float(sig_r), robot_table=robot)
+    return Model(
+        chain=chain,
+        effects=effects,
+        terms=terms,
+        path=path,
+        sigma_position=None if sig_p is None else float(sig_p),
+        sigma_rotation=None if sig_r is None else float(sig_r),
+        robot_table=robot,
+    )
 
 
-def model_from_tables(chain: Chain, effects: list[dict], sigma_position=None, sigma_rotation=None,
-                      where="model") -> Model:
+def model_from_tables(
+    chain: Chain, effects: list[dict], sigma_position=None, sigma_rotation=None, where="model"
+) -> Model:
     """A Model from a chain and effect tables (Python API, synth, diagnosis)."""
     terms = []
     for i, table in enumerate(effects):
         terms += expand_effect(chain, table, i, where)
     check_terms(terms, where)
-    return Model(chain=chain, effects=list(effects), terms=terms, sigma_position=sigma_position,
-                 sigma_rotation=sigma_rotation)
+    return Model(
+        chain=chain, effects=list(effects), terms=terms, sigma_position=sigma_position, sigma_rotation=sigma_rotation
+    )

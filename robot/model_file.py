@@ -1,5 +1,6 @@
 """Writing model files (contract s2, s5): the [robot] and [measurements]
 tables and [[effect]] tables, with or without values."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -8,8 +9,7 @@ import tomli_w
 __all__ = ["model_toml", "effects_toml"]
 
 
-def model_toml(effects: list[dict], sigma=None, urdf="robot.urdf", tool_frame="tool0",
-               sigma_rotation=None) -> str:
+def model_toml(effects: list[dict], sigma=None, urdf="robot.urdf", tool_frame="tool0", sigma_rotation=None) -> str:
     """A model file (contract s2): [robot], optional [measurements] sigmas, the effects."""
     doc = {"robot": {"urdf": urdf, "base_link": "base_link", "tool_frame": tool_frame}}
     meas = {}

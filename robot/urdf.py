@@ -5,6 +5,7 @@ Rot(axis, q)``. Fixed joints are kept in the chain (they carry the frames
 of the link springs); revolute (and continuous) joints are the actuated
 ones, numbered q1..qN along the chain.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -77,16 +78,20 @@ class Chain:
         try:
             return self.joint_names.index(name)
         except ValueError:
-            raise InputError(f"unknown joint {name!r}; the chain {self.base_link} -> {self.tool_frame} "
-                             f"has joints {', '.join(self.joint_names)}") from None
+            raise InputError(
+                f"unknown joint {name!r}; the chain {self.base_link} -> {self.tool_frame} "
+                f"has joints {', '.join(self.joint_names)}"
+            ) from None
 
     def link_spring(self, link: str) -> tuple[int, int]:
         """(stype, 1-based joint index) of the 6-dof spring of ``link``: at
         the frame of the joint whose parent is this link (before its
         rotation); for the last link, the tool frame (stype 4)."""
         if link not in self.links:
-            raise InputError(f"unknown link {link!r}; the chain {self.base_link} -> {self.tool_frame} "
-                             f"has links {', '.join(self.links)}")
+            raise InputError(
+                f"unknown link {link!r}; the chain {self.base_link} -> {self.tool_frame} "
+                f"has links {', '.join(self.links)}"
+            )
         if link in self.parents:
             return 2, self.parents.index(link) + 1
         return 4, 0
@@ -98,8 +103,12 @@ class Chain:
         stype, k = self.link_spring(link)
         if stype == 4:
             return True
-        return (k == len(self.joint_names) and self.qidx[k - 1] == 0
-                and np.allclose(self.trot, np.eye(3)) and not np.any(self.tpos))
+        return (
+            k == len(self.joint_names)
+            and self.qidx[k - 1] == 0
+            and np.allclose(self.trot, np.eye(3))
+            and not np.any(self.tpos)
+        )
 
     def core_arrays(self) -> dict:
         """The chain as Fortran-ordered arrays for the core."""
@@ -109,7 +118,9 @@ class Chain:
             jpos=np.asfortranarray(self.jpos.T) if nj else np.zeros((3, 1), order="F"),
             jaxis=np.asfortranarray(self.jaxis.T) if nj else np.zeros((3, 1), order="F"),
             qidx=np.asarray(self.qidx, dtype=np.int32) if nj else np.zeros(1, np.int32),
-            trot=np.asfortranarray(self.trot), tpos=np.asarray(self.tpos, float))
+            trot=np.asfortranarray(self.trot),
+            tpos=np.asarray(self.tpos, float),
+        )
 
     def poses(self, Q) -> dict:
         """Frames of the chain at postures Q (N, dof), computed by the core's
@@ -147,20 +158,25 @@ def load_chain(urdf_path, base_link: str = "base_link", tool_frame: str = "tool0
     if not path.is_file():
         raise InputError(f"{path}: no such URDF file")
     try:
-        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
-                                  build_collision_scene_graph=False, load_collision_meshes=False)
+        urdf = yourdfpy.URDF.load(
+            str(path),
+            build_scene_graph=False,
+            load_meshes=False,
+            build_collision_scene_graph=False,
+            load_collision_meshes=False,
+        )
     except Exception as exc:  # the library raises many kinds on malformed XML
         raise InputError(f"{path}: cannot parse the URDF ({type(exc).__name__}: {exc})") from None
     links = set(urdf.link_map)
     for name, what in ((base_link, "base_link"), (tool_frame, "tool_frame")):
         if name not in links:
-            raise InputError(f"{path}: {what} {name!r} is not a link of the URDF "
-                             f"(links: {', '.join(sorted(links))})")
+            raise InputError(f"{path}: {what} {name!r} is not a link of the URDF (links: {', '.join(sorted(links))})")
     by_child = {}
     for j in urdf.robot.joints:
         if j.child in by_child:
-            raise InputError(f"{path}: link {j.child!r} is the child of two joints "
-                             f"({by_child[j.child].name}, {j.name}): not a tree")
+            raise InputError(
+                f"{path}: link {j.child!r} is the child of two joints ({by_child[j.child].name}, {j.name}): not a tree"
+            )
         by_child[j.child] = j
     # walk back from the tool frame to the base
     joints = []
@@ -172,8 +188,10 @@ def load_chain(urdf_path, base_link: str = "base_link", tool_frame: str = "tool0
         seen.add(link)
         j = by_child.get(link)
         if j is None:
-            raise InputError(f"{path}: {tool_frame!r} is not connected to {base_link!r} by a chain of "
-                             f"joints (link {link!r} has no parent joint)")
+            raise InputError(
+                f"{path}: {tool_frame!r} is not connected to {base_link!r} by a chain of "
+                f"joints (link {link!r} has no parent joint)"
+            )
         joints.append(j)
         link = j.parent
     joints.reverse()
@@ -184,8 +202,10 @@ def load_chain(urdf_path, base_link: str = "base_link", tool_frame: str = "tool0
     nq = 0
     for j in joints:
         if j.type not in ACTUATED + ("fixed",):
-            raise InputError(f"{path}: joint {j.name!r} on the chain is {j.type!r}; "
-                             f"only revolute, continuous and fixed joints are supported")
+            raise InputError(
+                f"{path}: joint {j.name!r} on the chain is {j.type!r}; "
+                f"only revolute, continuous and fixed joints are supported"
+            )
         T = np.eye(4) if j.origin is None else np.asarray(j.origin, float)
         names.append(j.name)
         types.append(j.type)
@@ -206,10 +226,19 @@ def load_chain(urdf_path, base_link: str = "base_link", tool_frame: str = "tool0
             qidx.append(0)
     if nq == 0:
         raise InputError(f"{path}: no revolute joint between {base_link!r} and {tool_frame!r}")
-    return Chain(joint_names=names, joint_types=types, parents=parents, children=children,
-                 jrot=np.array(jrot), jpos=np.array(jpos), jaxis=np.array(jaxis),
-                 qidx=np.array(qidx, dtype=np.int32), base_link=base_link, tool_frame=tool_frame,
-                 urdf=str(path))
+    return Chain(
+        joint_names=names,
+        joint_types=types,
+        parents=parents,
+        children=children,
+        jrot=np.array(jrot),
+        jpos=np.array(jpos),
+        jaxis=np.array(jaxis),
+        qidx=np.array(qidx, dtype=np.int32),
+        base_link=base_link,
+        tool_frame=tool_frame,
+        urdf=str(path),
+    )
 
 
 def urdf_text(name: str, joints: list[dict]) -> str:
@@ -234,6 +263,6 @@ def urdf_text(name: str, joints: list[dict]) -> str:
             ax = " ".join(f"{v:.17g}" for v in j.get("axis", (0, 0, 1)))
             out.append(f'    <axis xyz="{ax}"/>')
             out.append('    <limit lower="-6.2832" upper="6.2832" effort="1000" velocity="1"/>')
-        out.append('  </joint>')
-    out.append('</robot>')
+        out.append("  </joint>")
+    out.append("</robot>")
     return "\n".join(out) + "\n"

@@ -72,17 +72,28 @@ matrices are diagonals only, so this part is left as it is.
 
 Units: SI inside (m, N, rad); Table 7 is in mm and is converted.
 """
+
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import InputError
 from .tree import Joint, Spring, TreeResult, evaluate, load_link_compliance, parallel, series
 
-__all__ = ["OrthoglideGeometry", "TABLE7", "TABLE8", "link_compliances", "leg_tree", "foot_axes",
-           "orthoglide_tree", "compliance", "workspace_grid", "isotropic_point"]
+__all__ = [
+    "OrthoglideGeometry",
+    "TABLE7",
+    "TABLE8",
+    "link_compliances",
+    "leg_tree",
+    "foot_axes",
+    "orthoglide_tree",
+    "compliance",
+    "workspace_grid",
+    "isotropic_point",
+]
 
 # Table 7, diagonal compliances k11..k66 in mm/N and rad/(N mm)
 TABLE7 = {
@@ -111,10 +122,10 @@ TABLE8 = {
 
 @dataclass
 class OrthoglideGeometry:
-    L: float = 0.310       #: parallelogram (bar) length, m
-    d: float = 0.100       #: parallelogram width (axle length), m
-    r: float = 0.031       #: distance from C_i to the tool point, m
-    cube: float = 0.200    #: workspace cube edge, m
+    L: float = 0.310  #: parallelogram (bar) length, m
+    d: float = 0.100  #: parallelogram width (axle length), m
+    r: float = 0.031  #: distance from C_i to the tool point, m
+    cube: float = 0.200  #: workspace cube edge, m
 
 
 def _table_si(diag) -> np.ndarray:
@@ -132,8 +143,9 @@ def cantilever_from_diagonal(length: float, diag_si) -> np.ndarray:
     return c
 
 
-def link_compliances(source: str = "beam", geometry: OrthoglideGeometry | None = None,
-                     files: dict | None = None) -> dict:
+def link_compliances(
+    source: str = "beam", geometry: OrthoglideGeometry | None = None, files: dict | None = None
+) -> dict:
     """Local 6x6 compliances (SI) of foot, half-axle and bar.
 
     source "beam": Table 7 single-beam approximations, bar and half-axle as
@@ -182,21 +194,20 @@ def _unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def leg_tree(i: int, P: np.ndarray, links: dict, g: OrthoglideGeometry,
-             actuator_compliance: float = 0.0):
+def leg_tree(i: int, P: np.ndarray, links: dict, g: OrthoglideGeometry, actuator_compliance: float = 0.0):
     """Spring tree of leg i at tool points P (N,3)."""
     e = np.eye(3)
     ei, ai = e[i], e[(i + 1) % 3]
     n = P.shape[0]
     C = P - g.r * ei
     perp = C - np.outer(C @ ei, ei)
-    h2 = g.L ** 2 - np.sum(perp ** 2, axis=1)
+    h2 = g.L**2 - np.sum(perp**2, axis=1)
     if np.any(h2 <= 0):
         raise InputError(f"leg {'xyz'[i]}: tool point out of reach (|P_perp| >= L)")
     rho = C @ ei - np.sqrt(h2)
     B = np.outer(rho, ei)
-    u = (C - B) / g.L                                   # bar direction
-    hinge = _unit(np.cross(np.broadcast_to(ai, (n, 3)), u))   # parallelogram hinge axis
+    u = (C - B) / g.L  # bar direction
+    hinge = _unit(np.cross(np.broadcast_to(ai, (n, 3)), u))  # parallelogram hinge axis
     A = np.broadcast_to(ai, (n, 3))
     foot = Spring(links["foot"], pos=B, rot=foot_axes(i), name=f"foot{i}")
     branches = []
@@ -204,22 +215,30 @@ def leg_tree(i: int, P: np.ndarray, links: dict, g: OrthoglideGeometry,
         Bs, Cs = B + s * g.d / 2 * ai, C + s * g.d / 2 * ai
         ax = np.broadcast_to(s * ai, (n, 3))
         rot_ax = _frame(ax, hinge)
-        branches.append(series(
-            Spring(links["axle"], pos=Bs, rot=rot_ax, name="proximal half-axle"),
-            Joint("revolute", hinge, Bs, passive=True, name="hinge"),
-            Spring(links["bar"], pos=Cs, rot=_frame(u, _unit(np.cross(hinge, u))), name="bar"),
-            Joint("revolute", hinge, Cs, passive=True, name="hinge"),
-            Spring(links["axle"], pos=Cs, rot=rot_ax, name="distal half-axle")))
+        branches.append(
+            series(
+                Spring(links["axle"], pos=Bs, rot=rot_ax, name="proximal half-axle"),
+                Joint("revolute", hinge, Bs, passive=True, name="hinge"),
+                Spring(links["bar"], pos=Cs, rot=_frame(u, _unit(np.cross(hinge, u))), name="bar"),
+                Joint("revolute", hinge, Cs, passive=True, name="hinge"),
+                Spring(links["axle"], pos=Cs, rot=rot_ax, name="distal half-axle"),
+            )
+        )
     parts = []
     if actuator_compliance > 0:
         parts.append(Joint("prismatic", ei, B, compliance=actuator_compliance, name="actuator"))
-    parts += [foot, Joint("revolute", A, B, passive=True, name="R proximal"),
-              parallel(*branches), Joint("revolute", A, C, passive=True, name="R distal")]
+    parts += [
+        foot,
+        Joint("revolute", A, B, passive=True, name="R proximal"),
+        parallel(*branches),
+        Joint("revolute", A, C, passive=True, name="R distal"),
+    ]
     return series(*parts)
 
 
-def orthoglide_tree(P, links: dict | None = None, geometry: OrthoglideGeometry | None = None,
-                    actuator_compliance: float = 0.0):
+def orthoglide_tree(
+    P, links: dict | None = None, geometry: OrthoglideGeometry | None = None, actuator_compliance: float = 0.0
+):
     """The whole robot: three legs in parallel at the tool point (N,3)."""
     g = geometry or OrthoglideGeometry()
     links = links or link_compliances("beam", g)
@@ -227,8 +246,13 @@ def orthoglide_tree(P, links: dict | None = None, geometry: OrthoglideGeometry |
     return parallel(*(leg_tree(i, P, links, g, actuator_compliance) for i in range(3)))
 
 
-def compliance(P, links: dict | None = None, geometry: OrthoglideGeometry | None = None,
-               actuator_compliance: float = 0.0, rcond: float = 1e-9) -> TreeResult:
+def compliance(
+    P,
+    links: dict | None = None,
+    geometry: OrthoglideGeometry | None = None,
+    actuator_compliance: float = 0.0,
+    rcond: float = 1e-9,
+) -> TreeResult:
     """Tool compliance/stiffness at tool points P (N,3) (m), one core call."""
     g = geometry or OrthoglideGeometry()
     P = np.atleast_2d(np.asarray(P, dtype=float))

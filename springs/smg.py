@@ -24,6 +24,7 @@ proximal Pi-joints stay as in the report, as if their drive locked them
 (with both Pi-joints free and only the base joints locked the MP would have
 two free motions, which the model then reports).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -35,19 +36,18 @@ from ..field import cantilever_compliance, section_properties
 from ..robot.indices import Indices, stiffness_indices
 from .tree import Joint, Spring, TreeResult, evaluate, load_link_compliance, parallel, series
 
-__all__ = ["SMGGeometry", "smg_links", "trajectory", "limb_points", "smg_tree", "stiffness",
-           "indices_along_trajectory"]
+__all__ = ["SMGGeometry", "smg_links", "trajectory", "limb_points", "smg_tree", "stiffness", "indices_along_trajectory"]
 
 
 @dataclass
 class SMGGeometry:
-    base_x: float = 0.20      #: limb base joints at (-base_x, 0, 0) and (+base_x, 0, 0), m
-    l1: float = 0.35          #: proximal Pi bar length, m
-    l2: float = 0.35          #: distal Pi bar length, m
-    h1: float = 0.06          #: proximal Pi width (distance between its bars), m
-    h2: float = 0.04          #: distal Pi width, m
-    a: float = 0.04           #: wrist joints at P +- R_z(theta) (a, 0, 0), m
-    start: tuple = (-0.15, 0.45, -0.25)   #: trajectory start (MP point), m
+    base_x: float = 0.20  #: limb base joints at (-base_x, 0, 0) and (+base_x, 0, 0), m
+    l1: float = 0.35  #: proximal Pi bar length, m
+    l2: float = 0.35  #: distal Pi bar length, m
+    h1: float = 0.06  #: proximal Pi width (distance between its bars), m
+    h2: float = 0.04  #: distal Pi width, m
+    a: float = 0.04  #: wrist joints at P +- R_z(theta) (a, 0, 0), m
+    start: tuple = (-0.15, 0.45, -0.25)  #: trajectory start (MP point), m
 
 
 def smg_links(files: dict | None = None) -> dict:
@@ -71,7 +71,7 @@ def smg_links(files: dict | None = None) -> dict:
 
 def _smooth(x):
     x = np.clip(x, 0.0, 1.0)
-    return x ** 3 * (10 - 15 * x + 6 * x * x)
+    return x**3 * (10 - 15 * x + 6 * x * x)
 
 
 def trajectory(n: int = 401, geometry: SMGGeometry | None = None):
@@ -102,7 +102,7 @@ def limb_points(J: int, P: np.ndarray, theta: np.ndarray, g: SMGGeometry):
     if np.any(D >= g.l1 + g.l2) or np.any(D <= abs(g.l1 - g.l2)) or np.any(rho == 0):
         raise InputError(f"limb {'I' if J == 0 else 'II'}: MP point out of reach")
     h = np.stack([dv[:, 0] / rho, dv[:, 1] / rho, np.zeros(n)], axis=1)
-    beta1 = np.arctan2(dv[:, 2], rho) + np.arccos((g.l1 ** 2 + D ** 2 - g.l2 ** 2) / (2 * g.l1 * D))
+    beta1 = np.arctan2(dv[:, 2], rho) + np.arccos((g.l1**2 + D**2 - g.l2**2) / (2 * g.l1 * D))
     E = S + g.l1 * (np.cos(beta1)[:, None] * h + np.sin(beta1)[:, None] * np.array([0, 0, 1.0]))
     return S, E, W, h
 
@@ -110,22 +110,20 @@ def limb_points(J: int, P: np.ndarray, theta: np.ndarray, g: SMGGeometry):
 def _pi_joint(A, Bp, h, width, c_link, both_ends):
     """Pi-joint between points A (first end) and Bp: two links at +-width/2 (vertical)."""
     z = np.array([0.0, 0.0, 1.0])
-    n = np.cross(h, z)                                 # hinge axis, normal to the limb plane
+    n = np.cross(h, z)  # hinge axis, normal to the limb plane
     links = []
     for s in (+0.5, -0.5):
         a, b = A + s * width * z, Bp + s * width * z
         u = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
         rot = np.stack([u, np.cross(n, u), n], axis=-1)
-        parts = [Joint("revolute", n, a, passive=True, name="Pi hinge"),
-                 Spring(c_link, pos=b, rot=rot, name="Pi link")]
+        parts = [Joint("revolute", n, a, passive=True, name="Pi hinge"), Spring(c_link, pos=b, rot=rot, name="Pi link")]
         if both_ends:
             parts.append(Joint("revolute", n, b, passive=True, name="Pi hinge"))
         links.append(series(*parts))
     return parallel(*links)
 
 
-def smg_tree(P, theta, links: dict | None = None, geometry: SMGGeometry | None = None,
-             pi_joints: str = "paper"):
+def smg_tree(P, theta, links: dict | None = None, geometry: SMGGeometry | None = None, pi_joints: str = "paper"):
     """Spring tree of the SMG at MP points P (N,3) and MP angles theta (N,)."""
     if pi_joints not in ("paper", "both"):
         raise InputError("pi_joints must be 'paper' (one passive joint per link, eq. 23) or 'both'")
@@ -137,23 +135,37 @@ def smg_tree(P, theta, links: dict | None = None, geometry: SMGGeometry | None =
     for J in (0, 1):
         S, E, W, h = limb_points(J, P, theta, g)
         both = pi_joints == "both"
-        limbs.append(series(_pi_joint(S, E, h, g.h1, links["proximal"], False),
-                            _pi_joint(E, W, h, g.h2, links["distal"], both),
-                            Joint("revolute", [0, 0, 1.0], W, passive=True, name="wrist")))
+        limbs.append(
+            series(
+                _pi_joint(S, E, h, g.h1, links["proximal"], False),
+                _pi_joint(E, W, h, g.h2, links["distal"], both),
+                Joint("revolute", [0, 0, 1.0], W, passive=True, name="wrist"),
+            )
+        )
     return parallel(*limbs)
 
 
-def stiffness(P, theta, links: dict | None = None, geometry: SMGGeometry | None = None,
-              pi_joints: str = "paper", rcond: float = 1e-9) -> TreeResult:
+def stiffness(
+    P,
+    theta,
+    links: dict | None = None,
+    geometry: SMGGeometry | None = None,
+    pi_joints: str = "paper",
+    rcond: float = 1e-9,
+) -> TreeResult:
     """MP stiffness at N postures, world axes, at the MP point (one core call)."""
     g = geometry or SMGGeometry()
     P = np.atleast_2d(np.asarray(P, dtype=float))
     return evaluate(smg_tree(P, theta, links, g, pi_joints), tool=P, lscale=g.l1, rcond=rcond)
 
 
-def indices_along_trajectory(n: int = 401, links: dict | None = None,
-                             geometry: SMGGeometry | None = None, pi_joints: str = "paper",
-                             lscale: float | None = None):
+def indices_along_trajectory(
+    n: int = 401,
+    links: dict | None = None,
+    geometry: SMGGeometry | None = None,
+    pi_joints: str = "paper",
+    lscale: float | None = None,
+):
     """(tau, P, theta, TreeResult, Indices) along the smoothed test trajectory."""
     g = geometry or SMGGeometry()
     tau, P, theta = trajectory(n, g)

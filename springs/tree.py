@@ -24,28 +24,39 @@ compliance does not exist (passive joints, mechanisms) are both fine: the
 result lists the free twists and the rigid wrenches instead of inverting a
 singular matrix, and ``rank`` says how many directions remain elastic.
 """
+
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence, Union
 
 import numpy as np
 
 from .._core import springs as core
 from ..errors import InputError
 
-__all__ = ["Spring", "Joint", "Series", "Parallel", "series", "parallel", "evaluate",
-           "TreeResult", "load_link_compliance", "OP_SPRING", "OP_JOINT", "OP_SERIES",
-           "OP_PARALLEL"]
+__all__ = [
+    "Spring",
+    "Joint",
+    "Series",
+    "Parallel",
+    "series",
+    "parallel",
+    "evaluate",
+    "TreeResult",
+    "load_link_compliance",
+    "OP_SPRING",
+    "OP_JOINT",
+    "OP_SERIES",
+    "OP_PARALLEL",
+]
 
 OP_SPRING, OP_JOINT, OP_SERIES, OP_PARALLEL = 1, 2, 3, 4
 _JOINT_TYPES = {"revolute": 1, "prismatic": 2}
 
 
-
-def load_link_compliance(path: Union[str, Path]) -> np.ndarray:
+def load_link_compliance(path: str | Path) -> np.ndarray:
     """6x6 compliance (SI) from a ``stiffkit link`` JSON file (key "compliance")."""
     path = Path(path)
     with open(path) as fh:
@@ -88,8 +99,10 @@ class Spring:
         self.rot = _as_pose(np.eye(3) if self.rot is None else self.rot, (3, 3), "rot")
         err = np.abs(np.swapaxes(self.rot, -1, -2) @ self.rot - np.eye(3)).max() if self.rot.size else 0.0
         if not err < 1e-6:
-            raise InputError(f"spring {self.name!r}: rot is not a rotation matrix "
-                             f"(|R^T R - I| = {err:.1e}); its columns are the spring's axes")
+            raise InputError(
+                f"spring {self.name!r}: rot is not a rotation matrix "
+                f"(|R^T R - I| = {err:.1e}); its columns are the spring's axes"
+            )
 
 
 @dataclass
@@ -131,7 +144,7 @@ class Parallel:
     children: tuple
 
 
-Node = Union[Spring, Joint, Series, Parallel]
+Node = Spring | Joint | Series | Parallel
 
 
 def series(*children: Node) -> Series:
@@ -187,10 +200,10 @@ class TreeResult:
         return self.nrigid == 0
 
     def free_twists(self, i: int = 0) -> np.ndarray:
-        return self.free[i, :, :self.nfree[i]]
+        return self.free[i, :, : self.nfree[i]]
 
     def rigid_wrenches(self, i: int = 0) -> np.ndarray:
-        return self.rigid[i, :, :self.nrigid[i]]
+        return self.rigid[i, :, : self.nrigid[i]]
 
 
 class _Program:
@@ -251,8 +264,9 @@ def _default_lscale(prog: _Program, tool: np.ndarray) -> float:
     return d if d > 0 else 1.0
 
 
-def evaluate(tree: Node, tool=(0.0, 0.0, 0.0), tool_rot=None, lscale: float | None = None,
-             rcond: float = 1e-9) -> TreeResult:
+def evaluate(
+    tree: Node, tool=(0.0, 0.0, 0.0), tool_rot=None, lscale: float | None = None, rcond: float = 1e-9
+) -> TreeResult:
     """Evaluate a spring tree at the tool point for N postures, one core call.
 
     Parameters
@@ -279,8 +293,11 @@ def evaluate(tree: Node, tool=(0.0, 0.0, 0.0), tool_rot=None, lscale: float | No
         lmat[:, :, i] = s.matrix
         lkind[i] = 0 if s.kind == "compliance" else 1
     # (n, ns, 3, 3) with each rotation transposed is the Fortran (3,3,ns,n) array
-    lrot = _stack([np.swapaxes(s.rot, -1, -2) for s in prog.springs], (3, 3), n).T if ns \
+    lrot = (
+        _stack([np.swapaxes(s.rot, -1, -2) for s in prog.springs], (3, 3), n).T
+        if ns
         else np.zeros((3, 3, 1, n), order="F")
+    )
     lpos = _stack([s.pos for s in prog.springs], (3,), n).T if ns else np.zeros((3, 1, n), order="F")
     jtype = np.array([_JOINT_TYPES[j.type] for j in prog.joints] or [1], dtype=np.int32)
     jcomp = np.array([j.compliance for j in prog.joints] or [0.0])
@@ -289,15 +306,15 @@ def evaluate(tree: Node, tool=(0.0, 0.0, 0.0), tool_rot=None, lscale: float | No
     jpoint = _stack([j.point for j in prog.joints], (3,), n).T if nj else np.zeros((3, 1, n), order="F")
     if nj and np.any(np.linalg.norm(jaxis, axis=0) == 0):
         raise InputError("a joint axis is the zero vector")
-    for name, arr in (("spring positions", lpos), ("joint axes", jaxis), ("joint points", jpoint),
-                      ("tool", tool)):
+    for name, arr in (("spring positions", lpos), ("joint axes", jaxis), ("joint points", jpoint), ("tool", tool)):
         if not np.all(np.isfinite(arr)):
             raise InputError(f"{name} contain NaN or Inf")
     tpos = np.broadcast_to(tool, (n, 3)).T
-    trot = np.broadcast_to(np.eye(3) if tool_rot is None else np.swapaxes(tool_rot, -1, -2),
-                           (n, 3, 3)).T
+    trot = np.broadcast_to(np.eye(3) if tool_rot is None else np.swapaxes(tool_rot, -1, -2), (n, 3, 3)).T
     progarr = np.asfortranarray(np.array(prog.prog, dtype=np.int32).T)
     c, k, free, nfree, rigid, nrigid, ratio = core.spring_tree(
-        progarr, lkind, lmat, lrot, lpos, jtype, jcomp, jpas, jaxis, jpoint, tpos, trot, lscale, rcond)
-    return TreeResult(compliance=c, stiffness=k, free=free, nfree=nfree,
-                      rigid=rigid, nrigid=nrigid, ratio=ratio, lscale=float(lscale))
+        progarr, lkind, lmat, lrot, lpos, jtype, jcomp, jpas, jaxis, jpoint, tpos, trot, lscale, rcond
+    )
+    return TreeResult(
+        compliance=c, stiffness=k, free=free, nfree=nfree, rigid=rigid, nrigid=nrigid, ratio=ratio, lscale=float(lscale)
+    )

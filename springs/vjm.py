@@ -28,6 +28,7 @@ too few springs to load every direction) it lists the rigid wrenches,
 where Model.tool_compliance gives the rank. Poses are arrays over N
 postures, one core call for all of them.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -39,9 +40,19 @@ from .tree import Joint, Spring, TreeResult, evaluate, series
 __all__ = ["serial_vjm", "model_tree", "model_vjm"]
 
 
-def serial_vjm(joint_axes, joint_points, joint_compliances, link_compliances, link_points,
-               link_rotations, tool, joint_types=None, tool_rot=None, lscale=None,
-               rcond: float = 1e-9) -> TreeResult:
+def serial_vjm(
+    joint_axes,
+    joint_points,
+    joint_compliances,
+    link_compliances,
+    link_points,
+    link_rotations,
+    tool,
+    joint_types=None,
+    tool_rot=None,
+    lscale=None,
+    rcond: float = 1e-9,
+) -> TreeResult:
     """Tool compliance/stiffness of a serial VJM at N postures.
 
     Parameters
@@ -91,15 +102,19 @@ def model_tree(model, Q):
     for k in sorted(jc):
         c = jc[k]
         if np.ptp(c) > 1e-12 * np.abs(c).max():
-            raise InputError(f"joint {chain.joint_names[k]!r}: its compliance depends on the posture; "
-                             f"the spring tree takes constant joint compliances (use Model.tool_compliance)")
+            raise InputError(
+                f"joint {chain.joint_names[k]!r}: its compliance depends on the posture; "
+                f"the spring tree takes constant joint compliances (use Model.tool_compliance)"
+            )
         axis = poses["rf"][:, k] @ chain.jaxis[k]
-        parts.append(Joint("revolute", axis, poses["pf"][:, k], compliance=float(c[0]),
-                           name=chain.joint_names[k]))
+        parts.append(Joint("revolute", axis, poses["pf"][:, k], compliance=float(c[0]), name=chain.joint_names[k]))
     for (stype, k), C in model.six_values().items():
         if stype == SPRING_FRAME:
-            parts.append(Spring(C, pos=poses["pf"][:, k - 1], rot=poses["rf"][:, k - 1],
-                                name=f"link at {chain.joint_names[k - 1]}"))
+            parts.append(
+                Spring(
+                    C, pos=poses["pf"][:, k - 1], rot=poses["rf"][:, k - 1], name=f"link at {chain.joint_names[k - 1]}"
+                )
+            )
         elif stype == SPRING_BASE:
             parts.append(Spring(C, name="base"))
         elif stype != SPRING_JOINT:

@@ -9,17 +9,43 @@ pipeline: ``meshing`` -> ``fea`` -> ``field`` -> ``robot`` -> ``springs`` /
 contract are callable from Python with the same names (``fit``,
 ``diagnose``, ``compare``, ``load_model``).
 """
+
 from .calib import compare, diagnose, fit
 from .errors import ConvergenceError, DegenerateError, InputError, SingularError, StiffkitError
-from .field import (METHODS, Compliance, FieldFit, beam_stiffness, cantilever_compliance,
-                    compliance_from_experiments, fit_field, fit_fields, normal_quantile,
-                    section_properties)
+from .field import (
+    METHODS,
+    Compliance,
+    FieldFit,
+    beam_stiffness,
+    cantilever_compliance,
+    compliance_from_experiments,
+    fit_field,
+    fit_fields,
+    normal_quantile,
+    section_properties,
+)
 from .robot import load_model
 from .version import __version__
 
 __all__ = [
-    "StiffkitError", "InputError", "DegenerateError", "SingularError", "ConvergenceError",
-    "METHODS", "FieldFit", "Compliance", "fit_field", "fit_fields",
-    "compliance_from_experiments", "section_properties", "cantilever_compliance",
-    "beam_stiffness", "normal_quantile", "load_model", "fit", "diagnose", "compare", "__version__",
+    "StiffkitError",
+    "InputError",
+    "DegenerateError",
+    "SingularError",
+    "ConvergenceError",
+    "METHODS",
+    "FieldFit",
+    "Compliance",
+    "fit_field",
+    "fit_fields",
+    "compliance_from_experiments",
+    "section_properties",
+    "cantilever_compliance",
+    "beam_stiffness",
+    "normal_quantile",
+    "load_model",
+    "fit",
+    "diagnose",
+    "compare",
+    "__version__",
 ]

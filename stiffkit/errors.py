@@ -5,6 +5,7 @@ message naming the file, row or key and the value; the command line turns
 any :class:`StiffkitError` into one line and exit status 2. The core's
 integer ``info`` codes map onto these classes in ``stiffkit._core.errors``.
 """
+
 from __future__ import annotations
 
 __all__ = ["StiffkitError", "InputError", "DegenerateError", "SingularError", "ConvergenceError"]

@@ -1,4 +1,5 @@
 """Shared helpers of the calibration tests: the KR-270-like robot, truths."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,14 +20,22 @@ def spd(seed, scale_t=3e-8, scale_r=2e-7):
 
 
 def joints_truth():
-    return [{"kind": "joint", "target": j["name"], "value": c}
-            for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)]
+    return [{"kind": "joint", "target": j["name"], "value": c} for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)]
 
 
 def data(truth, sigma=0.0, seed=0, n_configs=30, loads="random", markers=MARKERS, replicates=1, tmp=None):
-    return S.synthesize(S.KR270_JOINTS, truth, n_configs=n_configs, sigma=sigma, seed=seed,
-                        ranges=S.KR270_RANGES, markers=markers, loads=loads, replicates=replicates,
-                        workdir=tmp)
+    return S.synthesize(
+        S.KR270_JOINTS,
+        truth,
+        n_configs=n_configs,
+        sigma=sigma,
+        seed=seed,
+        ranges=S.KR270_RANGES,
+        markers=markers,
+        loads=loads,
+        replicates=replicates,
+        workdir=tmp,
+    )
 
 
 def model(chain, effects, sigma=None):

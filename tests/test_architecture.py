@@ -2,6 +2,7 @@
 a layered graph without cycles, only bindings/ calls the f2py extensions,
 the error tables of Fortran, C and Python agree, and every equation the
 README cites is mapped to a routine that exists (docs/ARCHITECTURE.md)."""
+
 from __future__ import annotations
 
 import ast
@@ -15,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: folder -> installed package; the order is the layering, bottom first: a
 #: folder may import only from folders before it (and from itself)
 LAYERS = [
-    ("stiffkit", "stiffkit"),          # errors, version (the package face imports the stages lazily below)
+    ("stiffkit", "stiffkit"),  # errors, version (the package face imports the stages lazily below)
     ("bindings", "stiffkit._core"),
     ("io", "stiffkit.io"),
     ("meshing", "stiffkit.meshing"),
@@ -138,7 +139,7 @@ def test_stages_import_only_the_layers_below():
         for d in deps:
             if d in ROOT_LEAVES or _stage(d) == me:
                 continue
-            if me == "stiffkit":      # the package face re-exports the stages
+            if me == "stiffkit":  # the package face re-exports the stages
                 continue
             if order[_stage(d)] >= order[me]:
                 bad.append(f"{mod} -> {d}")
@@ -152,15 +153,17 @@ def test_only_bindings_call_the_extensions():
             continue
         text = path.read_text()
         if re.search(r"\b_(field|sparse|springs|calib|tree)\.sk_", text) or re.search(
-                r"import _(field|sparse|springs|calib|tree)\b", text):
+            r"import _(field|sparse|springs|calib|tree)\b", text
+        ):
             bad.append(name)
     assert not bad, f"modules calling an f2py extension directly: {bad}"
 
 
 def _fortran_codes() -> dict[str, int]:
     text = (ROOT / "core" / "sk_errors.f90").read_text()
-    return {m.group(1): int(m.group(2))
-            for m in re.finditer(r"::\s*sk_(?:ok|err_(\w+))\s*=\s*(\d+)", text) if m.group(1)}
+    return {
+        m.group(1): int(m.group(2)) for m in re.finditer(r"::\s*sk_(?:ok|err_(\w+))\s*=\s*(\d+)", text) if m.group(1)
+    }
 
 
 def test_error_tables_agree():
@@ -202,8 +205,13 @@ def test_equation_table_routines_exist():
     for paper, eq, where in rows:
         path, routine = where.split(":")
         text = (ROOT / path).read_text()
-        pattern = (rf"(subroutine|function)\s+{routine}\b" if path.endswith(".f90")
-                   else rf"(def|class)\s+{routine}\b" if path.endswith(".py") else rf"\b{routine}\s*\(")
+        pattern = (
+            rf"(subroutine|function)\s+{routine}\b"
+            if path.endswith(".f90")
+            else rf"(def|class)\s+{routine}\b"
+            if path.endswith(".py")
+            else rf"\b{routine}\s*\("
+        )
         assert re.search(pattern, text, re.IGNORECASE), f"{paper} {eq}: {routine} not found in {path}"
 
 
@@ -238,8 +246,11 @@ def test_repo_stands_alone():
     for path in ROOT.rglob("*"):
         if any(p in path.parts for p in (".git", ".venv", "build", "__pycache__", ".hypothesis")):
             continue
-        if path.is_file() and path.suffix in (".py", ".md", ".f90", ".c", ".pyf", ".build", ".toml", "") \
-                and path.name != "test_architecture.py":
+        if (
+            path.is_file()
+            and path.suffix in (".py", ".md", ".f90", ".c", ".pyf", ".build", ".toml", "")
+            and path.name != "test_architecture.py"
+        ):
             try:
                 text = path.read_text()
             except (UnicodeDecodeError, OSError):

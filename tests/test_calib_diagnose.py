@@ -1,16 +1,16 @@
 """Diagnosis (contract s4): adequacy test, hidden effects found, honest false-alarm rate."""
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 import pytest
+from _calib_util import data, joints_truth, model
 
 from stiffkit.calib import synth as S
 from stiffkit.calib.diagnose import diagnose
 from stiffkit.calib.fit import fit
-
-from _calib_util import data, joints_truth, model
 
 SIGMA = 1e-5
 JOINTS = [{"kind": "joint", "target": "all"}]
@@ -58,7 +58,7 @@ def all_kinds():
 def test_hidden_effect_found_and_error_falls_to_noise(hidden, all_kinds):
     chain, tm, meas = all_kinds
     k, first = HIDDEN[hidden]
-    others = FULL[:k] + FULL[k + 1:]
+    others = FULL[:k] + FULL[k + 1 :]
     dg = diagnose(model(chain, others, sigma=SIGMA), meas)
     assert dg.verdict == "inadequate"
     best = dg.candidates[0]
@@ -70,7 +70,7 @@ def test_hidden_effect_found_and_error_falls_to_noise(hidden, all_kinds):
     # the ranking uses log p: strong effects have p = 0.0 in floating point
     assert best.log_p < math.log(1e-6)
     # the suggested table itself (for the compensator: its generic form) and the true kind
-    for add in ([best.effect, FULL[k]] if best.effect != FULL[k] else [FULL[k]]):
+    for add in [best.effect, FULL[k]] if best.effect != FULL[k] else [FULL[k]]:
         res = fit(model(chain, others + [add], sigma=SIGMA), meas)
         assert abs(res.rms_position - floor) <= 0.25 * floor, (add, res.rms_position, floor)
     res = fit(model(chain, others + [FULL[k]], sigma=SIGMA), meas)
@@ -107,6 +107,7 @@ def test_pure_error_from_replicates_when_sigma_absent():
 def test_no_sigma_and_no_replicates_is_a_clear_error():
     chain, tm, meas = data(joints_truth(), sigma=SIGMA, seed=4, n_configs=10)
     from stiffkit import InputError
+
     with pytest.raises(InputError, match="sigma_position"):
         diagnose(model(chain, JOINTS), meas)
 
@@ -120,8 +121,7 @@ def test_coupled_candidates_flagged_and_spanned_ones_not_ranked():
     # link_2's spring sits at joint_a3's frame: its rotation about y is the same column
     assert any(lbl.startswith("link:link_2") for lbl in best.indistinguishable_from)
     # with link_2 full in the model, its smaller templates add nothing
-    dg2 = diagnose(model(chain, JOINTS + [{"kind": "link", "target": "link_2", "template": "full"}],
-                         sigma=SIGMA), meas)
+    dg2 = diagnose(model(chain, JOINTS + [{"kind": "link", "target": "link_2", "template": "full"}], sigma=SIGMA), meas)
     spanned = {(c.kind, c.target, c.effect.get("template")) for c in dg2.non_identifiable}
     assert ("link", "link_2", "beam") in spanned and ("link", "link_2", "diagonal") in spanned
     assert not any(c.kind == "link" and c.target == "link_2" for c in dg2.candidates)

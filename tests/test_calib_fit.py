@@ -1,15 +1,15 @@
 """Identification (contract s4): exact recovery, groups, couplings, write-model."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from _calib_util import MARKERS, data, joints_truth, model, spd, truth_values
 
 import stiffkit
 from stiffkit.calib import synth as S
 from stiffkit.calib.fit import fit, write_model
 from stiffkit.calib.reduce import reduce_model
-
-from _calib_util import MARKERS, data, joints_truth, model, spd, truth_values
 
 PROFILE = [0.0, 6e-8, -4e-8, 3e-8, 2e-8]
 COMP = dict(S.KR270_COMPENSATOR)
@@ -17,19 +17,36 @@ COMP = dict(S.KR270_COMPENSATOR)
 # (name, truth effects, effects to identify): one per effect kind of the contract
 CASES = [
     ("joint", joints_truth(), [{"kind": "joint", "target": "all"}]),
-    ("link", [{"kind": "link", "target": "link_2", "value": spd(11).tolist()}],
-     [{"kind": "link", "target": "link_2", "template": "full"}]),
-    ("link-beam", [{"kind": "link", "target": "link_3", "value": S.kr270_links()["link_3"].tolist()}],
-     [{"kind": "link", "target": "link_3", "template": "beam"}]),
+    (
+        "link",
+        [{"kind": "link", "target": "link_2", "value": spd(11).tolist()}],
+        [{"kind": "link", "target": "link_2", "template": "full"}],
+    ),
+    (
+        "link-beam",
+        [{"kind": "link", "target": "link_3", "value": S.kr270_links()["link_3"].tolist()}],
+        [{"kind": "link", "target": "link_3", "template": "beam"}],
+    ),
     ("base", [{"kind": "base", "value": spd(12).tolist()}], [{"kind": "base", "template": "full"}]),
     ("tool", [{"kind": "tool", "value": spd(13).tolist()}], [{"kind": "tool", "template": "full"}]),
-    ("joint_profile", [{"kind": "joint_profile", "target": "joint_a2", "value": [2e-7] + PROFILE[1:]}],
-     [{"kind": "joint_profile", "target": "joint_a2"}]),
-    ("gravity_compensator", joints_truth() + [{"kind": "gravity_compensator", "target": "joint_a2", **COMP}],
-     [{"kind": "joint", "target": "all"},
-      {"kind": "gravity_compensator", "target": "joint_a2", **{k: COMP[k] for k in ("a", "b", "beta", "s0")}}]),
-    ("point_offset", joints_truth() + [{"kind": "point_offset", "r": [0.03, -0.02, 0.05]}],
-     [{"kind": "joint", "target": "all"}, {"kind": "point_offset"}]),
+    (
+        "joint_profile",
+        [{"kind": "joint_profile", "target": "joint_a2", "value": [2e-7] + PROFILE[1:]}],
+        [{"kind": "joint_profile", "target": "joint_a2"}],
+    ),
+    (
+        "gravity_compensator",
+        joints_truth() + [{"kind": "gravity_compensator", "target": "joint_a2", **COMP}],
+        [
+            {"kind": "joint", "target": "all"},
+            {"kind": "gravity_compensator", "target": "joint_a2", **{k: COMP[k] for k in ("a", "b", "beta", "s0")}},
+        ],
+    ),
+    (
+        "point_offset",
+        joints_truth() + [{"kind": "point_offset", "r": [0.03, -0.02, 0.05]}],
+        [{"kind": "joint", "target": "all"}, {"kind": "point_offset"}],
+    ),
 ]
 
 
@@ -42,14 +59,14 @@ def test_exact_recovery_noise_free(name, truth, effects):
     checked = 0
     for n, v, g in zip(res.names, res.values, res.groups):
         assert g == "identifiable", f"{n} is {g}"
-        t = true.get(n, 0.0)            # template elements absent from the truth are zero
+        t = true.get(n, 0.0)  # template elements absent from the truth are zero
         tol = 1e-8 * max(abs(t), 1e-3 * scale) if n.split(".")[-1].startswith("c") else 1e-8 * max(abs(t), 1e-12)
         if n.endswith("k_s"):
             tol = 1e-8 * abs(t)
         assert abs(v - t) <= tol, f"{n}: {v!r} vs {t!r}"
         checked += 1
     assert checked == len(res.names) > 0
-    assert res.rms_position < 1e-12 * np.sqrt(np.mean(np.sum(meas.d ** 2, axis=1)))
+    assert res.rms_position < 1e-12 * np.sqrt(np.mean(np.sum(meas.d**2, axis=1)))
 
 
 def test_gravity_loading_leaves_parameters_non_identifiable():
@@ -72,8 +89,11 @@ def test_gravity_loading_leaves_parameters_non_identifiable():
 def test_joint_and_link_rotation_about_same_axis_are_coupled():
     truth = joints_truth() + [{"kind": "link", "target": "link_2", "value": S.kr270_links()["link_2"].tolist()}]
     chain, tm, meas = data(truth, sigma=1e-5, seed=6)
-    m = model(chain, [{"kind": "joint", "target": "all"}, {"kind": "link", "target": "link_2",
-                                                            "template": "diagonal"}], sigma=1e-5)
+    m = model(
+        chain,
+        [{"kind": "joint", "target": "all"}, {"kind": "link", "target": "link_2", "template": "diagonal"}],
+        sigma=1e-5,
+    )
     res = fit(m, meas)
     groups = dict(zip(res.names, res.groups))
     # link_2's spring sits at joint_a3's frame; joint_a3 turns about y = c55
@@ -81,17 +101,24 @@ def test_joint_and_link_rotation_about_same_axis_are_coupled():
     assert any({"joint_a3.c", "link_2.c55"} <= set(c) for c in res.couplings)
     assert groups["joint_a1.c"] == "identifiable"
     red = reduce_model(m, meas)
-    assert "joint_a3.c" in red.aggregated                     # M3
+    assert "joint_a3.c" in red.aggregated  # M3
     steps = [r[3] for r in red.rows]
     assert steps[0] == 6 + 36 and steps[1] == 6 + 21 and steps[2] == 6 + 6 and steps[3] == 11
-    assert len(red.selected) == res.rank                      # M5: rank-many parameters left
+    assert len(red.selected) == res.rank  # M5: rank-many parameters left
 
 
 def test_write_model_round_trip(tmp_path):
     truth = joints_truth() + [{"kind": "link", "target": "link_3", "value": S.kr270_links()["link_3"].tolist()}]
-    S.write_synth(tmp_path, S.KR270_JOINTS, truth,
-                  [{"kind": "joint", "target": "all"}, {"kind": "link", "target": "link_3", "template": "beam"}],
-                  sigma=0.0, n_configs=20, ranges=S.KR270_RANGES, markers=MARKERS)
+    S.write_synth(
+        tmp_path,
+        S.KR270_JOINTS,
+        truth,
+        [{"kind": "joint", "target": "all"}, {"kind": "link", "target": "link_3", "template": "beam"}],
+        sigma=0.0,
+        n_configs=20,
+        ranges=S.KR270_RANGES,
+        markers=MARKERS,
+    )
     res = fit(tmp_path / "model.toml", tmp_path / "measurements.csv")
     write_model(res, tmp_path / "identified.toml")
     Q = S.random_postures(20, S.KR270_RANGES, np.random.default_rng(2))
@@ -118,32 +145,62 @@ def test_fewer_rows_than_parameters(tmp_path):
 
 def test_rotation_columns_make_the_last_axis_identifiable(tmp_path):
     """rx, ry, rz measured: one marker on the A6 axis suffices (contract s3, optional rotations)."""
-    S.write_synth(tmp_path, S.KR270_JOINTS, joints_truth(), [{"kind": "joint", "target": "all"}], sigma=1e-5,
-                  sigma_rotation=1e-5, n_configs=20, ranges=S.KR270_RANGES, markers=((0.0, 0.0, 0.25),))
+    S.write_synth(
+        tmp_path,
+        S.KR270_JOINTS,
+        joints_truth(),
+        [{"kind": "joint", "target": "all"}],
+        sigma=1e-5,
+        sigma_rotation=1e-5,
+        n_configs=20,
+        ranges=S.KR270_RANGES,
+        markers=((0.0, 0.0, 0.25),),
+    )
     assert "rx" in (tmp_path / "measurements.csv").read_text().splitlines()[0]
     res = fit(tmp_path / "model.toml", tmp_path / "measurements.csv")
     assert res.nobs == 6 * 60 and all(g == "identifiable" for g in res.groups)
     z = (res.values - np.array(S.KR270_JOINT_C)) / res.std
-    assert np.abs(z).max() < 5                       # estimates within their standard errors
+    assert np.abs(z).max() < 5  # estimates within their standard errors
 
 
 def test_cli_reduce_prints_table_1(tmp_path, capsys):
     from stiffkit.cli import main
+
     truth = joints_truth() + [{"kind": "link", "target": "link_2", "value": S.kr270_links()["link_2"].tolist()}]
-    S.write_synth(tmp_path, S.KR270_JOINTS, truth,
-                  [{"kind": "joint", "target": "all"}] + [{"kind": "link", "target": f"link_{i}", "template": "beam"}
-                                                          for i in range(1, 6)],
-                  sigma=1e-5, n_configs=20, ranges=S.KR270_RANGES, markers=MARKERS)
-    assert main(["fit", str(tmp_path / "model.toml"), str(tmp_path / "measurements.csv"), "--reduce",
-                 "--quiet", "--json", str(tmp_path / "r.json")]) == 0
+    S.write_synth(
+        tmp_path,
+        S.KR270_JOINTS,
+        truth,
+        [{"kind": "joint", "target": "all"}]
+        + [{"kind": "link", "target": f"link_{i}", "template": "beam"} for i in range(1, 6)],
+        sigma=1e-5,
+        n_configs=20,
+        ranges=S.KR270_RANGES,
+        markers=MARKERS,
+    )
+    assert (
+        main(
+            [
+                "fit",
+                str(tmp_path / "model.toml"),
+                str(tmp_path / "measurements.csv"),
+                "--reduce",
+                "--quiet",
+                "--json",
+                str(tmp_path / "r.json"),
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     import json
+
     js = json.loads((tmp_path / "r.json").read_text())
     # the reduced model: exactly the selected parameters, all identifiable
     assert [p["name"] for p in js["parameters"]] == js["reduction"]["selected"]
     assert all(p["group"] == "identifiable" for p in js["parameters"])
     assert "M1 symmetrisation" in out and "M5a splitting" in out
-    assert "6 joints + 5 6-dof springs" in out and " 186 " in out     # 6 + 5 x 36
+    assert "6 joints + 5 6-dof springs" in out and " 186 " in out  # 6 + 5 x 36
 
 
 def test_reduction_of_the_complete_kr270_model_follows_table_1():
@@ -152,13 +209,16 @@ def test_reduction_of_the_complete_kr270_model_follows_table_1():
     parameters and M5 leaves exactly rank-many."""
     chain, tm, meas = data(S.kr270_truth(), sigma=2e-5, seed=1, loads="gravity")
     links = ["base_link"] + [f"link_{i}" for i in range(1, 7)]
-    m = model(chain, [{"kind": "joint", "target": "all"}]
-              + [{"kind": "link", "target": ln, "template": "beam"} for ln in links], sigma=2e-5)
+    m = model(
+        chain,
+        [{"kind": "joint", "target": "all"}] + [{"kind": "link", "target": ln, "template": "beam"} for ln in links],
+        sigma=2e-5,
+    )
     red = reduce_model(m, meas)
     counts = [r[3] for r in red.rows]
     assert counts[:4] == [258, 153, 62, 56]
     assert len(red.aggregated) == 6 and len(red.g2) > 0
-    assert "base_link.c66" in red.g2            # no moment about the vertical axis under gravity
+    assert "base_link.c66" in red.g2  # no moment about the vertical axis under gravity
     assert counts[4] == 56 - len(red.g2)
     res = fit(m, meas)
     assert counts[5] == len(red.selected) == res.rank

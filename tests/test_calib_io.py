@@ -1,26 +1,34 @@
 """Bad inputs give clear messages naming the file, row and field; the CLI
 prints one line and exits 2; JSON outputs carry the contract's keys."""
+
 from __future__ import annotations
 
 import json
 
 import numpy as np
 import pytest
+from _calib_util import MARKERS, joints_truth
 
 import stiffkit
 from stiffkit.calib import synth as S
 from stiffkit.calib.measure import read_measurements
 from stiffkit.cli import main
 
-from _calib_util import MARKERS, joints_truth
-
 
 @pytest.fixture(scope="module")
 def kr(tmp_path_factory):
     d = tmp_path_factory.mktemp("kr")
     truth = joints_truth() + [{"kind": "link", "target": "link_2", "value": S.kr270_links()["link_2"].tolist()}]
-    S.write_synth(d, S.KR270_JOINTS, truth, [{"kind": "joint", "target": "all"}], sigma=1e-5, n_configs=12,
-                  ranges=S.KR270_RANGES, markers=MARKERS)
+    S.write_synth(
+        d,
+        S.KR270_JOINTS,
+        truth,
+        [{"kind": "joint", "target": "all"}],
+        sigma=1e-5,
+        n_configs=12,
+        ranges=S.KR270_RANGES,
+        markers=MARKERS,
+    )
     return d
 
 
@@ -62,15 +70,18 @@ def test_non_number_and_short_row(kr, tmp_path):
         read_measurements(bad, 6)
 
 
-@pytest.mark.parametrize("effect,msg", [
-    ('kind = "joint"\ntarget = "joint_a9"', r"#2 \(joint, target 'joint_a9'\): unknown joint 'joint_a9'"),
-    ('kind = "link"\ntarget = "link_9"', r"unknown link 'link_9'; links of the chain: base_link, link_1"),
-    ('kind = "spring"\ntarget = "link_2"', r"unknown kind 'spring'"),
-    ('kind = "link"\ntarget = "link_2"\ntemplate = "bar"', r"unknown template 'bar'"),
-    ('kind = "gravity_compensator"\ntarget = "joint_a2"\na = 0.4', r"missing 'b'"),
-    ('kind = "link"\ntarget = "link_2"\nvalue = [[1.0, 2.0], [2.0, 1.0]]', r"must be a 6x6 matrix"),
-    ('kind = "link"\ntarget = "link_2"\ntemplat = "beam"', r"unknown key\(s\) templat for kind 'link'"),
-])
+@pytest.mark.parametrize(
+    "effect,msg",
+    [
+        ('kind = "joint"\ntarget = "joint_a9"', r"#2 \(joint, target 'joint_a9'\): unknown joint 'joint_a9'"),
+        ('kind = "link"\ntarget = "link_9"', r"unknown link 'link_9'; links of the chain: base_link, link_1"),
+        ('kind = "spring"\ntarget = "link_2"', r"unknown kind 'spring'"),
+        ('kind = "link"\ntarget = "link_2"\ntemplate = "bar"', r"unknown template 'bar'"),
+        ('kind = "gravity_compensator"\ntarget = "joint_a2"\na = 0.4', r"missing 'b'"),
+        ('kind = "link"\ntarget = "link_2"\nvalue = [[1.0, 2.0], [2.0, 1.0]]', r"must be a 6x6 matrix"),
+        ('kind = "link"\ntarget = "link_2"\ntemplat = "beam"', r"unknown key\(s\) templat for kind 'link'"),
+    ],
+)
 def test_bad_effect_tables(kr, tmp_path, effect, msg):
     text = (kr / "model.toml").read_text().replace('urdf = "robot.urdf"', f'urdf = "{kr}/robot.urdf"')
     f = tmp_path / "m.toml"
@@ -81,7 +92,9 @@ def test_bad_effect_tables(kr, tmp_path, effect, msg):
 
 def test_urdf_not_a_chain_to_the_tool(kr, tmp_path):
     urdf = (kr / "robot.urdf").read_text()
-    (tmp_path / "r.urdf").write_text(urdf.replace('<link name="tool0"/>', '<link name="tool0"/>\n  <link name="camera"/>'))
+    (tmp_path / "r.urdf").write_text(
+        urdf.replace('<link name="tool0"/>', '<link name="tool0"/>\n  <link name="camera"/>')
+    )
     f = tmp_path / "m.toml"
     f.write_text('[robot]\nurdf = "r.urdf"\nbase_link = "base_link"\ntool_frame = "camera"\n')
     with pytest.raises(stiffkit.InputError, match=r"r.urdf: 'camera' is not connected to 'base_link'"):
@@ -105,8 +118,22 @@ def test_cli_error_is_one_line_exit_2(kr, tmp_path, capsys):
 
 def test_cli_fit_diagnose_compare_stiffness(kr, tmp_path, capsys):
     j = tmp_path / "j1.json"
-    assert main(["fit", str(kr / "model.toml"), str(kr / "measurements.csv"), "--json", str(j),
-                 "--plots", str(tmp_path / "plots"), "--write-model", str(tmp_path / "id.toml")]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(kr / "model.toml"),
+                str(kr / "measurements.csv"),
+                "--json",
+                str(j),
+                "--plots",
+                str(tmp_path / "plots"),
+                "--write-model",
+                str(tmp_path / "id.toml"),
+            ]
+        )
+        == 0
+    )
     out = json.loads(j.read_text())
     for key in ("rms_position_m", "max_position_m", "axes", "compensated_fraction", "parameters"):
         assert key in out
@@ -115,8 +142,20 @@ def test_cli_fit_diagnose_compare_stiffness(kr, tmp_path, capsys):
     assert out["parameters"][0]["name"] == "joint_a1.c"
     assert len(list((tmp_path / "plots").glob("*.png"))) == 3
     d = tmp_path / "d.json"
-    assert main(["diagnose", str(kr / "model.toml"), str(kr / "measurements.csv"), "--json", str(d),
-                 "--plots", str(tmp_path / "dplots")]) == 0
+    assert (
+        main(
+            [
+                "diagnose",
+                str(kr / "model.toml"),
+                str(kr / "measurements.csv"),
+                "--json",
+                str(d),
+                "--plots",
+                str(tmp_path / "dplots"),
+            ]
+        )
+        == 0
+    )
     assert (tmp_path / "dplots" / "diagnose_candidates.png").is_file()
     dg = json.loads(d.read_text())
     assert dg["verdict"] == "inadequate"
@@ -137,8 +176,21 @@ def test_cli_fit_diagnose_compare_stiffness(kr, tmp_path, capsys):
     assert main(["compare", str(j), str(j2)]) == 0
     assert "positional RMS (mm)" in capsys.readouterr().out
     npz = tmp_path / "c.npz"
-    assert main(["stiffness", str(tmp_path / "id.toml"), "--posture", "0,-0.5,0.3,0,1.2,0", "--npz", str(npz),
-                 "--json", str(tmp_path / "s.json")]) == 0
+    assert (
+        main(
+            [
+                "stiffness",
+                str(tmp_path / "id.toml"),
+                "--posture",
+                "0,-0.5,0.3,0,1.2,0",
+                "--npz",
+                str(npz),
+                "--json",
+                str(tmp_path / "s.json"),
+            ]
+        )
+        == 0
+    )
     arr = np.load(npz)
     C = stiffkit.load_model(tmp_path / "id.toml").tool_compliance([[0, -0.5, 0.3, 0, 1.2, 0]])
     np.testing.assert_allclose(arr["compliance"], C)

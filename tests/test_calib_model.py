@@ -1,4 +1,5 @@
 """Robot model: URDF chain, TOML effects, tool compliance (contract s1, s2, s5)."""
+
 from __future__ import annotations
 
 import json
@@ -6,18 +7,19 @@ import math
 
 import numpy as np
 import pytest
+from _calib_util import data, joints_truth, spd
 
 import stiffkit
 from stiffkit.calib import synth as S
 from stiffkit.robot.urdf import urdf_text
 
-from _calib_util import data, joints_truth, spd
-
 
 def planar_files(tmp_path, c1=2e-6, c2=5e-6, l1=0.7, l2=0.4):
-    joints = [dict(name="j1", type="revolute", parent="base_link", child="l1", axis=(0, 0, 1)),
-              dict(name="j2", type="revolute", parent="l1", child="l2", xyz=(l1, 0, 0), axis=(0, 0, 1)),
-              dict(name="jt", type="fixed", parent="l2", child="tool0", xyz=(l2, 0, 0))]
+    joints = [
+        dict(name="j1", type="revolute", parent="base_link", child="l1", axis=(0, 0, 1)),
+        dict(name="j2", type="revolute", parent="l1", child="l2", xyz=(l1, 0, 0), axis=(0, 0, 1)),
+        dict(name="jt", type="fixed", parent="l2", child="tool0", xyz=(l2, 0, 0)),
+    ]
     (tmp_path / "arm.urdf").write_text(urdf_text("arm", joints))
     (tmp_path / "arm.toml").write_text(f"""
 [robot]
@@ -54,12 +56,14 @@ def test_planar_two_link_equals_hand_derived(tmp_path):
         Ch = c1 * np.outer(j1, j1) + c2 * np.outer(j2, j2)
         np.testing.assert_allclose(Ci, Ch, rtol=0, atol=1e-15)
     C, K, rank, ok = m.stiffness(Q)
-    assert list(rank) == [2, 2, 2, 2] and not ok.any()      # two springs: no 6x6 stiffness
+    assert list(rank) == [2, 2, 2, 2] and not ok.any()  # two springs: no 6x6 stiffness
 
 
 def test_kr270_stiffness_positive_definite_and_inverse():
-    chain, truth, _ = data(joints_truth() + [{"kind": "base", "value": spd(1).tolist()},
-                                             {"kind": "tool", "value": spd(2).tolist()}], n_configs=2)
+    chain, truth, _ = data(
+        joints_truth() + [{"kind": "base", "value": spd(1).tolist()}, {"kind": "tool", "value": spd(2).tolist()}],
+        n_configs=2,
+    )
     Q = S.random_postures(50, S.KR270_RANGES, np.random.default_rng(0))
     C, K, rank, ok = truth.stiffness(Q)
     assert ok.all() and (rank == 6).all()
@@ -68,8 +72,9 @@ def test_kr270_stiffness_positive_definite_and_inverse():
 
 def test_basis_prediction_matches_tool_compliance():
     """Two code paths of the core: observation basis vs C W moved to the point."""
-    truth = S.kr270_truth(compensator=True) + [{"kind": "joint_profile", "target": "joint_a3",
-                                                "value": [0, 1e-7, -5e-8, 3e-8, 2e-8]}]
+    truth = S.kr270_truth(compensator=True) + [
+        {"kind": "joint_profile", "target": "joint_a3", "value": [0, 1e-7, -5e-8, 3e-8, 2e-8]}
+    ]
     chain, tm, meas = data(truth, n_configs=10)
     C = tm.tool_compliance(meas.q)
     tw = np.einsum("nij,nj->ni", C, meas.w)
@@ -86,19 +91,22 @@ def test_link_value_from_json_with_rpy(tmp_path):
     S.write_synth(tmp_path, S.KR270_JOINTS, joints_truth(), [], n_configs=2)
     base = (tmp_path / "truth.toml").read_text()
     rpy = [0.1, -0.2, 0.3]
-    (tmp_path / "a.toml").write_text(base + f'\n[[effect]]\nkind = "link"\ntarget = "link_2"\n'
-                                     f'value = "links/arm.json"\nrpy = {rpy}\n')
+    (tmp_path / "a.toml").write_text(
+        base + f'\n[[effect]]\nkind = "link"\ntarget = "link_2"\nvalue = "links/arm.json"\nrpy = {rpy}\n'
+    )
     from stiffkit.robot.model import rpy_matrix
+
     R = rpy_matrix(rpy)
     B = np.kron(np.eye(2), R)
-    (tmp_path / "b.toml").write_text(base + f'\n[[effect]]\nkind = "link"\ntarget = "link_2"\n'
-                                     f'value = {(B @ Ccad @ B.T).tolist()}\n')
+    (tmp_path / "b.toml").write_text(
+        base + f'\n[[effect]]\nkind = "link"\ntarget = "link_2"\nvalue = {(B @ Ccad @ B.T).tolist()}\n'
+    )
     Q = S.random_postures(5, S.KR270_RANGES, np.random.default_rng(1))
     Ca = stiffkit.load_model(tmp_path / "a.toml").tool_compliance(Q)
     Cb = stiffkit.load_model(tmp_path / "b.toml").tool_compliance(Q)
     np.testing.assert_allclose(Ca, Cb, rtol=1e-12, atol=1e-20)
     C0 = stiffkit.load_model(tmp_path / "truth.toml").tool_compliance(Q)
-    assert np.abs(Ca - C0).max() > 1e-3 * np.abs(C0).max()       # the link counts
+    assert np.abs(Ca - C0).max() > 1e-3 * np.abs(C0).max()  # the link counts
 
 
 def test_model_without_values_cannot_be_evaluated(tmp_path):
@@ -115,10 +123,9 @@ def test_spring_jacobians_by_finite_differences():
 
     from stiffkit.robot.urdf import _rot_axis
 
-    chain, tm, _ = data(joints_truth() + [{"kind": "link", "target": "link_3", "value": spd(5).tolist()}],
-                        n_configs=1)
+    chain, tm, _ = data(joints_truth() + [{"kind": "link", "target": "link_3", "value": spd(5).tolist()}], n_configs=1)
     q = np.array([0.3, -0.7, 0.4, 1.1, 0.9, -0.5])
-    k = chain.joint_index("joint_a4")              # link_3's spring: frame of joint_a4
+    k = chain.joint_index("joint_a4")  # link_3's spring: frame of joint_a4
     Jl = tm.jacobians(q)[(2, k + 1)]
     R0, p0 = chain.forward(q)
     h = 1e-7
@@ -151,18 +158,31 @@ def test_random_chain_against_finite_difference_reference(tmp_path):
     joints, parent = [], "base_link"
     for i in range(5):
         ax = rng.normal(size=3)
-        joints.append(dict(name=f"j{i}", type="revolute", parent=parent, child=f"l{i}",
-                           xyz=rng.uniform(-0.5, 0.5, 3), rpy=rng.uniform(-1, 1, 3), axis=ax / np.linalg.norm(ax)))
+        joints.append(
+            dict(
+                name=f"j{i}",
+                type="revolute",
+                parent=parent,
+                child=f"l{i}",
+                xyz=rng.uniform(-0.5, 0.5, 3),
+                rpy=rng.uniform(-1, 1, 3),
+                axis=ax / np.linalg.norm(ax),
+            )
+        )
         parent = f"l{i}"
-    joints.append(dict(name="jt", type="fixed", parent=parent, child="tool0", xyz=(0.1, 0.05, 0.2),
-                       rpy=(0.3, -0.4, 0.5)))
+    joints.append(
+        dict(name="jt", type="fixed", parent=parent, child="tool0", xyz=(0.1, 0.05, 0.2), rpy=(0.3, -0.4, 0.5))
+    )
     (tmp_path / "r.urdf").write_text(urdf_text("r", joints))
     chain = load_chain(tmp_path / "r.urdf")
     cj = rng.uniform(1e-7, 1e-6, 5)
     Cl, Cb, Ct = spd(21), spd(22), spd(23)
     effects = [{"kind": "joint", "target": f"j{i}", "value": float(cj[i])} for i in range(5)]
-    effects += [{"kind": "link", "target": "l1", "value": Cl.tolist()},
-                {"kind": "base", "value": Cb.tolist()}, {"kind": "tool", "value": Ct.tolist()}]
+    effects += [
+        {"kind": "link", "target": "l1", "value": Cl.tolist()},
+        {"kind": "base", "value": Cb.tolist()},
+        {"kind": "tool", "value": Ct.tolist()},
+    ]
     m = model_from_tables(chain, effects)
     Q = rng.uniform(-2, 2, (4, 5))
     C = m.tool_compliance(Q)
@@ -176,18 +196,18 @@ def test_random_chain_against_finite_difference_reference(tmp_path):
         return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
 
     h = 1e-7
-    k = chain.joint_index("j2")                       # l1's spring: frame of j2 (its parent is l1)
+    k = chain.joint_index("j2")  # l1's spring: frame of j2 (its parent is l1)
     for q, Cq in zip(Q, C):
         R0, p0 = chain.forward(q)
         ref = np.zeros((6, 6))
-        for j in range(5):                            # joint springs: d(pose)/dq_j
+        for j in range(5):  # joint springs: d(pose)/dq_j
             dq = np.zeros(5)
             dq[j] = h
             Rp, pp = chain.forward(q + dq)
             Jj = twist(R0, p0, Rp, pp, h)
             ref += cj[j] * np.outer(Jj, Jj)
         Jl = np.zeros((6, 6))
-        for i in range(6):                            # link spring: deflect F_k in its own axes
+        for i in range(6):  # link spring: deflect F_k in its own axes
             ch2 = copy.deepcopy(chain)
             e = np.zeros(6)
             e[i] = h
@@ -198,9 +218,9 @@ def test_random_chain_against_finite_difference_reference(tmp_path):
             Jl[:, i] = twist(R0, p0, R1, p1, h)
         ref += Jl @ Cl @ Jl.T
         Jb = np.eye(6)
-        Jb[:3, 3:] = -skew(p0)                        # base: t = dt + dphi x p
+        Jb[:3, 3:] = -skew(p0)  # base: t = dt + dphi x p
         ref += Jb @ Cb @ Jb.T
-        Jt = np.kron(np.eye(2), R0)                    # tool: deflection in tool axes
+        Jt = np.kron(np.eye(2), R0)  # tool: deflection in tool axes
         ref += Jt @ Ct @ Jt.T
         np.testing.assert_allclose(Cq, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
 
@@ -209,8 +229,11 @@ def test_tool_compliance_symmetric_psd_and_batched_like_single_calls():
     from hypothesis import given, settings
     from hypothesis import strategies as st
 
-    chain, tm, _ = data(joints_truth() + [{"kind": "link", "target": "link_2", "value": spd(7).tolist()},
-                                          {"kind": "tool", "value": spd(8).tolist()}], n_configs=1)
+    chain, tm, _ = data(
+        joints_truth()
+        + [{"kind": "link", "target": "link_2", "value": spd(7).tolist()}, {"kind": "tool", "value": spd(8).tolist()}],
+        n_configs=1,
+    )
     angles = st.lists(st.floats(-3.1, 3.1, allow_nan=False), min_size=6, max_size=6)
 
     @settings(max_examples=30, deadline=None)
@@ -220,7 +243,7 @@ def test_tool_compliance_symmetric_psd_and_batched_like_single_calls():
         C = tm.tool_compliance(Q)
         for i, q in enumerate(Q):
             Ci = tm.tool_compliance(q[None])[0]
-            np.testing.assert_array_equal(C[i], Ci)               # one batched call = N single calls
+            np.testing.assert_array_equal(C[i], Ci)  # one batched call = N single calls
             np.testing.assert_allclose(Ci, Ci.T, rtol=0, atol=1e-20)
             assert np.linalg.eigvalsh(Ci).min() > -1e-12 * np.abs(Ci).max()
 

@@ -12,18 +12,18 @@ the Python one; at a wrist singularity both report rank 5 and the springs
 path's rigid wrench is the null vector of the compliance; base and tool
 springs (tilted tool frame) agree too.
 """
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from _calib_util import spd
 
 from stiffkit.calib import synth as S
+from stiffkit.errors import InputError
 from stiffkit.robot.model import model_from_tables
 from stiffkit.robot.urdf import load_chain
 from stiffkit.springs import Joint, Spring, evaluate, model_tree, model_vjm, serial_vjm, series
-from stiffkit.errors import InputError
-
-from _calib_util import spd
 
 URDF = "examples/kr270/robot.urdf"
 
@@ -35,10 +35,10 @@ def relerr(a, b):
 @pytest.fixture(scope="module")
 def robot():
     from pathlib import Path
+
     chain = load_chain(Path(__file__).resolve().parent.parent / URDF)
-    eff = [{"kind": "joint", "target": j["name"], "value": c}
-           for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)]
-    for i, link in enumerate(chain.links[:-1]):          # base_link, link_1 .. link_6: 7 link springs
+    eff = [{"kind": "joint", "target": j["name"], "value": c} for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)]
+    for i, link in enumerate(chain.links[:-1]):  # base_link, link_1 .. link_6: 7 link springs
         eff.append({"kind": "link", "target": link, "value": spd(100 + i).tolist()})
     return chain, model_from_tables(chain, eff)
 
@@ -68,7 +68,7 @@ def numpy_eq2(chain, model, q):
         u = F[k][0] @ chain.jaxis[k]
         xi = np.r_[np.cross(u, pt - F[k][1]), u]
         C += c[0] * np.outer(xi, xi)
-    for (stype, k), Cs in model.six_values().items():
+    for (_stype, k), Cs in model.six_values().items():
         R, p = F[k - 1]
         T = np.eye(6)
         r = pt - p
@@ -93,7 +93,7 @@ def test_core_poses_equal_python_forward_kinematics(robot):
 
 def test_chain_and_spring_tree_agree_on_the_6r(robot):
     chain, model = robot
-    assert len(model.springs()) == 13                       # 6 joint + 7 link springs
+    assert len(model.springs()) == 13  # 6 joint + 7 link springs
     Q = S.random_postures(200, S.KR270_RANGES, np.random.default_rng(2))
     C, K, rank, ok = model.stiffness(Q)
     res = model_vjm(model, Q)
@@ -109,15 +109,24 @@ def test_chain_and_spring_tree_agree_on_the_6r(robot):
     axes = np.einsum("nkab,kb->nka", P["rf"][:, k6], chain.jaxis[k6])
     six = model.six_values()
     idx = [k - 1 for (_, k) in six]
-    res2 = serial_vjm(axes, P["pf"][:, k6], S.KR270_JOINT_C, np.array(list(six.values())),
-                      P["pf"][:, idx], P["rf"][:, idx], P["pt"], lscale=chain.characteristic_length)
+    res2 = serial_vjm(
+        axes,
+        P["pf"][:, k6],
+        S.KR270_JOINT_C,
+        np.array(list(six.values())),
+        P["pf"][:, idx],
+        P["rf"][:, idx],
+        P["pt"],
+        lscale=chain.characteristic_length,
+    )
     assert relerr(res2.compliance, C) < 1e-12
 
 
 def test_wrist_singularity_rank_and_rigid_wrench(robot):
     chain, _ = robot
-    joints = model_from_tables(chain, [{"kind": "joint", "target": j["name"], "value": c}
-                                       for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)])
+    joints = model_from_tables(
+        chain, [{"kind": "joint", "target": j["name"], "value": c} for j, c in zip(S.KR270_JOINTS, S.KR270_JOINT_C)]
+    )
     Q = np.array([[0.3, -0.6, 0.4, 0.5, 0.0, 0.2], [0.3, -0.6, 0.4, 0.5, 0.8, 0.2]])
     C, K, rank, ok = joints.stiffness(Q)
     res = model_vjm(joints, Q)
@@ -131,8 +140,9 @@ def test_wrist_singularity_rank_and_rigid_wrench(robot):
 
 def test_posture_dependent_joint_compliance_is_refused(robot):
     chain, _ = robot
-    m = model_from_tables(chain, [{"kind": "joint_profile", "target": "joint_a2",
-                                   "value": [2e-7, 5e-8, 0.0, 0.0, 0.0]}])
+    m = model_from_tables(
+        chain, [{"kind": "joint_profile", "target": "joint_a2", "value": [2e-7, 5e-8, 0.0, 0.0, 0.0]}]
+    )
     with pytest.raises(InputError, match="depends on the posture"):
         model_tree(m, [[0, -0.5, 0.3, 0, 1.2, 0], [0, 0.1, 0.3, 0, 1.2, 0]])
 
@@ -158,8 +168,10 @@ def test_base_and_tool_springs_agree(robot):
     """The base spring (base origin, base axes) and the tool spring (tool
     frame) through both paths, with a tilted tool frame (rpy in the URDF)."""
     chain, model = robot
-    eff = list(model.effects) + [{"kind": "base", "value": spd(201).tolist()},
-                                 {"kind": "tool", "value": spd(202).tolist()}]
+    eff = list(model.effects) + [
+        {"kind": "base", "value": spd(201).tolist()},
+        {"kind": "tool", "value": spd(202).tolist()},
+    ]
     m = model_from_tables(chain, eff)
     Q = S.random_postures(50, S.KR270_RANGES, np.random.default_rng(6))
     C = m.tool_compliance(Q)

@@ -1,4 +1,5 @@
 """The command line as a user runs it: exit codes, messages, outputs."""
+
 import json
 import subprocess
 import sys
@@ -11,8 +12,7 @@ from stiffkit.field.synthetic import cantilever_fields, square_grid
 
 
 def run(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "stiffkit", *args], capture_output=True, text=True,
-                          cwd=cwd)
+    return subprocess.run([sys.executable, "-m", "stiffkit", *args], capture_output=True, text=True, cwd=cwd)
 
 
 def test_help_lists_commands():
@@ -26,8 +26,11 @@ def test_demo_detects_zeros_and_trimming_helps():
     r = run("demo")
     assert r.returncode == 0, r.stderr
     assert r.stdout.count("zero elements flagged non-significant: 26/26") == 2
-    errs = [float(line.split(":")[1].split("%")[0]) for line in r.stdout.splitlines()
-            if "max error of the 10 non-zero" in line]
+    errs = [
+        float(line.split(":")[1].split("%")[0])
+        for line in r.stdout.splitlines()
+        if "max error of the 10 non-zero" in line
+    ]
     assert len(errs) == 2 and errs[1] < errs[0] / 3 and errs[1] < 0.1
 
 
@@ -49,8 +52,17 @@ def field_files(tmp_path):
 def test_field_command_computes_compliance(field_files):
     tmp, names, loads, k = field_files
     out = tmp / "k.json"
-    r = run("field", str(tmp / "nodes.csv"), *names, "--reference", "1,0,0",
-            "--loads", ",".join(map(str, loads)), "--json", str(out))
+    r = run(
+        "field",
+        str(tmp / "nodes.csv"),
+        *names,
+        "--reference",
+        "1,0,0",
+        "--loads",
+        ",".join(map(str, loads)),
+        "--json",
+        str(out),
+    )
     assert r.returncode == 0, r.stderr
     data = json.loads(out.read_text())
     K = np.array(data["compliance"])

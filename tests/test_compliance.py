@@ -1,16 +1,17 @@
 """Compliance matrix and its statistics (paper eqs. 1-3, s4.5-4.6) and the
 closed forms used to check FEA (eq. 22, Timoshenko, Taghvaeipour eq. 24)."""
+
 import numpy as np
 import pytest
 
 import stiffkit as sk
 from stiffkit.field.synthetic import cantilever_fields, square_grid
 
-L, B, E, NU = 1.0, 0.01, 2.0e11, 0.266        # the paper's beam, SI
-LOADS = np.diag([1000.0, 1.0, 1.0, 1.0, 1.0, 1.0])   # s4.2
+L, B, E, NU = 1.0, 0.01, 2.0e11, 0.266  # the paper's beam, SI
+LOADS = np.diag([1000.0, 1.0, 1.0, 1.0, 1.0, 1.0])  # s4.2
 REF = np.array([L, 0.0, 0.0])
-FACE = square_grid(B, 0.001, x=L)               # 121 tip-face nodes
-SIGMA = 5.6e-8                                  # Table 4, parabolic 2 mm: 5.6e-5 mm
+FACE = square_grid(B, 0.001, x=L)  # 121 tip-face nodes
+SIGMA = 5.6e-8  # Table 4, parabolic 2 mm: 5.6e-5 mm
 
 
 @pytest.fixture(scope="module")
@@ -22,14 +23,14 @@ class TestClosedForms:
     def test_eq22_square_beam(self, k_true):
         A, I = B * B, B**4 / 12
         G = E / (2 * (1 + NU))
-        J = 0.140577 * B**4                       # Saint-Venant, square
+        J = 0.140577 * B**4  # Saint-Venant, square
         assert k_true[0, 0] == pytest.approx(L / (E * A))
         assert k_true[1, 1] == pytest.approx(L**3 / (3 * E * I))
         assert k_true[2, 2] == pytest.approx(L**3 / (3 * E * I))
         assert k_true[3, 3] == pytest.approx(L / (G * J), rel=1e-5)
         assert k_true[4, 4] == pytest.approx(L / (E * I))
         assert k_true[1, 5] == pytest.approx(L**2 / (2 * E * I))
-        assert k_true[2, 4] == pytest.approx(-L**2 / (2 * E * I))
+        assert k_true[2, 4] == pytest.approx(-(L**2) / (2 * E * I))
         assert np.count_nonzero(k_true) == 10 and np.allclose(k_true, k_true.T)
 
     def test_rectangle_torsion_constant(self):
@@ -38,7 +39,7 @@ class TestClosedForms:
         assert s["J"] / (0.02 * 0.01**3) == pytest.approx(0.2287, abs=2e-4)
         s = sk.section_properties("rectangle", [0.001, 0.01])
         assert s["J"] / (0.01 * 0.001**3) == pytest.approx(0.3123, abs=2e-4)
-        assert s["Iy"] == pytest.approx(0.001 * 0.01**3 / 12)   # about y: extent along z
+        assert s["Iy"] == pytest.approx(0.001 * 0.01**3 / 12)  # about y: extent along z
 
     def test_tube(self):
         D, d = 0.04, 0.032
@@ -46,7 +47,7 @@ class TestClosedForms:
         assert s["A"] == pytest.approx(np.pi / 4 * (D**2 - d**2))
         assert s["J"] == pytest.approx(np.pi / 32 * (D**4 - d**4))
         solid = sk.section_properties("circle", [D], 0.3)
-        assert solid["kappa_y"] == pytest.approx(6 * 1.3 / (7 + 6 * 0.3))      # Cowper
+        assert solid["kappa_y"] == pytest.approx(6 * 1.3 / (7 + 6 * 0.3))  # Cowper
 
     def test_timoshenko_adds_shear(self, k_true):
         sec = sk.section_properties("square", [B], NU)
@@ -58,7 +59,7 @@ class TestClosedForms:
 
     def test_eq24_is_the_inverse_of_mirrored_eq22(self, k_true):
         K = sk.beam_stiffness(L, E, NU, sk.section_properties("square", [B], NU))
-        mirror = np.diag([-1.0, 1, 1, 1, -1, -1])   # x -> -x for a polar/axial pair
+        mirror = np.diag([-1.0, 1, 1, 1, -1, -1])  # x -> -x for a polar/axial pair
         np.testing.assert_allclose(np.linalg.inv(K), mirror @ k_true @ mirror, rtol=1e-12)
 
     def test_bad_section(self):
@@ -68,29 +69,26 @@ class TestClosedForms:
             sk.section_properties("hexagon", [0.01])
 
 
-def _compliance(k_true, seed, trim=0.0, outliers=0.0, confidence=0.999, symmetrize=False,
-                method="exact"):
+def _compliance(k_true, seed, trim=0.0, outliers=0.0, confidence=0.999, symmetrize=False, method="exact"):
     # The paper's loads turn the tip by up to 0.34 deg (My = 1 N m), above
     # its recommended 0.01-0.2 deg: LIN's linearisation residual would then
     # exceed the noise (see test_lin_inflates_sigma_at_large_angles), so the
     # statistics are checked with the exact estimator.
-    fields = cantilever_fields(k_true, LOADS, FACE, REF, sigma=SIGMA, outlier_fraction=outliers,
-                               rng=seed)
+    fields = cantilever_fields(k_true, LOADS, FACE, REF, sigma=SIGMA, outlier_fraction=outliers, rng=seed)
     fits = sk.fit_fields(FACE, fields, REF, method=method, trim=trim)
-    return sk.compliance_from_experiments(LOADS, fits, confidence=confidence,
-                                          symmetrize=symmetrize), fits
+    return sk.compliance_from_experiments(LOADS, fits, confidence=confidence, symmetrize=symmetrize), fits
 
 
 class TestNoisyCantilever:
     def test_zero_elements_detected(self, k_true):
         comp, fits = _compliance(k_true, seed=3)
         nz = k_true != 0
-        assert (~comp.significant[~nz]).all()      # all 26 zero elements non-significant
-        assert comp.significant[nz].all()          # all 10 non-zero ones significant
+        assert (~comp.significant[~nz]).all()  # all 26 zero elements non-significant
+        assert comp.significant[nz].all()  # all 10 non-zero ones significant
         assert (~nz).sum() == 26
         # with a large safety factor (paper: 1e2 and higher)
         assert (np.abs(comp.matrix[nz]) / comp.ci[nz]).min() > 100
-        assert fits[0].sigma == pytest.approx(SIGMA, rel=0.05)   # pooled over six fields
+        assert fits[0].sigma == pytest.approx(SIGMA, rel=0.05)  # pooled over six fields
         np.testing.assert_allclose(comp.matrix[nz], k_true[nz], rtol=2e-3)
         assert np.array_equal(comp.pruned() != 0, nz)
 
@@ -104,7 +102,7 @@ class TestNoisyCantilever:
             false += int(comp.significant[~nz].sum())
             total += 26
         rate = false / total
-        assert 0.035 < rate < 0.065, rate           # 5 % nominal, 3900 zero elements
+        assert 0.035 < rate < 0.065, rate  # 5 % nominal, 3900 zero elements
 
     def test_trimming_restores_accuracy_with_outliers(self, k_true):
         nz = k_true != 0
@@ -115,7 +113,7 @@ class TestNoisyCantilever:
         def err(c):
             return np.abs(c.matrix[nz] / k_true[nz] - 1).max()
 
-        assert fits_dirty[0].sigma > 5 * SIGMA          # outliers inflate the noise estimate
+        assert fits_dirty[0].sigma > 5 * SIGMA  # outliers inflate the noise estimate
         assert 0.95 * SIGMA < fits_trim[0].sigma < 1.2 * SIGMA
         assert err(trimmed) < err(dirty) / 3
         assert err(trimmed) < 2.5 * err(clean) + 2e-4
@@ -167,12 +165,10 @@ class TestComplianceBadInput:
 
     def test_too_few_experiments(self):
         with pytest.raises(sk.InputError, match="at least 6"):
-            sk.compliance_from_experiments(np.eye(6)[:5], np.zeros((5, 6)),
-                                           covariances=np.zeros((5, 6, 6)))
+            sk.compliance_from_experiments(np.eye(6)[:5], np.zeros((5, 6)), covariances=np.zeros((5, 6, 6)))
 
     def test_mismatch_and_confidence(self):
         with pytest.raises(sk.InputError, match="one \\(t, phi\\) per wrench"):
             sk.compliance_from_experiments(np.eye(6), np.zeros((7, 6)), covariances=np.zeros((7, 6, 6)))
         with pytest.raises(sk.InputError, match="confidence"):
-            sk.compliance_from_experiments(np.eye(6), np.eye(6), covariances=np.zeros((6, 6, 6)),
-                                           confidence=1.5)
+            sk.compliance_from_experiments(np.eye(6), np.eye(6), covariances=np.zeros((6, 6, 6)), confidence=1.5)

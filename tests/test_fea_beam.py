@@ -1,5 +1,6 @@
 """The paper's beam (1000 x 10 x 10 mm, E = 2e5 N/mm^2, nu = 0.266) through
 the real pipeline: Gmsh C3D10 5 mm, CalculiX, CHOLMOD, field fit."""
+
 from __future__ import annotations
 
 import copy
@@ -10,7 +11,7 @@ import pytest
 
 from stiffkit.fea import parse_link, run_link
 from stiffkit.fea.config import paper_beam
-from stiffkit.fea.job import auto_amplitudes, PHI_RANGE_RAD, T_RANGE_M
+from stiffkit.fea.job import PHI_RANGE_RAD, T_RANGE_M, auto_amplitudes
 
 BEAM = paper_beam(5.0)
 #: the bending and axial elements of eq. 22 (torsion k44 needs ~5 elements across)
@@ -75,7 +76,7 @@ def test_pooled_and_per_field_noise(matrix_run, cache):
     pooled = [f.sigma for f in matrix_run.fits]
     each = np.array([f.sigma for f in own.fits])
     assert np.ptp(pooled) == 0 and np.ptp(each) > 0
-    assert pooled[0] == pytest.approx(np.sqrt(np.mean(each**2)), rel=1e-9)   # equal node counts
+    assert pooled[0] == pytest.approx(np.sqrt(np.mean(each**2)), rel=1e-9)  # equal node counts
     # the axial case carries the load face's Poisson contraction: the largest residual
     assert int(np.argmax(each)) == 0
     np.testing.assert_allclose(own.compliance.matrix, matrix_run.compliance.matrix)
@@ -99,8 +100,19 @@ def test_zero_elements_flagged(cache):
         assert abs(r0.compliance.matrix[i, j]) < 5e-4 * r0.compliance.matrix[0, 0]
 
 
-BEAM_ZEROS = (np.array([[5e-8, 0, 0, 0, 0, 0], [0, 2e-3, 0, 0, 0, 3e-3], [0, 0, 2e-3, 0, -3e-3, 0],
-                        [0, 0, 0, 9e-3, 0, 0], [0, 0, -3e-3, 0, 6e-3, 0], [0, 3e-3, 0, 0, 0, 6e-3]]) == 0)
+BEAM_ZEROS = (
+    np.array(
+        [
+            [5e-8, 0, 0, 0, 0, 0],
+            [0, 2e-3, 0, 0, 0, 3e-3],
+            [0, 0, 2e-3, 0, -3e-3, 0],
+            [0, 0, 0, 9e-3, 0, 0],
+            [0, 0, -3e-3, 0, 6e-3, 0],
+            [0, 3e-3, 0, 0, 0, 6e-3],
+        ]
+    )
+    == 0
+)
 
 
 def test_matrix_route_equals_ccx_route_on_a_stubby_beam(cache):
@@ -133,9 +145,19 @@ def test_reference_node_check_and_contract_json(matrix_run, tmp_path):
     # face rotation differ by the section's warping (~0.02 %)
     assert np.abs(d / dr - 1).max() < 5e-4
     out = r.to_json()
-    for key in ["compliance", "stiffness", "compliance_std", "significant", "symmetry_error",
-                "sigma_m", "nodes_fitted", "nodes_trimmed", "reference_node_compliance", "mesh",
-                "timing_s"]:
+    for key in [
+        "compliance",
+        "stiffness",
+        "compliance_std",
+        "significant",
+        "symmetry_error",
+        "sigma_m",
+        "nodes_fitted",
+        "nodes_trimmed",
+        "reference_node_compliance",
+        "mesh",
+        "timing_s",
+    ]:
         assert key in out
     assert set(out["mesh"]) >= {"nodes", "elements", "order", "size_m"}
     assert set(out["timing_s"]) >= {"mesh", "fea", "fit"}
@@ -144,6 +166,7 @@ def test_reference_node_check_and_contract_json(matrix_run, tmp_path):
     json.dumps(out)
     v = r.write_vtu(tmp_path / "beam.vtu")
     import meshio
+
     m = meshio.read(v)
     assert m.points.shape[0] == r.mesh.n_nodes and "u_Fy" in m.point_data
     assert (tmp_path / "beam.png") == r.write_residual_png(tmp_path / "beam.png")
@@ -159,8 +182,7 @@ def test_auto_amplitudes_in_paper_ranges(matrix_run):
         in_p = PHI_RANGE_RAD[0] <= p <= PHI_RANGE_RAD[1]
         assert in_t or in_p, (j, t, p)
         assert t <= T_RANGE_M[1] and p <= PHI_RANGE_RAD[1]
-    assert auto_amplitudes(np.diag([5e-8, 2e-3, 2e-3, 9e-3, 6e-3, 6e-3])).tolist() == \
-        [5000.0, 0.1, 0.1, 0.1, 0.2, 0.2]
+    assert auto_amplitudes(np.diag([5e-8, 2e-3, 2e-3, 9e-3, 6e-3, 6e-3])).tolist() == [5000.0, 0.1, 0.1, 0.1, 0.2, 0.2]
 
 
 def test_cache_resumes(cache):
@@ -172,11 +194,10 @@ def test_cache_resumes(cache):
 
 
 def test_rigid_coupling_matrix_route_equals_ccx_rigid_body(cache):
-    c = cfg(geometry__size=[100.0, 10.0, 10.0], load__reference_point=[100.0, 0.0, 0.0],
-            load__coupling="rigid")
-    a = run_link(parse_link(c), cache_dir=cache)                    # T^T K T with CHOLMOD
+    c = cfg(geometry__size=[100.0, 10.0, 10.0], load__reference_point=[100.0, 0.0, 0.0], load__coupling="rigid")
+    a = run_link(parse_link(c), cache_dir=cache)  # T^T K T with CHOLMOD
     c["solver"]["route"] = "ccx"
-    b = run_link(parse_link(c), cache_dir=cache)                    # *RIGID BODY, six steps
+    b = run_link(parse_link(c), cache_dir=cache)  # *RIGID BODY, six steps
     assert a.solution.route == "matrix" and b.solution.route == "ccx"
     ka = a.reference_compliance
     scale = np.sqrt(np.outer(np.abs(np.diag(ka)), np.abs(np.diag(ka))))
@@ -187,8 +208,7 @@ def test_rigid_coupling_matrix_route_equals_ccx_rigid_body(cache):
 
 
 def test_rigid_coupling_and_tetgen(cache):
-    r = run_link(parse_link(cfg(load__coupling="rigid", solver__route="ccx", mesh__mesher="tetgen")),
-                 cache_dir=cache)
+    r = run_link(parse_link(cfg(load__coupling="rigid", solver__route="ccx", mesh__mesher="tetgen")), cache_dir=cache)
     assert r.solution.route == "ccx" and r.mesh.mesher == "tetgen"
     err = r.closed_form_errors()
     assert max(abs(err[i, j]) for i, j in BEND_AXIAL) < 5e-3

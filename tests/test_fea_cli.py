@@ -1,5 +1,6 @@
 """Bad inputs give one clear line and exit status 2, never a traceback;
 the commands run end to end."""
+
 from __future__ import annotations
 
 import json
@@ -32,17 +33,28 @@ route = "{route}"
 """
 
 
-def write(tmp_path, name="link.toml", geometry='shape = "box"\nsize = [100.0, 10.0, 10.0]',
-          support="x-min", load="x-max", ref="100.0, 0.0, 0.0", order=2, size=5.0, route="auto"):
+def write(
+    tmp_path,
+    name="link.toml",
+    geometry='shape = "box"\nsize = [100.0, 10.0, 10.0]',
+    support="x-min",
+    load="x-max",
+    ref="100.0, 0.0, 0.0",
+    order=2,
+    size=5.0,
+    route="auto",
+):
     p = tmp_path / name
-    p.write_text(BEAM.format(geometry=geometry, support=support, load=load, ref=ref, order=order,
-                             size=size, route=route))
+    p.write_text(
+        BEAM.format(geometry=geometry, support=support, load=load, ref=ref, order=order, size=size, route=route)
+    )
     return p
 
 
 def stiffkit(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "stiffkit", *map(str, args)], capture_output=True,
-                          text=True, cwd=cwd, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "stiffkit", *map(str, args)], capture_output=True, text=True, cwd=cwd, timeout=600
+    )
 
 
 def assert_clean_error(proc, *needles):
@@ -65,6 +77,7 @@ def test_missing_cad_file(tmp_path):
 
 def test_not_a_solid(tmp_path):
     import gmsh
+
     gmsh.initialize(readConfigFiles=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -79,6 +92,7 @@ def test_not_a_solid(tmp_path):
 
 def test_plane_that_selects_no_face(tmp_path):
     import gmsh
+
     gmsh.initialize(readConfigFiles=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -97,11 +111,14 @@ def test_load_face_is_support_face(tmp_path):
     assert_clean_error(stiffkit("link", p), "[load] plane", "support")
 
 
-@pytest.mark.parametrize("field,value,needle", [
-    ("plane = \"x-max\"", "plane = \"top\"", "choose one of"),
-    ("nu = 0.266", "nu = 0.7", "nu"),
-    ("order = 2", "order = 3", "order"),
-])
+@pytest.mark.parametrize(
+    "field,value,needle",
+    [
+        ('plane = "x-max"', 'plane = "top"', "choose one of"),
+        ("nu = 0.266", "nu = 0.7", "nu"),
+        ("order = 2", "order = 3", "order"),
+    ],
+)
 def test_bad_values(tmp_path, field, value, needle):
     p = write(tmp_path)
     p.write_text(p.read_text().replace(field, value, 1))
@@ -133,10 +150,11 @@ def test_ccx_timeout(tmp_path, monkeypatch):
 
 def test_gmsh_failure_is_a_clean_error(tmp_path):
     import gmsh
+
     gmsh.initialize(readConfigFiles=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.occ.addCone(0, 0, 0, 100, 0, 0, 10, 0)     # apex at x = 100
+        gmsh.model.occ.addCone(0, 0, 0, 100, 0, 0, 10, 0)  # apex at x = 100
         gmsh.model.occ.synchronize()
         gmsh.write(str(tmp_path / "cone.step"))
     finally:
@@ -154,18 +172,32 @@ def test_link_and_convergence_end_to_end(tmp_path):
     d = json.loads(out.read_text())
     assert d["route"] == "matrix" and d["mesh"]["order"] == 2
     assert d["closed_form"]["max_abs_relative_error"] < 0.05
-    proc = stiffkit("convergence", p, "--orders", "1,2", "--sizes", "5,4", "-j", "2", "--cache",
-                    tmp_path / "c", "--json", tmp_path / "s.json", "--png", tmp_path / "s.png")
+    proc = stiffkit(
+        "convergence",
+        p,
+        "--orders",
+        "1,2",
+        "--sizes",
+        "5,4",
+        "-j",
+        "2",
+        "--cache",
+        tmp_path / "c",
+        "--json",
+        tmp_path / "s.json",
+        "--png",
+        tmp_path / "s.png",
+    )
     assert proc.returncode == 0, proc.stderr
     s = json.loads((tmp_path / "s.json").read_text())
     runs = {(r["order"], r["size"]): r for r in s["runs"]}
     assert set(runs) == {(1, 5.0), (1, 4.0), (2, 5.0), (2, 4.0)}
-    assert runs[(2, 5.0)]["cached"]                      # the link run above
+    assert runs[(2, 5.0)]["cached"]  # the link run above
     # linear tets are far worse than quadratic ones (paper Table 5)
     assert runs[(1, 4.0)]["max_relative_error"] > 10 * runs[(2, 4.0)]["max_relative_error"]
     assert (tmp_path / "s.png").stat().st_size > 1000
     assert "order" in proc.stdout and "error %" in proc.stdout
-    assert "[" in proc.stderr                             # progress bar
+    assert "[" in proc.stderr  # progress bar
 
 
 def test_help_teaches():
@@ -180,25 +212,33 @@ def test_orthoglide_axle_example_from_step(tmp_path):
     """A CAD file through the whole pipeline (STEP import in mm), compared
     with its single-beam approximation ([approximation] of the example)."""
     from stiffkit.fea import load_link, run_link
+
     root = Path(__file__).resolve().parents[1] / "examples"
     job = load_link(root / "orthoglide_axle.toml").with_mesh(size=4.0)
     r = run_link(job, cache_dir=tmp_path)
     assert r.mesh.order == 2 and r.solution.route == "matrix"
     lo, hi = r.mesh.bbox()
-    assert np.allclose(hi - lo, [0.050, 0.040, 0.040], rtol=1e-3)       # mm -> m
+    assert np.allclose(hi - lo, [0.050, 0.040, 0.040], rtol=1e-3)  # mm -> m
     d, beam = np.diag(r.compliance.matrix), np.diag(r.closed_form)
-    assert np.abs(d / beam - 1).max() < 0.15                           # a flanged tube ~ a tube
+    assert np.abs(d / beam - 1).max() < 0.15  # a flanged tube ~ a tube
     assert r.to_json()["closed_form"]["kind"] == "single-beam approximation"
 
 
 def test_ccx_input_error_through_the_cli(tmp_path):
     # a stand-in ccx that fails the way ccx 2.20 does on a bad deck (exit 201)
     fake = tmp_path / "ccx201"
-    fake.write_text("#!/bin/sh\necho ' *ERROR in calinput: no material was assigned to element 1'\n"
-                    "echo ' *ERROR: fatal'\nexit 201\n")
+    fake.write_text(
+        "#!/bin/sh\necho ' *ERROR in calinput: no material was assigned to element 1'\n"
+        "echo ' *ERROR: fatal'\nexit 201\n"
+    )
     fake.chmod(0o755)
     import os
+
     p = write(tmp_path)
-    proc = subprocess.run([sys.executable, "-m", "stiffkit", "link", str(p), "--no-cache"],
-                          capture_output=True, text=True, env=dict(os.environ, STIFFKIT_CCX=str(fake)))
+    proc = subprocess.run(
+        [sys.executable, "-m", "stiffkit", "link", str(p), "--no-cache"],
+        capture_output=True,
+        text=True,
+        env=dict(os.environ, STIFFKIT_CCX=str(fake)),
+    )
     assert_clean_error(proc, "ccx input error", "no material was assigned")

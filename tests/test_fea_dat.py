@@ -1,5 +1,6 @@
 """CalculiX .dat parser: several steps, blank lines, 3-digit exponents,
 and fuzzing: any text either parses or raises CcxError, nothing else."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -43,8 +44,10 @@ def test_two_steps_blank_lines_three_digit_exponents():
     assert blocks[1].values.tolist() == [[1.0, 2.0, 3.0]]
 
 
-@pytest.mark.parametrize("tok,val", [("1.5E-05", 1.5e-05), ("0.1234567-100", 0.1234567e-100),
-                                     ("-0.5+101", -0.5e101), ("1.0D+03", 1000.0), (".5", 0.5)])
+@pytest.mark.parametrize(
+    "tok,val",
+    [("1.5E-05", 1.5e-05), ("0.1234567-100", 0.1234567e-100), ("-0.5+101", -0.5e101), ("1.0D+03", 1000.0), (".5", 0.5)],
+)
 def test_fortran_numbers(tok, val):
     assert _number(tok) == pytest.approx(val, rel=1e-15)
 
@@ -61,8 +64,11 @@ def test_bad_values_name_the_line():
 LINES = st.one_of(
     st.just(" displacements (vx,vy,vz) for set NALL and time  0.1000000E+01"),
     st.just(""),
-    st.builds(lambda n, v: f"{n:10d} " + " ".join(f"{x: .6E}" for x in v),
-              st.integers(-5, 10 ** 6), st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=0, max_size=4)),
+    st.builds(
+        lambda n, v: f"{n:10d} " + " ".join(f"{x: .6E}" for x in v),
+        st.integers(-5, 10**6),
+        st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=0, max_size=4),
+    ),
     st.text(alphabet="0123456789.eEdD+- \tabcxyz(),", max_size=60),
 )
 

@@ -1,6 +1,7 @@
 """The sparse core from Python: CalculiX matrix-file readers (fuzzed: any
 text reads or raises InputError), CHOLMOD solves and the rigid coupling on
 small systems with known answers."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,8 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stiffkit import InputError, SingularError
-from stiffkit._core.sparse import (cholmod_solve, distributing_loads, face_weights, read_dofs,
-                                 read_triplets, rigid_solve)
+from stiffkit._core.sparse import cholmod_solve, distributing_loads, face_weights, read_dofs, read_triplets, rigid_solve
 
 
 def upper_triplets(K):
@@ -37,7 +37,7 @@ def test_rigid_solve_on_grounded_springs():
     k = np.array([3.0, 5.0, 7.0])
     n = 12
     K = np.diag(np.tile(k, 4))
-    K[9:, 9:] += 1.0                                   # a free node, not coupled
+    K[9:, 9:] += 1.0  # a free node, not coupled
     p0 = np.array([1.2, 0.0, 0.1])
     ceq = np.arange(1, 10).reshape(3, 3)
     u, q, _ = rigid_solve(*upper_triplets(K), n, ceq, pts[:3] - p0)
@@ -79,8 +79,9 @@ def test_missing_and_malformed_files(tmp_path):
 
 
 LINE = st.one_of(
-    st.builds(lambda a, b, v: f"{a} {b} {v!r}", st.integers(-3, 50), st.integers(-3, 50),
-              st.floats(allow_nan=False, width=64)),
+    st.builds(
+        lambda a, b, v: f"{a} {b} {v!r}", st.integers(-3, 50), st.integers(-3, 50), st.floats(allow_nan=False, width=64)
+    ),
     st.text(alphabet="0123456789 .-+eE\t", max_size=30),
     st.just(""),
 )

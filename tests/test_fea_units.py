@@ -1,5 +1,6 @@
 """Pieces of the FEA pipeline on their own: Richardson extrapolation,
 automatic amplitudes, field regions, LINK.toml checks."""
+
 from __future__ import annotations
 
 import copy
@@ -23,7 +24,7 @@ BASE = {
 
 def test_richardson_two_meshes_assumes_p2():
     k0 = np.eye(6)
-    vals = np.array([k0 * (1 + 0.01 * hh ** 2) for hh in (4.0, 2.0)])
+    vals = np.array([k0 * (1 + 0.01 * hh**2) for hh in (4.0, 2.0)])
     est, p, observed = richardson(np.array([4.0, 2.0]), vals)
     assert not observed and p == 2.0 and np.allclose(est, k0)
 
@@ -32,7 +33,7 @@ def test_richardson_two_meshes_assumes_p2():
 def test_richardson_recovers_limit_and_order(p):
     h = np.array([5.0, 3.0, 2.0])
     k0 = np.arange(1.0, 37.0).reshape(6, 6)
-    vals = np.array([k0 * (1 + 0.01 * hh ** p) for hh in h])
+    vals = np.array([k0 * (1 + 0.01 * hh**p) for hh in h])
     est, p_est, observed = richardson(h, vals)
     assert observed and p_est == pytest.approx(p, rel=1e-6)
     assert np.allclose(est, k0, rtol=1e-9)
@@ -41,10 +42,10 @@ def test_richardson_recovers_limit_and_order(p):
 def test_auto_amplitudes_rule():
     # translation-bound and rotation-bound cases; rounding down to 1-2-5
     k = np.zeros((6, 6))
-    k[0, 0] = 1e-9            # 0.25 mm / 1e-9 = 2.5e5 -> 2e5
+    k[0, 0] = 1e-9  # 0.25 mm / 1e-9 = 2.5e5 -> 2e5
     k[1, 1], k[5, 1] = 1e-3, 1e-6
     k[2, 2], k[4, 2] = 1e-6, 1.0  # rotation-bound: 0.1 deg / 1 = 1.745e-3 -> 1e-3
-    k[3, 3] = 1e-2            # 0.1 deg / 1e-2 = 0.1745 -> 0.1
+    k[3, 3] = 1e-2  # 0.1 deg / 1e-2 = 0.1745 -> 0.1
     k[4, 4] = k[5, 5] = 4e-3
     a = auto_amplitudes(k)
     assert a.tolist() == [2e5, 0.2, 1e-3, 0.1, 0.2, 0.2]
@@ -56,9 +57,9 @@ def test_beam_estimate_rotates_to_the_load_axis():
     kx = beam_estimate(job, m)
     assert kx[0, 0] == pytest.approx(0.1 / (2e11 * 1e-4))
     # the same bar along z, loaded on z-max: axial compliance moves to k33
-    m.nodes = m.nodes[:, [1, 2, 0]]            # (x, y, z) -> (y, z, x)
+    m.nodes = m.nodes[:, [1, 2, 0]]  # (x, y, z) -> (y, z, x)
     job2 = parse_link(copy.deepcopy(BASE))
-    job2.geometry = {"step": "dummy.step"}     # not a built-in shape: bounding-box estimate
+    job2.geometry = {"step": "dummy.step"}  # not a built-in shape: bounding-box estimate
     job2.support_plane, job2.load_plane = "z-min", "z-max"
     kz = beam_estimate(job2, m)
     assert kz[2, 2] == pytest.approx(kx[0, 0], rel=1e-12)
@@ -82,17 +83,20 @@ def test_field_regions():
         select_field(job, m, tip)
 
 
-@pytest.mark.parametrize("section,key,value,needle", [
-    ("geometry", "units", "furlong", "units"),
-    ("geometry", "size", [100.0, 10.0], "three positive"),
-    ("material", "E", -1.0, "positive"),
-    ("load", "reference_point", [1.0, 2.0], "three coordinates"),
-    ("load", "amplitudes", [1.0, 1.0], "six positive"),
-    ("load", "coupling", "glued", "choose one of"),
-    ("mesh", "size", 0.0, "positive"),
-    ("fit", "trim", 0.6, "fraction"),
-    ("fit", "pooled", "yes", "true or false"),
-])
+@pytest.mark.parametrize(
+    "section,key,value,needle",
+    [
+        ("geometry", "units", "furlong", "units"),
+        ("geometry", "size", [100.0, 10.0], "three positive"),
+        ("material", "E", -1.0, "positive"),
+        ("load", "reference_point", [1.0, 2.0], "three coordinates"),
+        ("load", "amplitudes", [1.0, 1.0], "six positive"),
+        ("load", "coupling", "glued", "choose one of"),
+        ("mesh", "size", 0.0, "positive"),
+        ("fit", "trim", 0.6, "fraction"),
+        ("fit", "pooled", "yes", "true or false"),
+    ],
+)
 def test_config_errors_name_the_key(section, key, value, needle):
     cfg = copy.deepcopy(BASE)
     cfg.setdefault(section, {})[key] = value
@@ -110,6 +114,7 @@ def test_mm_are_converted_at_the_boundary():
 
 def test_demo_runs_the_fea_beam(capsys):
     from stiffkit.fea.demo import fea_demo
+
     out = fea_demo(size=5.0)
     err = out["errors"]
     assert abs(err[0, 0]) < 2e-3 and abs(err[1, 1]) < 2e-3 and abs(err[4, 4]) < 2e-3
@@ -118,16 +123,22 @@ def test_demo_runs_the_fea_beam(capsys):
     assert "closed form" in text and "CHOLMOD" in text
 
 
-@pytest.mark.parametrize("geometry,mesh,needle", [
-    ({"shape": "tube", "length": 100.0, "outer_diameter": 20.0, "inner_diameter": 10.0},
-     {"structured": True}, 'only for the built-in [geometry] shape = "box", not tube'),
-    (None, {"structured": "yes"}, "true or false"),
-    (None, {"structured": True, "mesher": "tetgen"}, 'needs mesher = "gmsh"'),
-    (None, {"structured": True, "refine": 0.5}, "refine"),
-    (None, {"structured": True, "optimize": "netgen"}, 'optimize = "none"'),
-    (None, {"structured": True, "across_factor": 0.0}, "(0, 1]"),
-    (None, {"across_factor": 0.5}, "needs structured = true"),
-])
+@pytest.mark.parametrize(
+    "geometry,mesh,needle",
+    [
+        (
+            {"shape": "tube", "length": 100.0, "outer_diameter": 20.0, "inner_diameter": 10.0},
+            {"structured": True},
+            'only for the built-in [geometry] shape = "box", not tube',
+        ),
+        (None, {"structured": "yes"}, "true or false"),
+        (None, {"structured": True, "mesher": "tetgen"}, 'needs mesher = "gmsh"'),
+        (None, {"structured": True, "refine": 0.5}, "refine"),
+        (None, {"structured": True, "optimize": "netgen"}, 'optimize = "none"'),
+        (None, {"structured": True, "across_factor": 0.0}, "(0, 1]"),
+        (None, {"across_factor": 0.5}, "needs structured = true"),
+    ],
+)
 def test_structured_mesh_config_errors(geometry, mesh, needle):
     cfg = copy.deepcopy(BASE)
     if geometry:
@@ -141,17 +152,21 @@ def test_structured_mesh_config_errors(geometry, mesh, needle):
 
 def test_structured_mesh_step_file_is_refused(tmp_path):
     step = tmp_path / "part.step"
-    step.write_text("ISO-10303-21;")                  # only its existence is checked here
+    step.write_text("ISO-10303-21;")  # only its existence is checked here
     cfg = copy.deepcopy(BASE)
     cfg["geometry"] = {"step": "part.step", "units": "mm"}
     cfg["mesh"]["structured"] = True
-    with pytest.raises(ConfigError, match=r"bad.toml: \[mesh\] structured = true is only for the "
-                                          r"built-in .*step = 'part.step'"):
+    with pytest.raises(
+        ConfigError,
+        match=r"bad.toml: \[mesh\] structured = true is only for the "
+        r"built-in .*step = 'part.step'",
+    ):
         parse_link(cfg, "bad.toml", tmp_path)
 
 
 def test_structured_mesh_is_in_the_cache_key():
     from stiffkit.fea.job import cache_key
+
     base = parse_link(copy.deepcopy(BASE))
     cfg = copy.deepcopy(BASE)
     cfg["mesh"]["structured"] = True

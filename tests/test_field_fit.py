@@ -1,13 +1,13 @@
 """Field fits against Pashkevich et al. 2009, sections 3.3-3.5 (Tables 2-3,
 the Monte Carlo study) and the error contract for degenerate input."""
+
 import numpy as np
 import pytest
 
 import stiffkit as sk
-from stiffkit.field.synthetic import (cubic_grid, elementary_rotation, rigid_displacements,
-                                rotation_vector)
+from stiffkit.field.synthetic import cubic_grid, elementary_rotation, rigid_displacements, rotation_vector
 
-CUBE = cubic_grid(10.0, 1.0)          # 10 x 10 x 10 mm, 1 mm step: 1331 nodes (mm units)
+CUBE = cubic_grid(10.0, 1.0)  # 10 x 10 x 10 mm, 1 mm step: 1331 nodes (mm units)
 ORIGIN = np.zeros(3)
 
 
@@ -33,8 +33,12 @@ def test_table2_translation(method, i, a):
 # Table 3: rotation identification error [deg] at b = 0.01, 0.1, 1, 5 deg.
 # R is built from elementary rotations of angle b about x, y, z; the error is
 # measured against the angles b (so it grows as b^2: a linearisation effect).
-TABLE3 = {"svd+": [2e-6, 2e-4, 2e-2, 0.48], "svd-": [2e-6, 2e-4, 2e-2, 0.48],
-          "svd+-": [1e-6, 1e-4, 1e-2, 0.24], "lin": [1e-6, 1e-4, 1e-2, 0.24]}
+TABLE3 = {
+    "svd+": [2e-6, 2e-4, 2e-2, 0.48],
+    "svd-": [2e-6, 2e-4, 2e-2, 0.48],
+    "svd+-": [1e-6, 1e-4, 1e-2, 0.24],
+    "lin": [1e-6, 1e-4, 1e-2, 0.24],
+}
 ANGLES = [0.01, 0.1, 1.0, 5.0]
 
 
@@ -64,7 +68,7 @@ def test_exact_estimator_has_no_linearisation_error(bdeg):
 def test_svd_rotation_is_proper():
     # a reflection-like noisy field must still give det(R) = +1: the
     # extracted rotation of a planar field stays small, not a mirror image
-    pts = CUBE[CUBE[:, 0] == 5.0]                 # one face: 121 coplanar nodes
+    pts = CUBE[CUBE[:, 0] == 5.0]  # one face: 121 coplanar nodes
     d = rigid_displacements(pts, ORIGIN, [0.1, 0, 0], elementary_rotation(np.radians(0.05)))
     for m in ("svd+", "svd-", "svd+-", "exact"):
         fit = sk.fit_field(pts, d, ORIGIN, method=m)
@@ -134,7 +138,7 @@ def test_covariance_moves_to_the_reference_point(rng):
     T = np.array([f.t for f in fits])
     reported = np.mean([f.cov for f in fits], axis=0)
     emp = np.cov(np.column_stack([T, [f.phi for f in fits]]).T)
-    assert emp[1, 1] > 100 * sigma**2 / 1331          # lever arm dominates
+    assert emp[1, 1] > 100 * sigma**2 / 1331  # lever arm dominates
     np.testing.assert_allclose(np.diag(emp), np.diag(reported), rtol=0.1)
     assert emp[1, 5] == pytest.approx(reported[1, 5], rel=0.15)
 
@@ -143,13 +147,13 @@ def test_trimming_drops_nodes_with_any_large_residual(rng):
     d = rigid_displacements(CUBE, ORIGIN, [0.1, 0.2, 0.3], np.eye(3))
     d = d + 1e-6 * rng.standard_normal(d.shape)
     bad = rng.choice(1331, size=60, replace=False)
-    d[bad, rng.integers(0, 3, size=60)] += 1e-2      # one component per bad node
+    d[bad, rng.integers(0, 3, size=60)] += 1e-2  # one component per bad node
     fit = sk.fit_field(CUBE, d, ORIGIN, method="lin", trim=0.05)
     assert fit.n_used == 1331 - round(0.05 * 1331)
-    assert not fit.nodes_used[bad].any()             # every outlier removed
+    assert not fit.nodes_used[bad].any()  # every outlier removed
     assert np.abs(fit.t - [0.1, 0.2, 0.3]).max() < 1e-6
     assert fit.sigma == pytest.approx(1e-6, rel=0.2)
-    assert fit.residuals.shape == (1331, 3)          # all nodes, trimmed ones too
+    assert fit.residuals.shape == (1331, 3)  # all nodes, trimmed ones too
     assert np.abs(fit.residuals[bad]).max() > 5e-3
 
 

@@ -1,12 +1,23 @@
 """Meshing: CalculiX node order proven geometrically for both meshers,
 face selection and its errors. Gmsh and TetGen really run."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from stiffkit.meshing import (PERM_GMSH_TET10, Mesh, MeshError, check_geometry, face_connectivity,
-                              faces_on_nodes, mesh_part, midside_errors, plane_nodes, tet_volumes)
+from stiffkit.meshing import (
+    PERM_GMSH_TET10,
+    Mesh,
+    MeshError,
+    check_geometry,
+    face_connectivity,
+    faces_on_nodes,
+    mesh_part,
+    midside_errors,
+    plane_nodes,
+    tet_volumes,
+)
 
 BOX = {"shape": "box", "size": [100.0, 10.0, 10.0]}
 TUBE = {"shape": "tube", "length": 60.0, "outer_diameter": 20.0, "inner_diameter": 14.0}
@@ -34,7 +45,7 @@ def test_tet4_positive_volumes(mesher):
 
 def test_wrong_permutation_is_caught():
     m = mesh_part(BOX, "mm", 1e-3, order=2, size=5.0)
-    undo = np.argsort(PERM_GMSH_TET10)          # back to gmsh's own order
+    undo = np.argsort(PERM_GMSH_TET10)  # back to gmsh's own order
     bad = Mesh(nodes=m.nodes, elements=m.elements[:, undo])
     assert midside_errors(bad.nodes, bad.elements).max() > 0.4
     with pytest.raises(MeshError, match="mid-side"):
@@ -47,9 +58,9 @@ def test_wrong_permutation_is_caught():
 def test_curved_tube_quadratic_mesh():
     m = mesh_part(TUBE, "mm", 1e-3, order=2, size=3.0)
     st = check_geometry(m)
-    area = np.pi / 4 * (0.020 ** 2 - 0.014 ** 2)
+    area = np.pi / 4 * (0.020**2 - 0.014**2)
     assert st["total_volume"] == pytest.approx(area * 0.060, rel=2e-3)
-    assert 0 < st["max_midside_offset"] < 0.25          # mid-nodes on the circles
+    assert 0 < st["max_midside_offset"] < 0.25  # mid-nodes on the circles
 
 
 def test_face_selection_and_faces():
@@ -69,14 +80,24 @@ def test_face_selection_and_faces():
 
 def test_refinement_adds_nodes_near_the_tip():
     a = mesh_part(BOX, "mm", 1e-3, order=1, size=5.0)
-    b = mesh_part(BOX, "mm", 1e-3, order=1, size=5.0, refine=0.4, refine_radius=20.0,
-                  refine_points=[[100.0, 0.0, 0.0]], refine_planes=["x-min"])
-    near = lambda m: int((m.nodes[:, 0] > 0.09).sum())     # noqa: E731
+    b = mesh_part(
+        BOX,
+        "mm",
+        1e-3,
+        order=1,
+        size=5.0,
+        refine=0.4,
+        refine_radius=20.0,
+        refine_points=[[100.0, 0.0, 0.0]],
+        refine_planes=["x-min"],
+    )
+    near = lambda m: int((m.nodes[:, 0] > 0.09).sum())  # noqa: E731
     assert near(b) > 2 * near(a)
 
 
 def test_not_a_solid_and_missing_file(tmp_path):
     import gmsh
+
     gmsh.initialize(readConfigFiles=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -104,7 +125,7 @@ def test_structured_box_mesh_is_valid_calculix_c3d10():
     # 100 x 10 x 10 mm, size 5 along, 0.5 x 5 = 2.5 across: 20 x 4 x 4 hex cells of six tets
     m = mesh_part(BOX, "mm", 1e-3, order=2, size=5.0, structured=True, across_factor=0.5)
     assert m.elements.shape == (20 * 4 * 4 * 6, 10) and m.ccx_type == "C3D10"
-    assert m.n_nodes == 41 * 9 * 9                      # the half-cell grid, nothing else
+    assert m.n_nodes == 41 * 9 * 9  # the half-cell grid, nothing else
     st = check_geometry(m)
     assert (tet_volumes(m.nodes, m.elements) > 0).all()
     assert st["total_volume"] == pytest.approx(1e-5, rel=1e-9)

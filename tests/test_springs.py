@@ -4,6 +4,7 @@ Every test asserts numbers: the tree results against the transfer matrices
 of Taghvaeipour et al. eqs. 8, 12, 16, 22, the cantilever of Pashkevich et
 al. eq. 22, hand-derived planar K_C, and symmetries the geometry demands.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -11,10 +12,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 import stiffkit as sk
-from stiffkit.springs import (Joint, Spring, evaluate, load_link_compliance, parallel, series,
-                              stiffness_indices)
+from stiffkit.springs import Joint, Spring, evaluate, load_link_compliance, parallel, series, smg, stiffness_indices
 from stiffkit.springs import orthoglide as og
-from stiffkit.springs import smg
 
 E_STEEL, NU = 2.0e11, 0.3
 
@@ -96,7 +95,7 @@ class TestSeriesParallel:
         sec = sk.section_properties("rectangle", [0.02, 0.03], NU)
         L = 1.2
         rng = np.random.default_rng(n)
-        R = random_rotation(rng)          # the whole beam along R's x axis
+        R = random_rotation(rng)  # the whole beam along R's x axis
         o = np.array([0.3, -0.2, 0.1])
         seg = sk.cantilever_compliance(L / n, E_STEEL, NU, sec)
         chain = series(*[Spring(seg, pos=o + (i + 1) * L / n * R[:, 0], rot=R) for i in range(n)])
@@ -106,8 +105,7 @@ class TestSeriesParallel:
 
     def test_series_with_a_rigid_spring_keeps_compliance(self, beam_c):
         """A rigid spring (zero compliance) has no stiffness: fine in series."""
-        res = evaluate(series(Spring(np.zeros((6, 6)), pos=[1, 0, 0]), Spring(beam_c, pos=[1, 0, 0])),
-                       tool=[1, 0, 0])
+        res = evaluate(series(Spring(np.zeros((6, 6)), pos=[1, 0, 0]), Spring(beam_c, pos=[1, 0, 0])), tool=[1, 0, 0])
         assert relerr(res.compliance[0], beam_c) < 1e-15 and res.nrigid[0] == 0
 
     def test_rigid_spring_alone_reports_six_rigid_wrenches(self):
@@ -120,11 +118,12 @@ class TestPassiveJointsAndPi:
     def test_flexible_body_behind_a_revolute_joint_loses_one_rank(self, beam_c):
         """s3.2: a passive revolute joint at the first end drops the rank by one."""
         a = np.array([0.0, 0, 0])
-        res = evaluate(series(Joint("revolute", [0, 0, 1], a, passive=True),
-                              Spring(beam_c, pos=[0.5, 0, 0])), tool=[0.5, 0, 0])
+        res = evaluate(
+            series(Joint("revolute", [0, 0, 1], a, passive=True), Spring(beam_c, pos=[0.5, 0, 0])), tool=[0.5, 0, 0]
+        )
         assert res.rank[0] == 5 and res.nfree[0] == 1
         free = res.free_twists(0)[:, 0]
-        xi = np.array([0, 0.5, 0, 0, 0, 1.0])         # rotation about z through a, seen at the tool
+        xi = np.array([0, 0.5, 0, 0, 0, 1.0])  # rotation about z through a, seen at the tool
         assert abs(abs(free @ xi) / np.linalg.norm(free) / np.linalg.norm(xi) - 1) < 1e-12
         assert np.linalg.norm(res.stiffness[0] @ xi) < 1e-9 * np.linalg.norm(res.stiffness[0])
 
@@ -136,8 +135,14 @@ class TestPassiveJointsAndPi:
         tool = np.array([0.2, 0.1, -0.1])
         res = evaluate(series(*springs, *joints), tool=tool)
         C = sum(T(tool - s.pos) @ rot6(s.rot) @ s.matrix @ rot6(s.rot).T @ T(tool - s.pos).T for s in springs)
-        F = np.array([np.concatenate([np.cross(j.axis / np.linalg.norm(j.axis), tool - j.point),
-                                      j.axis / np.linalg.norm(j.axis)]) for j in joints]).T
+        F = np.array(
+            [
+                np.concatenate(
+                    [np.cross(j.axis / np.linalg.norm(j.axis), tool - j.point), j.axis / np.linalg.norm(j.axis)]
+                )
+                for j in joints
+            ]
+        ).T
         M = np.block([[C, F], [F.T, np.zeros((2, 2))]])
         K = np.linalg.inv(M)[:6, :6]
         assert res.rank[0] == 4
@@ -151,14 +156,16 @@ class TestPassiveJointsAndPi:
         u = np.array([np.cos(ang), np.sin(ang), 0])
         Bp, Bm = np.array([0.0, d / 2, 0]), np.array([0.0, -d / 2, 0])
         Cp, Cm = Bp + L * u, Bm + L * u
-        pi = parallel(series(Joint("revolute", n, Bp, passive=True), Joint("revolute", n, Cp, passive=True)),
-                      series(Joint("revolute", n, Bm, passive=True), Joint("revolute", n, Cm, passive=True)))
+        pi = parallel(
+            series(Joint("revolute", n, Bp, passive=True), Joint("revolute", n, Cp, passive=True)),
+            series(Joint("revolute", n, Bm, passive=True), Joint("revolute", n, Cm, passive=True)),
+        )
         res = evaluate(pi, tool=(Cp + Cm) / 2 + [0.05, 0.02, 0.03])
         assert res.nfree[0] == 1 and res.nrigid[0] == 5
         f = res.free_twists(0)[:, 0]
-        assert np.linalg.norm(f[3:]) < 1e-12 * np.linalg.norm(f[:3])   # no rotation
+        assert np.linalg.norm(f[3:]) < 1e-12 * np.linalg.norm(f[:3])  # no rotation
         t = f[:3] / np.linalg.norm(f[:3])
-        assert abs(abs(t @ np.cross(n, u)) - 1) < 1e-12              # normal to the links, in plane
+        assert abs(abs(t @ np.cross(n, u)) - 1) < 1e-12  # normal to the links, in plane
 
     def test_pi_joint_of_beams_keeps_the_translation_free(self):
         sec = sk.section_properties("circle", [0.01], 0.33)
@@ -167,16 +174,23 @@ class TestPassiveJointsAndPi:
         links = []
         for s in (+1, -1):
             B, C = np.array([0, s * d / 2, 0]), np.array([L, s * d / 2, 0])
-            links.append(series(Joint("revolute", n, B, passive=True), Spring(c, pos=C),
-                                Joint("revolute", n, C, passive=True)))
+            links.append(
+                series(Joint("revolute", n, B, passive=True), Spring(c, pos=C), Joint("revolute", n, C, passive=True))
+            )
         res = evaluate(parallel(*links), tool=[L, 0, 0])
         assert res.rank[0] == 5 and res.nfree[0] == 1 and res.nrigid[0] == 0
         f = res.free_twists(0)[:, 0]
-        assert abs(abs(f[1]) / np.linalg.norm(f) - 1) < 1e-12     # translation along y
+        assert abs(abs(f[1]) / np.linalg.norm(f) - 1) < 1e-12  # translation along y
         # eq. 23 with one passive joint per link (the report's K_l) is of full rank
-        res1 = evaluate(parallel(*[series(Joint("revolute", n, [0, s * d / 2, 0], passive=True),
-                                          Spring(c, pos=[L, s * d / 2, 0])) for s in (1, -1)]),
-                        tool=[L, 0, 0])
+        res1 = evaluate(
+            parallel(
+                *[
+                    series(Joint("revolute", n, [0, s * d / 2, 0], passive=True), Spring(c, pos=[L, s * d / 2, 0]))
+                    for s in (1, -1)
+                ]
+            ),
+            tool=[L, 0, 0],
+        )
         assert res1.rank[0] == 6
 
 
@@ -187,8 +201,10 @@ class TestSerialVJM:
         A2 = np.array([l1 * np.cos(t1), l1 * np.sin(t1), 0])
         P = A2 + [l2 * np.cos(t1 + t2), l2 * np.sin(t1 + t2), 0]
         z = [0, 0, 1.0]
-        res = evaluate(series(Joint("revolute", z, [0, 0, 0], compliance=1 / k1),
-                              Joint("revolute", z, A2, compliance=1 / k2)), tool=P)
+        res = evaluate(
+            series(Joint("revolute", z, [0, 0, 0], compliance=1 / k1), Joint("revolute", z, A2, compliance=1 / k2)),
+            tool=P,
+        )
         s1, s12, c1, c12 = np.sin(t1), np.sin(t1 + t2), np.cos(t1), np.cos(t1 + t2)
         J = np.array([[-l1 * s1 - l2 * s12, -l2 * s12], [l1 * c1 + l2 * c12, l2 * c12]])
         Ji = np.array([[J[1, 1], -J[0, 1]], [-J[1, 0], J[0, 0]]]) / (l1 * l2 * np.sin(t2))
@@ -196,12 +212,13 @@ class TestSerialVJM:
         assert relerr(np.linalg.inv(res.compliance[0][:2, :2]), KC) < 1e-13
         # two joint springs: two elastic directions, the other four carried rigidly
         assert res.nrigid[0] == 4 and res.rank[0] == 2
+
         # planar 3R: three elastic directions in the plane; stretched along x,
         # its Jacobian loses rank and a force along the arm is carried rigidly
         def arm3(q):
             pts = np.cumsum([[0, 0, 0]] + [[0.3 * np.cos(a), 0.3 * np.sin(a), 0] for a in np.cumsum(q)], axis=0)
-            return evaluate(series(*[Joint("revolute", z, pts[i], compliance=1e-5) for i in range(3)]),
-                            tool=pts[3])
+            return evaluate(series(*[Joint("revolute", z, pts[i], compliance=1e-5) for i in range(3)]), tool=pts[3])
+
         bent, stretched = arm3([0.2, 0.5, -0.3]), arm3([0.0, 0.0, 0.0])
         assert bent.nrigid[0] == 3 and stretched.nrigid[0] == 4
         g = stretched.rigid_wrenches(0)
@@ -219,37 +236,55 @@ class TestSerialVJM:
         tool = pts[-1] + [0.1, 0, 0]
         parts = [Spring(beam_c, pos=pts[0], rot=rots[0])]
         for i in range(6):
-            parts += [Joint("revolute", axes[i], pts[i], compliance=1 / kj[i]),
-                      Spring(beam_c, pos=pts[i + 1], rot=rots[i + 1])]
+            parts += [
+                Joint("revolute", axes[i], pts[i], compliance=1 / kj[i]),
+                Spring(beam_c, pos=pts[i + 1], rot=rots[i + 1]),
+            ]
         res = evaluate(series(*parts), tool=tool)
-        Jt = np.array([np.concatenate([np.cross(a / np.linalg.norm(a), tool - p), a / np.linalg.norm(a)])
-                       for a, p in zip(axes, pts[:6])]).T
-        C = Jt @ np.diag(1 / kj) @ Jt.T + sum(T(tool - p) @ rot6(R) @ beam_c @ rot6(R).T @ T(tool - p).T
-                                             for p, R in zip(pts, rots))
+        Jt = np.array(
+            [
+                np.concatenate([np.cross(a / np.linalg.norm(a), tool - p), a / np.linalg.norm(a)])
+                for a, p in zip(axes, pts[:6])
+            ]
+        ).T
+        C = Jt @ np.diag(1 / kj) @ Jt.T + sum(
+            T(tool - p) @ rot6(R) @ beam_c @ rot6(R).T @ T(tool - p).T for p, R in zip(pts, rots)
+        )
         assert relerr(res.compliance[0], C) < 1e-13
         assert relerr(res.stiffness[0], np.linalg.inv(C)) < 1e-8
-
 
     def test_serial_vjm_six_joints_kc_and_wrist_singularity(self):
         """6 joint springs only: K_C = J^-T k J^-1 where J is square and
         regular; at a wrist singularity (axes 4 and 6 aligned) K_C does not
         exist and the rigid wrench is the one with J^T w = 0."""
         from stiffkit.springs import serial_vjm
+
         kj = np.array([3e6, 2e6, 1e6, 4e5, 3e5, 2e5])
-        wc = np.array([0.9, 0.1, 1.2])                       # wrist centre
+        wc = np.array([0.9, 0.1, 1.2])  # wrist centre
+
         def chain(q5):
             # wrist: axis 4 along x, axis 5 along y, axis 6 turned by q5 about y
-            axes = np.array([[0, 0, 1], [0, 1, 0], [0, 1, 0], [1, 0, 0],
-                             [0, 1, 0], [np.cos(q5), 0, -np.sin(q5)]], float)
+            axes = np.array(
+                [[0, 0, 1], [0, 1, 0], [0, 1, 0], [1, 0, 0], [0, 1, 0], [np.cos(q5), 0, -np.sin(q5)]], float
+            )
             pts = np.array([[0, 0, 0.4], [0.1, 0, 0.6], [0.1, 0, 1.2], wc, wc, wc], float)
             return axes, pts
-        A0, P0 = chain(0.0)                      # axes 4 and 6 both along x: singular
+
+        A0, P0 = chain(0.0)  # axes 4 and 6 both along x: singular
         A1, P1 = chain(0.7)
         tool = wc + [0.2, 0.05, -0.1]
-        res = serial_vjm(np.stack([A1, A0]), np.stack([P1, P0]), 1 / kj, np.zeros((0, 6, 6)),
-                         np.zeros((2, 0, 3)), np.zeros((2, 0, 3, 3)), tool)
-        J = np.array([np.r_[np.cross(a / np.linalg.norm(a), tool - p), a / np.linalg.norm(a)]
-                      for a, p in zip(A1, P1)]).T
+        res = serial_vjm(
+            np.stack([A1, A0]),
+            np.stack([P1, P0]),
+            1 / kj,
+            np.zeros((0, 6, 6)),
+            np.zeros((2, 0, 3)),
+            np.zeros((2, 0, 3, 3)),
+            tool,
+        )
+        J = np.array(
+            [np.r_[np.cross(a / np.linalg.norm(a), tool - p), a / np.linalg.norm(a)] for a, p in zip(A1, P1)]
+        ).T
         Ji = np.linalg.inv(J)
         assert list(res.stiffness_exists) == [True, False]
         assert relerr(res.stiffness[0], Ji.T @ np.diag(kj) @ Ji) < 1e-9
@@ -263,16 +298,20 @@ class TestParallelRobots:
     def test_three_cyclic_legs_give_a_cyclic_stiffness(self, beam_c):
         """Three identical legs related by the 120 deg turn about (1,1,1): the
         platform stiffness commutes with that turn."""
-        Pc = np.array([[0, 0, 1.0], [1, 0, 0], [0, 1, 0]])   # e_x -> e_y -> e_z
+        Pc = np.array([[0, 0, 1.0], [1, 0, 0], [0, 1, 0]])  # e_x -> e_y -> e_z
         rng = np.random.default_rng(2)
         R0 = random_rotation(rng)
         legs = []
         for m in range(3):
             Q = np.linalg.matrix_power(Pc, m)
             p1, p2 = Q @ [-0.4, 0.05, 0], Q @ [-0.1, 0.02, 0.01]
-            legs.append(series(Spring(beam_c, pos=p1, rot=Q @ R0),
-                               Joint("revolute", Q @ [0, 1.0, 0], p1, passive=True),
-                               Spring(2 * beam_c, pos=p2, rot=Q @ R0)))
+            legs.append(
+                series(
+                    Spring(beam_c, pos=p1, rot=Q @ R0),
+                    Joint("revolute", Q @ [0, 1.0, 0], p1, passive=True),
+                    Spring(2 * beam_c, pos=p2, rot=Q @ R0),
+                )
+            )
         res = evaluate(parallel(*legs), tool=[0, 0, 0])
         K = res.stiffness[0]
         assert res.rank[0] == 6
@@ -307,12 +346,12 @@ class TestParallelRobots:
         for i in range(3):
             Rf = og.foot_axes(i)
             a = e[(i + 1) % 3]
-            cfoot = Rf @ foot[3:, 3:] @ Rf.T          # foot rotational compliance, world axes
-            n = np.cross(a, e[i])                      # hinge normal at the isotropic point
+            cfoot = Rf @ foot[3:, 3:] @ Rf.T  # foot rotational compliance, world axes
+            n = np.cross(a, e[i])  # hinge normal at the isotropic point
             assert Rf[:, 0] @ e[i] == 1.0 and abs(Rf[:, 2] @ a) == 1.0
             # the axis about which leg i's foot yields under a couple about n = e_k
             k = int(np.argmax(np.abs(n)))
-            j = k                                      # the leg whose actuator axis is e_k
+            j = k  # the leg whose actuator axis is e_k
             Rj = og.foot_axes(j)
             c_uu = (Rj @ foot[3:, 3:] @ Rj.T)[k, k]
             c_nn = cfoot[k, k]
@@ -325,9 +364,11 @@ class TestParallelRobots:
         """Isotropic point with the Table 7 FEA links against Table 8 (FEA,
         parabolic mesh: 3.02e-4 mm/N, 2.46e-7 rad/(N mm)) and, with rigid
         axles, against the paper's lumped model with rigid axis (3.10, 2.31)."""
+
         def iso(links):
             C = og.compliance(og.isotropic_point()[None], links).compliance[0]
             return C[0, 0] * 1e3 / 1e-4, C[3, 3] * 1e-3 / 1e-7
+
         fea = og.link_compliances("fea")
         kt, kr = iso(fea)
         ft, fr = og.TABLE8["FEA (parabolic mesh)"]
@@ -378,14 +419,14 @@ class TestParallelRobots:
         res = smg.stiffness(P, theta, links, g)
         z = np.array([0, 0, 1.0])
 
-        def condense(K, xi):     # eqs. 29-30 / s3.2: eliminate a passive joint of twist xi
+        def condense(K, xi):  # eqs. 29-30 / s3.2: eliminate a passive joint of twist xi
             return K - np.outer(K @ xi, K @ xi) / (xi @ K @ xi)
 
         for i in range(len(tau)):
             p = P[i]
             Ktot = np.zeros((6, 6))
             for J in (0, 1):
-                S, E, W, h = (a[0] for a in smg.limb_points(J, P[i:i + 1], theta[i:i + 1], g))
+                S, E, W, h = (a[0] for a in smg.limb_points(J, P[i : i + 1], theta[i : i + 1], g))
                 n = np.cross(h, z)
                 Kpi = []
                 for A, B, wid, c in ((S, E, g.h1, links["proximal"]), (E, W, g.h2, links["distal"])):
@@ -394,20 +435,21 @@ class TestParallelRobots:
                         a, b = A + s * wid * z, B + s * wid * z
                         u = (b - a) / np.linalg.norm(b - a)
                         R = np.stack([u, np.cross(n, u), n], axis=1)
-                        Kb = rot6(R) @ np.linalg.inv(c) @ rot6(R).T          # link at its end b
+                        Kb = rot6(R) @ np.linalg.inv(c) @ rot6(R).T  # link at its end b
                         Kb = T(a - b).T @ condense(T(b - a).T @ Kb @ T(b - a), np.r_[np.zeros(3), n]) @ T(a - b)
-                        W1 = T(b - p)                                       # eq. 12
-                        Kp += W1.T @ Kb @ W1                                # eq. 23
+                        W1 = T(b - p)  # eq. 12
+                        Kp += W1.T @ Kb @ W1  # eq. 23
                     Kpi.append(Kp)
                 KP, KD = Kpi
-                Pm = KD + KP                                                # eq. 21 (W = 1 at p)
-                KJ = KD - KD @ np.linalg.solve(Pm, KD)                      # eqs. 22, 25
-                zeta = np.r_[np.cross(z, p - W), z]                         # wrist joint seen at p
-                Ktot += condense(KJ, zeta)                                  # eqs. 26-30
+                Pm = KD + KP  # eq. 21 (W = 1 at p)
+                KJ = KD - KD @ np.linalg.solve(Pm, KD)  # eqs. 22, 25
+                zeta = np.r_[np.cross(z, p - W), z]  # wrist joint seen at p
+                Ktot += condense(KJ, zeta)  # eqs. 26-30
             assert relerr(res.stiffness[i], Ktot) < 1e-8
 
     def test_link_json_file_is_accepted(self, tmp_path, beam_c):
         import json
+
         f = tmp_path / "bar.json"
         f.write_text(json.dumps({"compliance": (2 * beam_c).tolist()}))
         assert_allclose(load_link_compliance(f), 2 * beam_c)
@@ -424,8 +466,8 @@ class TestIndices:
         l = 0.35
         idx = stiffness_indices(K, l)
         k11, k12, k22 = K[:3, :3], K[:3, 3:], K[3:, 3:]
-        kt = np.sqrt((l ** 2 * np.sum(k11 ** 2) + np.sum(k12 ** 2)) / 3)
-        kr = np.sqrt((np.sum(k12 ** 2) + np.sum(k22 ** 2) / l ** 2) / 3)
+        kt = np.sqrt((l**2 * np.sum(k11**2) + np.sum(k12**2)) / 3)
+        kr = np.sqrt((np.sum(k12**2) + np.sum(k22**2) / l**2) / 3)
         assert idx.kappa_t[0] == pytest.approx(kt, rel=1e-12)
         assert idx.kappa_r[0] == pytest.approx(kr, rel=1e-12)
         # mm: K11 in N/mm, K12 in N, K22 in N mm, l in mm
@@ -459,7 +501,7 @@ class TestErrors:
         with pytest.raises(sk.InputError):
             evaluate(Spring(beam_c), lscale=-1.0)
         with pytest.raises(sk.InputError):
-            og.compliance([[0.0, 0.4, 0.0]])       # out of reach
+            og.compliance([[0.0, 0.4, 0.0]])  # out of reach
         with pytest.raises(sk.InputError, match="rotation"):
             Spring(beam_c, rot=2 * np.eye(3))
         with pytest.raises(sk.InputError, match="NaN"):

@@ -1,4 +1,5 @@
 """``stiffkit robot``: the commands write the numbers the Python calls give."""
+
 from __future__ import annotations
 
 import json
@@ -50,8 +51,11 @@ def test_tree_example_matches_python(tmp_path):
     data = json.loads(out.read_text())
     spec = json.loads(EXAMPLE.read_text())
     c = np.array(spec["tree"]["series"][1]["spring"]["compliance"])
-    res = evaluate(series(Joint("revolute", [0, 0, 1], [0, 0, 0], passive=True),
-                          Spring(c, pos=[0.5, 0, 0])), tool=[0.5, 0, 0], lscale=0.5)
+    res = evaluate(
+        series(Joint("revolute", [0, 0, 1], [0, 0, 0], passive=True), Spring(c, pos=[0.5, 0, 0])),
+        tool=[0.5, 0, 0],
+        lscale=0.5,
+    )
     assert data["rank"] == 5 and not data["compliance_exists"] and data["stiffness_exists"]
     np.testing.assert_allclose(data["stiffness"], res.stiffness[0], rtol=0, atol=1e-12 * np.abs(res.stiffness).max())
     # the free motion: rotation about the hinge, seen at the tool (0, 0.5, 0, 0, 0, 1)

@@ -8,6 +8,7 @@ lengths and every compliance converted) gives the same indices in N; where
 the stiffness does not exist the indices are NaN (null in JSON) with a
 status, never numbers.
 """
+
 from __future__ import annotations
 
 import copy
@@ -20,8 +21,8 @@ from numpy.testing import assert_allclose
 
 import stiffkit
 from stiffkit.calib import synth as S
-from stiffkit.robot.urdf import urdf_text
 from stiffkit.cli import main
+from stiffkit.robot.urdf import urdf_text
 from stiffkit.springs import stiffness_indices, stiffness_indices_where
 
 Q_REG = [[0.0, -0.5, 0.3, 0.0, 1.2, 0.0], [0.4, -1.0, 0.6, 1.0, 0.7, -0.5], [2.0, -0.2, -0.4, -1.5, 1.6, 2.2]]
@@ -29,8 +30,8 @@ Q_REG = [[0.0, -0.5, 0.3, 0.0, 1.2, 0.0], [0.4, -1.0, 0.6, 1.0, 0.7, -0.5], [2.0
 
 def closed_form(K, l):
     k11, k12, k22 = K[:3, :3], K[:3, 3:], K[3:, 3:]
-    kt = math.sqrt((l ** 2 * np.sum(k11 ** 2) + np.sum(k12 ** 2)) / 3)
-    kr = math.sqrt((np.sum(k12 ** 2) + np.sum(k22 ** 2) / l ** 2) / 3)
+    kt = math.sqrt((l**2 * np.sum(k11**2) + np.sum(k12**2)) / 3)
+    kr = math.sqrt((np.sum(k12**2) + np.sum(k22**2) / l**2) / 3)
     return kt, kr
 
 
@@ -105,10 +106,25 @@ def test_cli_json_npz_plot_and_singular_postures(tmp_path, capsys):
     traj = tmp_path / "Q.csv"
     traj.write_text("q1,q2,q3,q4,q5,q6\n" + "\n".join(",".join(f"{v:.17g}" for v in q) for q in Q) + "\n")
     js, npz, png = tmp_path / "s.json", tmp_path / "s.npz", tmp_path / "s.png"
-    assert main(["stiffness", str(path), "--trajectory", str(traj), "--json", str(js), "--npz", str(npz),
-                 "--plot", str(png)]) == 0
+    assert (
+        main(
+            [
+                "stiffness",
+                str(path),
+                "--trajectory",
+                str(traj),
+                "--json",
+                str(js),
+                "--npz",
+                str(npz),
+                "--plot",
+                str(png),
+            ]
+        )
+        == 0
+    )
     assert png.stat().st_size > 10_000
-    out = json.loads(js.read_text())          # strict JSON: no NaN
+    out = json.loads(js.read_text())  # strict JSON: no NaN
     m = stiffkit.load_model(path)
     l = m.chain.characteristic_length
     assert out["indices_lscale_m"] == pytest.approx(l, rel=1e-15)
@@ -130,8 +146,7 @@ def test_cli_json_npz_plot_and_singular_postures(tmp_path, capsys):
     assert float(arr["lscale"]) == pytest.approx(l)
     assert "indices undefined (NaN, no stiffness matrix) at 1 posture(s): 4" in capsys.readouterr().out
     # --lscale is used as given
-    assert main(["stiffness", str(path), "--posture", "0,-0.5,0.3,0,1.2,0", "--json", str(js),
-                 "--lscale", "0.25"]) == 0
+    assert main(["stiffness", str(path), "--posture", "0,-0.5,0.3,0,1.2,0", "--json", str(js), "--lscale", "0.25"]) == 0
     p0 = json.loads(js.read_text())["postures"][0]
     kt, kr = closed_form(np.linalg.inv(C[0]), 0.25)
     assert p0["indices"]["kappa_t"] == pytest.approx(kt, rel=1e-9)

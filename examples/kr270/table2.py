@@ -10,25 +10,39 @@ tool axis: forces along -z only), partial-pose measurements (three markers),
   C2  C1 + the gravity compensator
 Run:  python examples/kr270/table2.py   (about 5 s)
 """
+
 from stiffkit.calib import synth as S
 from stiffkit.calib.fit import error_stats, fit
-from stiffkit.robot.model import model_from_tables
 from stiffkit.calib.reduce import format_reduction, reduce_model, reduced_model
+from stiffkit.robot.model import model_from_tables
 
 SIGMA = 2e-5
 MARKERS = ((0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2))
 GEOM = {k: S.KR270_COMPENSATOR[k] for k in ("a", "b", "beta", "s0")}
 
-chain, truth, meas = S.synthesize(S.KR270_JOINTS, S.kr270_truth(), n_configs=30, loads="gravity",
-                                  loads_per_config=1, markers=MARKERS, sigma=SIGMA,
-                                  ranges=S.KR270_RANGES, seed=3)
+chain, truth, meas = S.synthesize(
+    S.KR270_JOINTS,
+    S.kr270_truth(),
+    n_configs=30,
+    loads="gravity",
+    loads_per_config=1,
+    markers=MARKERS,
+    sigma=SIGMA,
+    ranges=S.KR270_RANGES,
+    seed=3,
+)
 joints = [{"kind": "joint", "target": "all"}]
-links = [{"kind": "link", "target": ln, "template": "beam"}
-         for ln in ["base_link"] + [f"link_{i}" for i in range(1, 7)]]
+links = [
+    {"kind": "link", "target": ln, "template": "beam"} for ln in ["base_link"] + [f"link_{i}" for i in range(1, 7)]
+]
 comp = [{"kind": "gravity_compensator", "target": "joint_a2", **GEOM}]
 rows = []
-for name, effects, reduce in (("J1", joints, False), ("J2", joints + comp, False),
-                              ("C1", joints + links, True), ("C2", joints + links + comp, True)):
+for name, effects, reduce in (
+    ("J1", joints, False),
+    ("J2", joints + comp, False),
+    ("C1", joints + links, True),
+    ("C2", joints + links + comp, True),
+):
     m = model_from_tables(chain, effects, sigma_position=SIGMA)
     if reduce:
         red = reduce_model(m, meas)
@@ -39,8 +53,10 @@ for name, effects, reduce in (("J1", joints, False), ("J2", joints + comp, False
     rows.append((name, len(res.names), error_stats(res.residuals)))
 before = error_stats(meas.d)
 print(f"{meas.n} rows, gravity loading, noise {SIGMA * 1e3:g} mm; compliance errors in mm")
-print(f"{'model':34s}{'params':>7s}" + "".join(f"{h:>16s}" for h in ("x MAX/RMS", "y MAX/RMS", "z MAX/RMS",
-                                                                       "pos MAX/RMS")))
+print(
+    f"{'model':34s}{'params':>7s}"
+    + "".join(f"{h:>16s}" for h in ("x MAX/RMS", "y MAX/RMS", "z MAX/RMS", "pos MAX/RMS"))
+)
 
 
 def cells(st):

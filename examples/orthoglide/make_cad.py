@@ -14,6 +14,7 @@ foot.step  foot: a 110 x 40 x 20 mm aluminium block with a 60 x 24 mm
 Each LINK.toml beside it carries the single-beam approximation of Table 7
 in its [approximation] section.
 """
+
 from pathlib import Path
 
 import gmsh
