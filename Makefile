@@ -101,7 +101,7 @@ bench: install
 clean:
 	rm -rf build $(STAMP_INSTALL)
 
-# FEA link stiffness (issue 3): one LINK.toml job, and a mesh-convergence study.
+# FEA link stiffness: one LINK.toml job, and a mesh-convergence study.
 ORDERS ?= 1,2
 SIZES ?= 5,3,2
 JOBS ?= 2

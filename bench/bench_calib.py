@@ -1,4 +1,4 @@
-"""Calibration benchmark (issue 4): fit + diagnose time of the KR-270-like
+"""Calibration benchmark: fit + diagnose time of the KR-270-like
 6R example for 270, 1,000 and 10,000 measurement rows, every candidate
 kind on every target (goal: diagnose of 1,000 rows under 5 s on one core),
 and the tool-compliance throughput of load_model(...).tool_compliance.

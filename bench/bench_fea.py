@@ -1,4 +1,4 @@
-"""FEA benchmarks (issue 3), figures for the README results section.
+"""FEA benchmarks, figures for the README results section.
 
 1. The paper's best setting, the 1000 x 10 x 10 mm beam with C3D10 of 2 mm:
    max error of the 10 non-zero compliance elements vs eq. 22 (raw and with

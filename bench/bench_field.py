@@ -1,5 +1,5 @@
 """Field fits per second: the Fortran core (LIN, exact, SVD) against a plain
-numpy least-squares reference in the same run (issue: >= 10x numpy for LIN
+numpy least-squares reference in the same run (goal: >= 10x numpy for LIN
 at n = 1331).
 
     python bench/bench_field.py        (or: make bench BENCH=field)

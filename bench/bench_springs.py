@@ -1,4 +1,4 @@
-"""Postures per second of the core against numpy, same run (issue 5 benchmark).
+"""Postures per second of the core against numpy, same run (benchmark).
 
 Two models:
   6R   the KR-270-like serial robot (examples/kr270/robot.urdf) with 6 joint
@@ -15,7 +15,7 @@ numpy loop over postures and numpy vectorised over postures
 (einsum/batched linalg), doing the same job from the same inputs: for the
 6R the numpy codes do their own forward kinematics from the URDF chain
 arrays, then eq. 2 and K = C^-1; the SMG ones do their own inverse
-kinematics (compared with evaluate() + pose building). Goal (issue 5):
+kinematics (compared with evaluate() + pose building). Goal:
 >= 1e5 postures/s on one core for the 6R and >= 50x numpy. One thread
 (OMP_NUM_THREADS=1 via make bench).
 

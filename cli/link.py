@@ -18,7 +18,7 @@ from ..fea.config import load_link
 from ..fea.job import atomic_write_text, run_link
 
 HELP = """\
-LINK.toml (contract: shared/spec/link.md; lengths in geometry.units):
+LINK.toml (format: docs/link.md; lengths in geometry.units):
   [geometry]  step = "part.step" (STEP/BREP/IGES) or shape = "box" (size = [L, b, h]),
               "tube" (length, outer_diameter, inner_diameter), "rod"; units = "mm"
   [material]  E (Pa), nu, density (kg/m^3, only for the matrix route; default 7850)

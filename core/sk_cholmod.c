@@ -1,5 +1,5 @@
 /*
- * C glue of the sparse route (issue 3): readers of the text files that
+ * C glue of the sparse route: readers of the text files that
  * CalculiX writes with *FREQUENCY, SOLVER=MATRIXSTORAGE, and one CHOLMOD
  * factorisation of the assembled stiffness K shared by several right-hand
  * sides.

@@ -1,4 +1,4 @@
-!> Distributing coupling of a reference point to a face (issue 3).
+!> Distributing coupling of a reference point to a face.
 !>
 !> CalculiX's *COUPLING + *DISTRIBUTING spreads a wrench (F, M) given at a
 !> reference point p0 over the nodes of an element-face surface with the

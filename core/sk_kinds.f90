@@ -1,7 +1,7 @@
 !> Kinds shared by the whole core.
 !>
 !> f2py maps `real(dp)` with `dp` a module parameter to C float (see
-!> TOOLCHAIN_NOTES.md), so every routine that f2py sees uses the
+!> docs/toolchain.md), so every routine that f2py sees uses the
 !> iso_c_binding kinds directly; inside the core we use `dp`/`ip`, which are
 !> the same kinds.
 module sk_kinds

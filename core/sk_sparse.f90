@@ -1,4 +1,4 @@
-!> Sparse route of the FEA pipeline (issue 3): CalculiX matrix files and
+!> Sparse route of the FEA pipeline: CalculiX matrix files and
 !> one CHOLMOD factorisation for several load cases.
 !>
 !> The C functions live in sk_cholmod.c; this module holds their bind(C)

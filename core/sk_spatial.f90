@@ -1,6 +1,6 @@
 !> Small-displacement algebra of twists and wrenches (6-vectors).
 !>
-!> Conventions used by the whole core (and by ../shared/spec):
+!> Conventions used by the whole core (and by the file formats in docs/):
 !>   twist  x = (t, phi): translation of a point, then rotation vector;
 !>   wrench w = (f, m):   force, then moment about that point.
 !> A 6x6 compliance maps a wrench to a twist at the same point and frame.

@@ -1,6 +1,6 @@
 """CalculiX decks, runs and .dat results.
 
-Decks are written in SI units. Traps handled here (TOOLCHAIN_NOTES.md):
+Decks are written in SI units. Traps handled here (docs/toolchain.md):
 numbers fit ccx's 20-character fields; *COUPLING + *DISTRIBUTING refers to
 an element-face surface; every step's *CLOAD has OP=NEW; the job name is
 given without ``.inp``; exit status 201 is an input error whose text is in

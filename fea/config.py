@@ -1,4 +1,4 @@
-"""LINK.toml: one FEA-to-stiffness job (contract: shared/spec/link.md).
+"""LINK.toml: one FEA-to-stiffness job (format: docs/link.md).
 
 :func:`load_link` reads and checks the file and returns a :class:`LinkJob`
 whose lengths are in metres (the file's ``geometry.units`` converted at this
