@@ -15,7 +15,7 @@
 module sk_coupling
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: cross, inverse, all_finite
+    use sk_linalg, only: cross, inverse, all_finite, eye
     implicit none
     private
     public :: face_weights, distributing_loads, work_conjugate
@@ -128,7 +128,7 @@ contains
         inert = 0.0_dp
         do i = 1, nf
             r = xf(:, i) - c
-            inert = inert + w(i)*(dot_product(r, r)*eye3() - spread(r, 2, 3)*spread(r, 1, 3))
+            inert = inert + w(i)*(dot_product(r, r)*eye(3) - spread(r, 2, 3)*spread(r, 1, 3))
         end do
         call inverse(inert, iinv, info)
         if (info /= sk_ok .or. minval([(inert(i, i), i=1, 3)]) <= 1.0e-12_dp*maxval(abs(inert))) then
@@ -174,13 +174,5 @@ contains
         end do
         info = sk_ok
     end subroutine work_conjugate
-
-    pure function eye3() result(e)
-        real(dp) :: e(3, 3)
-        e = 0.0_dp
-        e(1, 1) = 1.0_dp
-        e(2, 2) = 1.0_dp
-        e(3, 3) = 1.0_dp
-    end function eye3
 
 end module sk_coupling

@@ -40,7 +40,7 @@ module sk_springs
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_spatial, only: rotate_blocks, congruence_transfer, revolute_twist
-    use sk_linalg, only: jacobi_eig, sym_eigvals_small
+    use sk_linalg, only: jacobi_eig, sym_eigvals_small, spd_inverse_small
     implicit none
     private
     public :: op_spring, op_joint, op_series, op_parallel
@@ -108,68 +108,6 @@ contains
             end if
         end do
     end subroutine split_range
-
-    !> Inverse of a small symmetric positive definite a[n,n] by Cholesky and
-    !> the lower bound 1/(tr(a) tr(a^-1)) of its smallest/largest eigenvalue
-    !> ratio; ok = .false. if a pivot is not positive.
-    pure subroutine spd_inverse_small(n, a, ainv, bound, ok)
-        integer, intent(in) :: n
-        real(dp), intent(in) :: a(n, n)
-        real(dp), intent(out) :: ainv(n, n), bound
-        logical, intent(out) :: ok
-        real(dp) :: l(n, n), li(n, n), s, tra, tri
-        integer :: i, j, k
-        ok = .false.
-        bound = 0.0_dp
-        ainv = 0.0_dp
-        l = 0.0_dp
-        do j = 1, n
-            s = a(j, j)
-            do k = 1, j - 1
-                s = s - l(j, k)**2
-            end do
-            if (.not. (s > 0.0_dp)) return
-            l(j, j) = sqrt(s)
-            do i = j + 1, n
-                s = a(i, j)
-                do k = 1, j - 1
-                    s = s - l(i, k)*l(j, k)
-                end do
-                l(i, j) = s/l(j, j)
-            end do
-        end do
-        ! li = l^-1 (lower triangular)
-        li = 0.0_dp
-        do j = 1, n
-            li(j, j) = 1.0_dp/l(j, j)
-            do i = j + 1, n
-                s = 0.0_dp
-                do k = j, i - 1
-                    s = s - l(i, k)*li(k, j)
-                end do
-                li(i, j) = s/l(i, i)
-            end do
-        end do
-        ! ainv = li^T li
-        do j = 1, n
-            do i = j, n
-                s = 0.0_dp
-                do k = i, n
-                    s = s + li(k, i)*li(k, j)
-                end do
-                ainv(i, j) = s
-                ainv(j, i) = s
-            end do
-        end do
-        tra = 0.0_dp
-        tri = 0.0_dp
-        do i = 1, n
-            tra = tra + a(i, i)
-            tri = tri + ainv(i, i)
-        end do
-        bound = 1.0_dp/(tra*tri)
-        ok = .true.
-    end subroutine spd_inverse_small
 
     !> Shared body of the two switches: given the dual projector (free
     !> twists for C -> K, rigid wrenches for K -> C) and the matrix m
@@ -301,6 +239,195 @@ contains
         end if
     end function joint_twist
 
+    !> Check a postfix program once: leaf and joint indices, joint types,
+    !> non-negative joint compliances, operand counts, one result on the
+    !> stack; info = sk_ok or sk_err_argument.
+    pure subroutine check_program(prog, lkind, jtype, jcomp, info)
+        integer(ip), intent(in) :: prog(:, :), lkind(:), jtype(:)
+        real(dp), intent(in) :: jcomp(:)
+        integer(ip), intent(out) :: info
+        integer :: i, op, arg, depth
+        info = sk_err_argument
+        depth = 0
+        do i = 1, size(prog, 2)
+            op = prog(1, i)
+            arg = prog(2, i)
+            select case (op)
+            case (op_spring)
+                if (arg < 1 .or. arg > size(lkind)) return
+                depth = depth + 1
+            case (op_joint)
+                if (arg < 1 .or. arg > size(jtype)) return
+                if (jtype(arg) /= joint_revolute .and. jtype(arg) /= joint_prismatic) return
+                if (jcomp(arg) < 0.0_dp) return
+                depth = depth + 1
+            case (op_series, op_parallel)
+                if (arg < 1 .or. arg > depth) return
+                depth = depth - arg + 1
+            case default
+                return
+            end select
+        end do
+        if (depth /= 1 .or. size(prog, 2) < 1) return
+        if (any(lkind /= leaf_compliance .and. lkind /= leaf_stiffness)) return
+        info = sk_ok
+    end subroutine check_program
+
+    !> A leaf spring (scaled matrix m in its local axes) posed by rot, pos
+    !> and moved to the tool point (eqs. 8, 12): compliance or stiffness form.
+    pure function leaf_spring(m0, kind, rot, pos, tool, lscale) result(s)
+        real(dp), intent(in) :: m0(6, 6), rot(3, 3), pos(3), tool(3), lscale
+        integer(ip), intent(in) :: kind
+        type(gspring) :: s
+        real(dp) :: m(6, 6)
+        m = m0
+        call rotate_blocks(rot, m)
+        if (kind == leaf_compliance) then
+            call congruence_transfer((tool - pos)/lscale, m, .false.)
+            s%c = m
+            s%form = form_c
+        else
+            call congruence_transfer((tool - pos)/lscale, m, .true.)
+            s%k = m
+            s%form = form_k
+        end if
+    end function leaf_spring
+
+    !> A joint seen at the tool point: a rank-1 compliance c xi xi^T along its
+    !> unit twist, or, when passive, the rank-1 projector onto that free twist.
+    pure function joint_spring(jtype, comp, passive, axis, point, tool, lscale) result(s)
+        integer(ip), intent(in) :: jtype
+        real(dp), intent(in) :: comp, axis(3), point(3), tool(3), lscale
+        logical, intent(in) :: passive
+        type(gspring) :: s
+        real(dp) :: xi(6), cs
+        integer :: a, b
+        xi = joint_twist(jtype, axis, point, tool, lscale)
+        s%form = form_c
+        cs = merge(1.0_dp/dot_product(xi, xi), comp*lscale, passive)
+        do b = 1, 6
+            do a = 1, 6
+                if (passive) then
+                    s%phi(a, b) = cs*xi(a)*xi(b)
+                else
+                    s%c(a, b) = cs*xi(a)*xi(b)
+                end if
+            end do
+        end do
+        if (passive) then
+            s%has_phi = .true.
+            s%phi_r1 = .true.
+            s%phi_vec = xi
+        end if
+    end function joint_spring
+
+    !> Serial array of the springs st (eqs. 17-22): compliance forms add,
+    !> free-twist projectors add; the result replaces st(1).
+    pure subroutine combine_series(st, rcond)
+        type(gspring), intent(inout) :: st(:)
+        real(dp), intent(in) :: rcond
+        integer :: j
+        if (st(1)%form == form_k) call k_to_c(st(1), rcond, .false.)
+        do j = 2, size(st)
+            if (st(j)%form == form_k) call k_to_c(st(j), rcond, .false.)
+            st(1)%c = st(1)%c + st(j)%c
+            if (st(j)%has_phi) then
+                if (st(1)%has_phi) then
+                    st(1)%phi_r1 = .false.
+                else
+                    st(1)%phi_r1 = st(j)%phi_r1
+                    st(1)%phi_vec = st(j)%phi_vec
+                end if
+                st(1)%phi = st(1)%phi + st(j)%phi
+                st(1)%has_phi = .true.
+            end if
+        end do
+        st(1)%form = form_c
+        st(1)%has_gam = .false.
+    end subroutine combine_series
+
+    !> Parallel array of the springs st (eq. 16): stiffness forms add,
+    !> rigid-wrench projectors add; the result replaces st(1).
+    pure subroutine combine_parallel(st, rcond)
+        type(gspring), intent(inout) :: st(:)
+        real(dp), intent(in) :: rcond
+        integer :: j
+        if (st(1)%form == form_c) call c_to_k(st(1), rcond, .false.)
+        do j = 2, size(st)
+            if (st(j)%form == form_c) call c_to_k(st(j), rcond, .false.)
+            st(1)%k = st(1)%k + st(j)%k
+            if (st(j)%has_gam) then
+                st(1)%gam = st(1)%gam + st(j)%gam
+                st(1)%has_gam = .true.
+            end if
+        end do
+        st(1)%form = form_k
+        st(1)%has_phi = .false.
+        st(1)%phi_r1 = .false.
+    end subroutine combine_parallel
+
+    !> Unit basis of the range of projector p (nb columns, largest first),
+    !> unscaled (translation rows times tscale, rotation rows times rscale)
+    !> and rotated into the result axes trot.
+    pure function projector_basis(p, nb, tscale, rscale, trot) result(bas)
+        real(dp), intent(in) :: p(6, 6), tscale, rscale, trot(3, 3)
+        integer, intent(in) :: nb
+        real(dp) :: bas(6, 6), w(6), v(6, 6)
+        integer :: j
+        call jacobi_eig(6, p, w, v)
+        bas = 0.0_dp
+        do j = 1, nb
+            bas(1:3, j) = matmul(transpose(trot), v(1:3, 7 - j)*tscale)
+            bas(4:6, j) = matmul(transpose(trot), v(4:6, 7 - j)*rscale)
+        end do
+    end function projector_basis
+
+    !> The root spring in both forms, each on its own subspace (C on the
+    !> wrenches orthogonal to the free twists, K on the motions orthogonal to
+    !> the rigid wrenches), back in the caller's units and the tool axes.
+    pure subroutine root_results(s, rcond, dsc, trot, lscale, c, k, free, nfree, rigid, nrigid, ratio)
+        type(gspring), intent(inout) :: s
+        real(dp), intent(in) :: rcond, dsc(6), trot(3, 3), lscale
+        real(dp), intent(out) :: c(6, 6), k(6, 6), free(6, 6), rigid(6, 6), ratio
+        integer(ip), intent(out) :: nfree, nrigid
+        real(dp) :: m(6, 6)
+        integer :: a, b
+        if (s%form == form_c) then
+            call c_to_k(s, rcond, .true.)
+        else
+            call k_to_c(s, rcond, .true.)
+        end if
+        if (s%nf > 0) then
+            m = -s%phi
+            do a = 1, 6
+                m(a, a) = m(a, a) + 1.0_dp
+            end do
+            s%c = matmul(m, matmul(s%c, m))
+        end if
+        if (s%ng > 0) then
+            m = -s%gam
+            do a = 1, 6
+                m(a, a) = m(a, a) + 1.0_dp
+            end do
+            s%k = matmul(m, matmul(s%k, m))
+        end if
+        ratio = s%ratio
+        nfree = s%nf
+        nrigid = s%ng
+        do b = 1, 6
+            do a = 1, 6
+                c(a, b) = s%c(a, b)/(dsc(a)*dsc(b))
+                k(a, b) = s%k(a, b)*dsc(a)*dsc(b)
+            end do
+        end do
+        call rotate_blocks(transpose(trot), c)
+        call rotate_blocks(transpose(trot), k)
+        free = 0.0_dp
+        rigid = 0.0_dp
+        if (s%nf > 0) free = projector_basis(s%phi, s%nf, lscale, 1.0_dp, trot)
+        if (s%ng > 0) rigid = projector_basis(s%gam, s%ng, 1.0_dp, lscale, trot)
+    end subroutine root_results
+
     !> Evaluate a spring tree at np postures.
     !>
     !> prog[2,nops]: postfix program, (op, arg) per step (op_* codes).
@@ -326,12 +453,10 @@ contains
         integer(ip), intent(out) :: nfree(:), nrigid(:), info
         type(gspring), allocatable :: stack(:)
         real(dp), allocatable :: lloc(:, :, :)
-        real(dp) :: dsc(6), m(6, 6), xi(6), cs, r(3), w(6), v(6, 6), bas(6, 6)
-        integer :: nops, ns, nj, np, ip_, top, depth, op, arg, i, j, a, b, n
+        real(dp) :: dsc(6)
+        integer :: nops, ns, ip_, top, op, arg, i, a, b, n
         nops = size(prog, 2)
         ns = size(lkind)
-        nj = size(jtype)
-        np = size(tpos, 2)
         c = 0.0_dp; k = 0.0_dp; free = 0.0_dp; rigid = 0.0_dp; ratio = 0.0_dp
         nfree = 0; nrigid = 0
         if (.not. (lscale > 0.0_dp) .or. .not. (rcond >= 0.0_dp .and. rcond < 1.0_dp)) then
@@ -342,53 +467,8 @@ contains
             info = sk_err_nonfinite
             return
         end if
-        ! validate the program once: indices, stack depth, one result
-        depth = 0
-        do i = 1, nops
-            op = prog(1, i)
-            arg = prog(2, i)
-            select case (op)
-            case (op_spring)
-                if (arg < 1 .or. arg > ns) then
-                    info = sk_err_argument
-                    return
-                end if
-                depth = depth + 1
-            case (op_joint)
-                if (arg < 1 .or. arg > nj) then
-                    info = sk_err_argument
-                    return
-                end if
-                if (jtype(arg) /= joint_revolute .and. jtype(arg) /= joint_prismatic) then
-                    info = sk_err_argument
-                    return
-                end if
-                if (jcomp(arg) < 0.0_dp) then
-                    info = sk_err_argument
-                    return
-                end if
-                depth = depth + 1
-            case (op_series, op_parallel)
-                if (arg < 1 .or. arg > depth) then
-                    info = sk_err_argument
-                    return
-                end if
-                depth = depth - arg + 1
-            case default
-                info = sk_err_argument
-                return
-            end select
-        end do
-        if (depth /= 1 .or. nops < 1) then
-            info = sk_err_argument
-            return
-        end if
-        do i = 1, ns
-            if (lkind(i) /= leaf_compliance .and. lkind(i) /= leaf_stiffness) then
-                info = sk_err_argument
-                return
-            end if
-        end do
+        call check_program(prog, lkind, jtype, jcomp, info)
+        if (info /= sk_ok) return
         ! leaves in the scaled space, local axes (posture independent)
         dsc = [(lscale**(-0.5_dp), i = 1, 3), (lscale**0.5_dp, i = 1, 3)]
         allocate(lloc(6, 6, max(ns, 1)))
@@ -405,7 +485,7 @@ contains
             lloc(:, :, i) = 0.5_dp*(lloc(:, :, i) + transpose(lloc(:, :, i)))
         end do
         allocate(stack(nops))
-        do ip_ = 1, np
+        do ip_ = 1, size(tpos, 2)
             top = 0
             do i = 1, nops
                 op = prog(1, i)
@@ -413,136 +493,24 @@ contains
                 select case (op)
                 case (op_spring)
                     top = top + 1
-                    stack(top) = gspring()
-                    m = lloc(:, :, arg)
-                    call rotate_blocks(lrot(:, :, arg, ip_), m)
-                    r = (tpos(:, ip_) - lpos(:, arg, ip_))/lscale
-                    if (lkind(arg) == leaf_compliance) then
-                        call congruence_transfer(r, m, .false.)
-                        stack(top)%c = m
-                        stack(top)%form = form_c
-                    else
-                        call congruence_transfer(r, m, .true.)
-                        stack(top)%k = m
-                        stack(top)%form = form_k
-                    end if
+                    stack(top) = leaf_spring(lloc(:, :, arg), lkind(arg), lrot(:, :, arg, ip_), &
+                                             lpos(:, arg, ip_), tpos(:, ip_), lscale)
                 case (op_joint)
                     top = top + 1
-                    stack(top) = gspring()
-                    xi = joint_twist(jtype(arg), jaxis(:, arg, ip_), jpoint(:, arg, ip_), &
-                                     tpos(:, ip_), lscale)
-                    stack(top)%form = form_c
-                    if (jpassive(arg) /= 0) then
-                        cs = 1.0_dp/dot_product(xi, xi)
-                        stack(top)%has_phi = .true.
-                    else
-                        cs = jcomp(arg)*lscale
-                    end if
-                    do b = 1, 6
-                        do a = 1, 6
-                            m(a, b) = cs*xi(a)*xi(b)
-                        end do
-                    end do
-                    if (jpassive(arg) /= 0) then
-                        stack(top)%phi = m
-                        stack(top)%phi_r1 = .true.
-                        stack(top)%phi_vec = xi
-                    else
-                        stack(top)%c = m
-                    end if
+                    stack(top) = joint_spring(jtype(arg), jcomp(arg), jpassive(arg) /= 0, &
+                                              jaxis(:, arg, ip_), jpoint(:, arg, ip_), tpos(:, ip_), lscale)
                 case (op_series)
                     n = top - arg + 1
-                    if (stack(n)%form == form_k) call k_to_c(stack(n), rcond, .false.)
-                    do j = n + 1, top
-                        if (stack(j)%form == form_k) call k_to_c(stack(j), rcond, .false.)
-                        stack(n)%c = stack(n)%c + stack(j)%c
-                        if (stack(j)%has_phi) then
-                            if (stack(n)%has_phi) then
-                                stack(n)%phi_r1 = .false.
-                            else
-                                stack(n)%phi_r1 = stack(j)%phi_r1
-                                stack(n)%phi_vec = stack(j)%phi_vec
-                            end if
-                            stack(n)%phi = stack(n)%phi + stack(j)%phi
-                            stack(n)%has_phi = .true.
-                        end if
-                    end do
-                    stack(n)%form = form_c
-                    stack(n)%has_gam = .false.
+                    call combine_series(stack(n:top), rcond)
                     top = n
                 case (op_parallel)
                     n = top - arg + 1
-                    if (stack(n)%form == form_c) call c_to_k(stack(n), rcond, .false.)
-                    do j = n + 1, top
-                        if (stack(j)%form == form_c) call c_to_k(stack(j), rcond, .false.)
-                        stack(n)%k = stack(n)%k + stack(j)%k
-                        if (stack(j)%has_gam) then
-                            stack(n)%gam = stack(n)%gam + stack(j)%gam
-                            stack(n)%has_gam = .true.
-                        end if
-                    end do
-                    stack(n)%form = form_k
-                    stack(n)%has_phi = .false.
-                    stack(n)%phi_r1 = .false.
+                    call combine_parallel(stack(n:top), rcond)
                     top = n
                 end select
             end do
-            ! the root in both forms
-            if (stack(1)%form == form_c) then
-                call c_to_k(stack(1), rcond, .true.)
-            else
-                call k_to_c(stack(1), rcond, .true.)
-            end if
-            ! report each matrix on its own subspace: C on the wrenches orthogonal
-            ! to the free twists, K on the motions orthogonal to the rigid wrenches
-            if (stack(1)%nf > 0) then
-                m = -stack(1)%phi
-                do a = 1, 6
-                    m(a, a) = m(a, a) + 1.0_dp
-                end do
-                stack(1)%c = matmul(m, matmul(stack(1)%c, m))
-            end if
-            if (stack(1)%ng > 0) then
-                m = -stack(1)%gam
-                do a = 1, 6
-                    m(a, a) = m(a, a) + 1.0_dp
-                end do
-                stack(1)%k = matmul(m, matmul(stack(1)%k, m))
-            end if
-            ratio(ip_) = stack(1)%ratio
-            nfree(ip_) = stack(1)%nf
-            nrigid(ip_) = stack(1)%ng
-            ! back to the caller's units, then to the tool axes
-            do b = 1, 6
-                do a = 1, 6
-                    c(a, b, ip_) = stack(1)%c(a, b)/(dsc(a)*dsc(b))
-                    k(a, b, ip_) = stack(1)%k(a, b)*dsc(a)*dsc(b)
-                end do
-            end do
-            call rotate_blocks(transpose(trot(:, :, ip_)), c(:, :, ip_))
-            call rotate_blocks(transpose(trot(:, :, ip_)), k(:, :, ip_))
-            if (stack(1)%nf > 0) then
-                call jacobi_eig(6, stack(1)%phi, w, v)
-                bas = 0.0_dp
-                do j = 1, stack(1)%nf
-                    bas(1:3, j) = v(1:3, 7 - j)*lscale
-                    bas(4:6, j) = v(4:6, 7 - j)
-                    bas(1:3, j) = matmul(transpose(trot(:, :, ip_)), bas(1:3, j))
-                    bas(4:6, j) = matmul(transpose(trot(:, :, ip_)), bas(4:6, j))
-                end do
-                free(:, :, ip_) = bas
-            end if
-            if (stack(1)%ng > 0) then
-                call jacobi_eig(6, stack(1)%gam, w, v)
-                bas = 0.0_dp
-                do j = 1, stack(1)%ng
-                    bas(1:3, j) = v(1:3, 7 - j)
-                    bas(4:6, j) = v(4:6, 7 - j)*lscale
-                    bas(1:3, j) = matmul(transpose(trot(:, :, ip_)), bas(1:3, j))
-                    bas(4:6, j) = matmul(transpose(trot(:, :, ip_)), bas(4:6, j))
-                end do
-                rigid(:, :, ip_) = bas
-            end if
+            call root_results(stack(1), rcond, dsc, trot(:, :, ip_), lscale, c(:, :, ip_), k(:, :, ip_), &
+                              free(:, :, ip_), nfree(ip_), rigid(:, :, ip_), nrigid(ip_), ratio(ip_))
         end do
         info = sk_ok
     end subroutine spring_tree_batch
