@@ -15,6 +15,7 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
+from .tree import load_tree, parse_urdf
 
 ACTUATED = ("revolute", "continuous")
 
@@ -145,95 +146,51 @@ def _rot_axis(axis, angle) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
 
 
-def load_chain(urdf_path, base_link: str = "base_link", tool_frame: str = "tool0") -> Chain:
-    """Parse ``urdf_path`` with yourdfpy and extract the chain base_link -> tool_frame.
+def load_chain(urdf_path: str | Path, base_link: str = "base_link", tool_frame: str = "tool0") -> Chain:
+    """Parse ``urdf_path`` and extract the chain base_link -> tool_frame.
 
-    Raises InputError naming the file when it cannot be read, when a link is
-    missing, when the tool frame is not reached from base_link by a chain of
-    joints, or when a joint on the chain is not revolute/continuous/fixed.
+    The URDF is read and checked as a tree (robot/tree.py: duplicate names,
+    loops, broken references, masses); raises InputError naming the file
+    when a link is missing, when the tool frame is not reached from
+    base_link, or when a joint on the chain is not revolute, continuous or
+    fixed (prismatic and mimic joints belong to tree models, section 6).
     """
-    import yourdfpy
-
     path = Path(urdf_path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such URDF file")
-    try:
-        urdf = yourdfpy.URDF.load(
-            str(path),
-            build_scene_graph=False,
-            load_meshes=False,
-            build_collision_scene_graph=False,
-            load_collision_meshes=False,
-        )
-    except Exception as exc:  # the library raises many kinds on malformed XML
-        raise InputError(f"{path}: cannot parse the URDF ({type(exc).__name__}: {exc})") from None
+    urdf = parse_urdf(path)
     links = set(urdf.link_map)
     for name, what in ((base_link, "base_link"), (tool_frame, "tool_frame")):
         if name not in links:
             raise InputError(f"{path}: {what} {name!r} is not a link of the URDF (links: {', '.join(sorted(links))})")
-    by_child = {}
-    for j in urdf.robot.joints:
-        if j.child in by_child:
-            raise InputError(
-                f"{path}: link {j.child!r} is the child of two joints ({by_child[j.child].name}, {j.name}): not a tree"
-            )
-        by_child[j.child] = j
-    # walk back from the tool frame to the base
-    joints = []
-    link = tool_frame
-    seen = set()
-    while link != base_link:
-        if link in seen:
-            raise InputError(f"{path}: the joints form a loop at link {link!r}")
-        seen.add(link)
-        j = by_child.get(link)
-        if j is None:
-            raise InputError(
-                f"{path}: {tool_frame!r} is not connected to {base_link!r} by a chain of "
-                f"joints (link {link!r} has no parent joint)"
-            )
-        joints.append(j)
-        link = j.parent
-    joints.reverse()
+    tree = load_tree(path, base_link, urdf=urdf)
+    if tool_frame not in tree.links:
+        raise InputError(f"{path}: {tool_frame!r} is not connected to {base_link!r} by a chain of joints")
+    joints = tree.path(tool_frame)
     if not joints:
         raise InputError(f"{path}: tool_frame {tool_frame!r} is the base link: no chain")
-    names, types, parents, children = [], [], [], []
-    jrot, jpos, jaxis, qidx = [], [], [], []
-    nq = 0
+    qidx, nq = [], 0
     for j in joints:
         if j.type not in ACTUATED + ("fixed",):
             raise InputError(
                 f"{path}: joint {j.name!r} on the chain is {j.type!r}; "
                 f"only revolute, continuous and fixed joints are supported"
             )
-        T = np.eye(4) if j.origin is None else np.asarray(j.origin, float)
-        names.append(j.name)
-        types.append(j.type)
-        parents.append(j.parent)
-        children.append(j.child)
-        jrot.append(T[:3, :3])
-        jpos.append(T[:3, 3])
-        if j.type in ACTUATED:
-            ax = np.asarray(j.axis if j.axis is not None else [1.0, 0.0, 0.0], float)
-            n = np.linalg.norm(ax)
-            if not np.isfinite(n) or n == 0:
-                raise InputError(f"{path}: joint {j.name!r} has a zero axis")
-            jaxis.append(ax / n)
-            nq += 1
-            qidx.append(nq)
-        else:
-            jaxis.append(np.zeros(3))
-            qidx.append(0)
+        if j.mimic is not None:
+            raise InputError(
+                f"{path}: joint {j.name!r} on the chain mimics {j.mimic[0]!r}; a serial-chain model takes "
+                f"independent joints (use absolute measurements, section 6, for coupled joints)"
+            )
+        nq += j.type in ACTUATED
+        qidx.append(nq if j.type in ACTUATED else 0)
     if nq == 0:
         raise InputError(f"{path}: no revolute joint between {base_link!r} and {tool_frame!r}")
     return Chain(
-        joint_names=names,
-        joint_types=types,
-        parents=parents,
-        children=children,
-        jrot=np.array(jrot),
-        jpos=np.array(jpos),
-        jaxis=np.array(jaxis),
+        joint_names=[j.name for j in joints],
+        joint_types=[j.type for j in joints],
+        parents=[j.parent for j in joints],
+        children=[j.child for j in joints],
+        jrot=np.array([j.origin[:3, :3] for j in joints]),
+        jpos=np.array([j.origin[:3, 3] for j in joints]),
+        jaxis=np.array([j.axis for j in joints]),
         qidx=np.array(qidx, dtype=np.int32),
         base_link=base_link,
         tool_frame=tool_frame,
