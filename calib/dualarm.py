@@ -23,7 +23,16 @@ DUALARM_JOINTS: list[tuple] = [
     ("torso_1", "revolute", "base_link", "torso_link1", (0, 0, 0.45), (0, 0, 0), (0, 0, 1), None),
     ("torso_2", "revolute", "torso_link1", "torso_link2", (0, 0, 0.10), (0, 0, 0), (0, -1, 0), None),
     ("torso_3", "revolute", "torso_link2", "torso_link3", (0, 0, 0.40), (0, 0, 0), (0, -1, 0), None),
-    ("torso_4a", "revolute", "torso_link3", "torso_link4a", (0, 0, 0.40), (0, 0, 0), (0, -1, 0), ("torso_2", -1.0, 0.0)),
+    (
+        "torso_4a",
+        "revolute",
+        "torso_link3",
+        "torso_link4a",
+        (0, 0, 0.40),
+        (0, 0, 0),
+        (0, -1, 0),
+        ("torso_2", -1.0, 0.0),
+    ),
     ("torso_4b", "revolute", "torso_link4a", "chest", (0, 0, 0), (0, 0, 0), (0, -1, 0), ("torso_3", -1.0, 0.0)),
 ]
 
