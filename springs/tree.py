@@ -27,14 +27,13 @@ singular matrix, and ``rank`` says how many directions remain elastic.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from .._core import springs as core
 from ..errors import InputError
+from ..io.linkjson import read_link_compliance
 
 __all__ = [
     "Spring",
@@ -55,18 +54,8 @@ __all__ = [
 OP_SPRING, OP_JOINT, OP_SERIES, OP_PARALLEL = 1, 2, 3, 4
 _JOINT_TYPES = {"revolute": 1, "prismatic": 2}
 
-
-def load_link_compliance(path: str | Path) -> np.ndarray:
-    """6x6 compliance (SI) from a ``stiffkit link`` JSON file (key "compliance")."""
-    path = Path(path)
-    with open(path) as fh:
-        data = json.load(fh)
-    if "compliance" not in data:
-        raise InputError(f"{path}: no 'compliance' key (expected a `stiffkit link` JSON result)")
-    c = np.asarray(data["compliance"], dtype=float)
-    if c.shape != (6, 6):
-        raise InputError(f"{path}: 'compliance' must be 6x6, got {c.shape}")
-    return c
+#: 6x6 compliance (SI) of a ``stiffkit link`` JSON result (stiffkit.io.linkjson)
+load_link_compliance = read_link_compliance
 
 
 def _as_pose(a, shape, name) -> np.ndarray:
