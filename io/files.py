@@ -24,6 +24,7 @@ __all__ = [
     "atomic_write_text",
     "write_json",
     "save_figure",
+    "pyplot",
 ]
 
 
@@ -86,3 +87,14 @@ def save_figure(fig, path, **kwargs) -> Path:
     with atomic_open(path, "wb") as fh:
         fig.savefig(fh, **kwargs)
     return path
+
+
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend, imported on first use
+    (matplotlib is heavy and only the writers of figures need it)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
