@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..field import LOAD_NAMES, Compliance
-from ..io.files import atomic_path, save_figure, write_json
+from ..io.files import atomic_path, pyplot, save_figure, write_json
 from ..meshing import Mesh
 from ..version import __version__
 from .config import LinkJob
@@ -189,11 +189,7 @@ class LinkResult:
 
     def write_residual_png(self, path) -> Path:
         """Histograms of the fit residuals per load case (paper Fig. 3)."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
+        plt = pyplot()
         path = Path(path)
         fig, axes = plt.subplots(2, 3, figsize=(11, 6))
         for j, ax in enumerate(axes.ravel()):
