@@ -5,16 +5,12 @@ parallel robots (``springs``) and the robot model's ``value = "link.json"``
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 import numpy as np
 
 from ..errors import InputError
+from .tables import read_json
 
 __all__ = ["read_link_compliance"]
-
-EXPECTED = "expected a `stiffkit link` JSON result"
 
 
 def read_link_compliance(path, where: str = "") -> np.ndarray:
@@ -25,16 +21,10 @@ def read_link_compliance(path, where: str = "") -> np.ndarray:
     file for a missing or unreadable file, invalid JSON, a missing key, a
     shape other than 6x6 or a NaN/Inf.
     """
-    path = Path(path)
+    data = read_json(path, "`stiffkit link` JSON", where)
     at = f"{where}: {path}" if where else str(path)
-    if not path.is_file():
-        raise InputError(f"{at}: no such file ({EXPECTED})")
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{at}: cannot read it as JSON ({exc})") from None
     if not isinstance(data, dict) or "compliance" not in data:
-        raise InputError(f"{at}: no 'compliance' key ({EXPECTED})")
+        raise InputError(f"{at}: no 'compliance' key (expected a `stiffkit link` JSON result)")
     try:
         c = np.asarray(data["compliance"], dtype=float)
     except (TypeError, ValueError):

@@ -9,7 +9,6 @@ when the table carries a value) and a virtual spring of the chain.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +18,7 @@ from .._core import calib as core
 from .._core.springs import rotate6
 from ..errors import InputError
 from ..io.linkjson import read_link_compliance
+from ..io.tables import read_toml
 from .indices import stiffness_indices_where
 from .urdf import Chain, load_chain
 
@@ -461,12 +461,7 @@ def load_model(path) -> Model:
     whose effects all carry values.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such model file")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    doc = read_toml(path, "model")
     robot = doc.get("robot")
     if not isinstance(robot, dict) or "urdf" not in robot:
         raise InputError(f'{path}: missing [robot] table with urdf = "robot.urdf"')

@@ -16,7 +16,6 @@ NODE is ``{"series": [NODE, ...]}``, ``{"parallel": [NODE, ...]}``,
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +23,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.linkjson import read_link_compliance
+from ..io.tables import read_json
 from .tree import Joint, Node, Spring, TreeResult, evaluate, parallel, series
 
 __all__ = ["TreeFile", "parse_node", "load_tree"]
@@ -81,11 +81,8 @@ class TreeFile:
 def load_tree(path) -> TreeFile:
     """Read a tree JSON file; InputError naming the file or the node for bad input."""
     path = Path(path)
-    try:
-        spec = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not valid JSON ({exc})") from None
-    if "tree" not in spec:
+    spec = read_json(path, "tree JSON")
+    if not isinstance(spec, dict) or "tree" not in spec:
         raise InputError(f"{path}: no 'tree' key (see stiffkit robot tree --help)")
     return TreeFile(
         path=path,
