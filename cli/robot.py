@@ -92,12 +92,12 @@ def register(sub) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     rs = p.add_subparsers(dest="robot", metavar="MODEL")
-    o = rs.add_parser(
+    o = _command(
+        rs,
         "orthoglide",
-        help="Orthoglide compliance and workspace map",
-        description="Orthoglide (Pashkevich et al. 2009 s5) compliance.",
-        epilog=HELP_ORTHOGLIDE,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "Orthoglide compliance and workspace map",
+        "Orthoglide (Pashkevich et al. 2009 s5) compliance.",
+        HELP_ORTHOGLIDE,
     )
     o.add_argument("--point", default="0,0,0", help="tool point x,y,z in mm (isotropic point 0,0,0)")
     o.add_argument("--links", default="beam", choices=["beam", "fea"], help="Table 7 link data")
@@ -113,12 +113,12 @@ def register(sub) -> None:
     o.add_argument("--json", help="write results to this JSON file")
     o.set_defaults(func=run_orthoglide)
 
-    s = rs.add_parser(
+    s = _command(
+        rs,
         "smg",
-        help="McGill SMG stiffness indices along the test trajectory",
-        description="McGill SMG (Taghvaeipour et al. 2010) stiffness indices.",
-        epilog=HELP_SMG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "McGill SMG stiffness indices along the test trajectory",
+        "McGill SMG (Taghvaeipour et al. 2010) stiffness indices.",
+        HELP_SMG,
     )
     s.add_argument("--postures", type=int, default=401, help="points along the trajectory")
     s.add_argument(
@@ -133,12 +133,12 @@ def register(sub) -> None:
     s.add_argument("--json", help="write results to this JSON file")
     s.set_defaults(func=run_smg)
 
-    t = rs.add_parser(
+    t = _command(
+        rs,
         "tree",
-        help="tool stiffness of a JSON tree of springs and joints",
-        description="Evaluate a tree of generalised springs and joints.",
-        epilog=HELP_TREE,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "tool stiffness of a JSON tree of springs and joints",
+        "Evaluate a tree of generalised springs and joints.",
+        HELP_TREE,
     )
     t.add_argument("tree", help="TREE.json (see below)")
     t.add_argument(
@@ -147,6 +147,12 @@ def register(sub) -> None:
     t.add_argument("--json", help="write results to this JSON file")
     t.set_defaults(func=run_tree)
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
+
+
+def _command(rs, name: str, help: str, description: str, epilog: str):
+    return rs.add_parser(
+        name, help=help, description=description, epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
 
 
 def _add_link_file(parser, text: str) -> None:
