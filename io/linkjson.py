@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from .tables import read_json
+from .tables import matrix6, read_json
 
 __all__ = ["read_link_compliance"]
 
@@ -25,12 +25,4 @@ def read_link_compliance(path, where: str = "") -> np.ndarray:
     at = f"{where}: {path}" if where else str(path)
     if not isinstance(data, dict) or "compliance" not in data:
         raise InputError(f"{at}: no 'compliance' key (expected a `stiffkit link` JSON result)")
-    try:
-        c = np.asarray(data["compliance"], dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{at}: 'compliance' must be 6 rows of 6 numbers") from None
-    if c.shape != (6, 6):
-        raise InputError(f"{at}: 'compliance' must be 6x6, got shape {c.shape}")
-    if not np.all(np.isfinite(c)):
-        raise InputError(f"{at}: 'compliance' contains NaN or Inf")
-    return c
+    return matrix6(data["compliance"], f"{at}: 'compliance'")

@@ -71,6 +71,21 @@ def parse_vector(text: str, n: int, what: str) -> np.ndarray:
     return v
 
 
+def matrix6(value, name: str, hint: str = "") -> np.ndarray:
+    """A 6x6 matrix of finite floats from ``value`` (nested lists or an
+    array), or InputError naming ``name`` (e.g. "file.json: 'compliance'");
+    ``hint`` follows the message of a value that is not numbers."""
+    try:
+        m = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be 6 rows of 6 numbers{hint}") from None
+    if m.shape != (6, 6):
+        raise InputError(f"{name} must be 6x6, got shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise InputError(f"{name} contains NaN or Inf")
+    return m
+
+
 def _document(path, what: str, where: str, error, kind: str, parse, errors):
     path = Path(path)
     at = f"{where}: {path}" if where else str(path)

@@ -18,7 +18,7 @@ from .._core import calib as core
 from .._core.springs import rotate6
 from ..errors import InputError
 from ..io.linkjson import read_link_compliance
-from ..io.tables import read_toml
+from ..io.tables import matrix6, read_toml
 from .indices import stiffness_indices_where
 from .urdf import Chain, load_chain
 
@@ -267,14 +267,7 @@ def _where(path, i, table) -> str:
 
 
 def _matrix6(v, where) -> np.ndarray:
-    try:
-        C = np.array(v, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: value must be 6 rows of 6 numbers or a JSON file name") from None
-    if C.shape != (6, 6):
-        raise InputError(f"{where}: value must be a 6x6 matrix, got shape {C.shape}")
-    if not np.all(np.isfinite(C)):
-        raise InputError(f"{where}: value contains NaN or Inf")
+    C = matrix6(v, f"{where}: value", " or a JSON file name")
     if np.abs(C - C.T).max() > 1e-9 * max(np.abs(C).max(), 1e-300):
         raise InputError(f"{where}: value must be symmetric (max |C - C^T| = {np.abs(C - C.T).max():.3g})")
     return 0.5 * (C + C.T)

@@ -34,6 +34,7 @@ import numpy as np
 from .._core import springs as core
 from ..errors import InputError
 from ..io.linkjson import read_link_compliance
+from ..io.tables import matrix6
 
 __all__ = [
     "Spring",
@@ -76,11 +77,7 @@ class Spring:
     name: str = ""
 
     def __post_init__(self):
-        m = np.asarray(self.matrix, dtype=float)
-        if m.shape != (6, 6):
-            raise InputError(f"spring {self.name!r}: matrix must be 6x6, got {m.shape}")
-        if not np.all(np.isfinite(m)):
-            raise InputError(f"spring {self.name!r}: matrix contains NaN or Inf")
+        m = matrix6(self.matrix, f"spring {self.name!r}: matrix")
         if self.kind not in ("compliance", "stiffness"):
             raise InputError(f"spring {self.name!r}: kind must be 'compliance' or 'stiffness'")
         self.matrix = m
