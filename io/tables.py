@@ -80,7 +80,7 @@ def matrix6(value, name: str, hint: str = "") -> np.ndarray:
     except (TypeError, ValueError):
         raise InputError(f"{name} must be 6 rows of 6 numbers{hint}") from None
     if m.shape != (6, 6):
-        raise InputError(f"{name} must be 6x6, got shape {m.shape}")
+        raise InputError(f"{name} must be a 6x6 matrix, got shape {m.shape}")
     if not np.all(np.isfinite(m)):
         raise InputError(f"{name} contains NaN or Inf")
     return m

@@ -77,7 +77,7 @@ class Spring:
     name: str = ""
 
     def __post_init__(self):
-        m = matrix6(self.matrix, f"spring {self.name!r}: matrix")
+        m = matrix6(self.matrix, f"spring {self.name!r}")
         if self.kind not in ("compliance", "stiffness"):
             raise InputError(f"spring {self.name!r}: kind must be 'compliance' or 'stiffness'")
         self.matrix = m

@@ -30,7 +30,7 @@ def test_reader_returns_the_compliance(tmp_path):
         (None, "no such `stiffkit link` JSON file"),
         ("{", "not valid JSON"),
         ('{"stiffness": 1}', "no 'compliance' key"),
-        ('{"compliance": [[1, 2], [3, 4]]}', r"must be 6x6, got shape \(2, 2\)"),
+        ('{"compliance": [[1, 2], [3, 4]]}', r"must be a 6x6 matrix, got shape \(2, 2\)"),
         ('{"compliance": [["a"]]}', "6 rows of 6 numbers"),
         (json.dumps({"compliance": [[float("nan")] * 6] * 6}), "NaN or Inf"),
     ],
