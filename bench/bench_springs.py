@@ -213,9 +213,9 @@ class _CoreTimer:
     """Times the f2py call itself inside evaluate() (the rest is argument packing)."""
 
     def __init__(self):
-        from stiffkit.springs import tree
+        from stiffkit._core import springs as core
 
-        self.mod, self.orig, self.t = tree._springs, tree._springs.sk_spring_tree, 0.0
+        self.mod, self.orig, self.t = core._springs, core._springs.sk_spring_tree, 0.0
 
     def __enter__(self):
         def timed(*a):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from . import _springs
 from .errors import check
 
@@ -52,3 +53,25 @@ def stiffness_indices(k: np.ndarray, lscale: float) -> tuple:
         {6: f"lscale must be > 0, got {lscale}", 2: "the stiffness contains NaN or Inf"},
     )
     return kt, kr, lf.T, ln.T
+
+
+def rotate6(rot: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """diag(R,R) c diag(R,R)^T: a 6x6 compliance or stiffness given in a
+    frame whose axes are the columns of R, expressed in the outer frame
+    (sk_spatial::rotate6). One (3,3) and (6,6), or N of each: (N,3,3), (N,6,6);
+    one R may serve N matrices and one matrix N rotations."""
+    rot = np.asarray(rot, dtype=float)
+    c = np.asarray(c, dtype=float)
+    if rot.shape[-2:] != (3, 3) or c.shape[-2:] != (6, 6) or rot.ndim > 3 or c.ndim > 3:
+        raise InputError(f"rotate6: rot must be (3,3) or (N,3,3) and c (6,6) or (N,6,6), got {rot.shape}, {c.shape}")
+    single = rot.ndim == 2 and c.ndim == 2
+    n = max(rot.shape[0] if rot.ndim == 3 else 1, c.shape[0] if c.ndim == 3 else 1)
+    try:
+        r3 = np.broadcast_to(rot, (n, 3, 3))
+        c3 = np.broadcast_to(c, (n, 6, 6))
+    except ValueError:
+        raise InputError(f"rotate6: {rot.shape[0]} rotations for {c.shape[0]} matrices") from None
+    cr, info = _springs.sk_rotate6(np.moveaxis(r3, 0, 2), np.moveaxis(c3, 0, 2))
+    check(info, "rotate6 (sk_rotate6)", {2: "a rotation or a 6x6 matrix contains NaN or Inf"})
+    cr = np.moveaxis(cr, 2, 0)
+    return cr[0] if single else cr

@@ -13,6 +13,7 @@ import importlib
 import sys
 
 from ..errors import StiffkitError
+from ..version import __version__
 
 # (module, one-line summary); the module's register() builds the parser
 COMMANDS = [
@@ -49,8 +50,6 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    from ..version import __version__
-
     parser.add_argument("--version", action="version", version=f"stiffkit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for modname, _summary in COMMANDS:

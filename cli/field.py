@@ -9,13 +9,10 @@ the compliance matrix with confidence intervals and zero-element tests.
 from __future__ import annotations
 
 import argparse
-import json
 
-import numpy as np
-
-from ..errors import InputError
-from ..field import DOF_NAMES, compliance_from_experiments, fit_fields
-from ..io.tables import parse_vector, read_columns
+from ..field.cases import axis_wrenches, read_fields, read_wrenches
+from ..field.report import field_report
+from ..io.tables import parse_vector
 
 HELP = """\
 inputs:
@@ -62,53 +59,24 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    nodes = read_columns(args.nodes, ["x", "y", "z"], "node")
-    disp = []
-    for f in args.fields:
-        d = read_columns(f, ["ux", "uy", "uz"], "displacement")
-        if d.shape != nodes.shape:
-            raise InputError(f"{f}: {d.shape[0]} displacement rows for {nodes.shape[0]} nodes in {args.nodes}")
-        disp.append(d)
-    ref = parse_vector(args.reference, 3, "--reference")
-    fits = fit_fields(nodes, np.array(disp), ref, method=args.method, trim=args.trim, pooled=True)
-    print(
-        f"{len(fits)} field(s), {nodes.shape[0]} nodes, method {args.method}, "
-        f"pooled noise sigma = {fits[0].sigma:.3e} m"
-    )
-    print(f"{'case':>4s} " + " ".join(f"{n:>13s}" for n in DOF_NAMES) + "   used")
-    for j, fit in enumerate(fits, 1):
-        print(f"{j:4d} " + " ".join(f"{v:13.5e}" for v in fit.deflection) + f"  {fit.n_used:5d}")
-    out = {
-        "sigma_m": fits[0].sigma,
-        "fits": [
-            {"t": f.t.tolist(), "phi": f.phi.tolist(), "cov": f.cov.tolist(), "nodes_used": f.n_used} for f in fits
-        ],
-    }
+    nodes, disp = read_fields(args.nodes, args.fields)
     wrenches = None
     if args.loads:
-        loads = parse_vector(args.loads, 6, "--loads")
-        if len(fits) != 6:
-            raise InputError(f"--loads describes six axis-aligned cases, got {len(fits)} displacement files")
-        wrenches = np.diag(loads)
+        wrenches = axis_wrenches(parse_vector(args.loads, 6, "--loads"), len(args.fields))
     elif args.wrenches:
-        wrenches = read_columns(args.wrenches, ["fx", "fy", "fz", "mx", "my", "mz"], "wrench")
-        if wrenches.shape[0] != len(fits):
-            raise InputError(f"{args.wrenches}: {wrenches.shape[0]} wrenches for {len(fits)} load cases")
-    if wrenches is not None:
-        comp = compliance_from_experiments(wrenches, fits, confidence=args.confidence, symmetrize=args.symmetrize)
-        print()
-        print(comp.table())
-        out.update(
-            {
-                "compliance": comp.matrix.tolist(),
-                "compliance_std": comp.std.tolist(),
-                "significant": comp.significant.tolist(),
-                "symmetry_error": comp.asymmetry,
-                "stiffness": None if comp.stiffness is None else comp.stiffness.tolist(),
-            }
-        )
+        wrenches = read_wrenches(args.wrenches, len(args.fields))
+    rep = field_report(
+        nodes,
+        disp,
+        parse_vector(args.reference, 3, "--reference"),
+        method=args.method,
+        trim=args.trim,
+        wrenches=wrenches,
+        confidence=args.confidence,
+        symmetrize=args.symmetrize,
+    )
+    print(rep.text())
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+        rep.write_json(args.json)
         print(f"wrote {args.json}")
     return 0

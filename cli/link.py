@@ -10,12 +10,11 @@ compliance with confidence intervals, non-significant elements as '0'.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from ..fea.config import load_link
-from ..fea.job import atomic_write_text, run_link
+from ..fea.job import run_link
 
 HELP = """\
 LINK.toml (format: docs/link.md; lengths in geometry.units):
@@ -78,24 +77,16 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-
     job = load_link(args.link)
     if args.route:
         job.route = args.route
     job = job.with_mesh(order=args.order, size=args.size)
     say = None if args.quiet else (lambda m: print(f"  .. {m}", file=sys.stderr, flush=True))
     res = run_link(job, cache_dir=None if args.no_cache else args.cache, progress=say)
-    m = res.mesh
-    print(
-        f"{Path(args.link).name}: {m.n_nodes} nodes, {m.n_elements} {m.ccx_type} "
-        f"({m.mesher}, {job.size:g} {job.units}), route {res.solution.route}"
-        f"{' (cached)' if res.cached else ''}; field {job.region}: {res.field_nodes.size} nodes; "
-        f"sigma = {res.compliance.sigma:.3e} m"
-    )
-    print(f"time: mesh {res.timing['mesh']:.1f} s, FEA {res.timing['fea']:.1f} s, fit {res.timing['fit']:.3f} s")
+    print(res.summary(Path(args.link).name))
     print(res.table())
     if args.json:
-        atomic_write_text(args.json, json.dumps(res.to_json(), indent=1))
+        res.write_json(args.json)
         print(f"wrote {args.json}")
     if args.vtu:
         print(f"wrote {res.write_vtu(args.vtu)}")

@@ -40,3 +40,28 @@ subroutine sk_stiffness_indices(np, k, lscale, kt, kr, lamf, lamn, info)
         if (info /= sk_ok) return
     end do
 end subroutine sk_stiffness_indices
+
+!> Compliances (or stiffnesses) c[6,6,n], each given in a frame whose axes
+!> are the columns of rot[3,3,n], expressed in the outer frame:
+!> diag(R,R) c diag(R,R)^T (sk_spatial::rotate6).
+subroutine sk_rotate6(n, rot, c, cr, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok, sk_err_nonfinite
+    use sk_linalg, only: all_finite
+    use sk_spatial, only: rotate6
+    implicit none
+    integer(c_int), intent(in) :: n
+    real(c_double), intent(in) :: rot(3, 3, n), c(6, 6, n)
+    real(c_double), intent(out) :: cr(6, 6, n)
+    integer(c_int), intent(out) :: info
+    integer :: i
+    cr = 0.0_c_double
+    if (.not. (all_finite(rot) .and. all_finite(c))) then
+        info = sk_err_nonfinite
+        return
+    end if
+    do i = 1, n
+        cr(:, :, i) = rotate6(rot(:, :, i), c(:, :, i))
+    end do
+    info = sk_ok
+end subroutine sk_rotate6

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import StiffkitError
+from ..io.files import atomic_open
 
 LOAD_LABELS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
@@ -98,8 +99,7 @@ def write_static_deck(
     amps = np.asarray(amplitudes, dtype=float)
     n = mesh.n_nodes
     ref, rot = n + 1, (n + 2 if coupling == "rigid" else None)
-    tmp = path.with_suffix(".inp.tmp")
-    with open(tmp, "w") as fh:
+    with atomic_open(path) as fh:
         fh.write("** stiffkit: six unit-direction load cases at a reference point\n")
         _write_mesh(fh, mesh.nodes, mesh.elements, mesh.ccx_type)
         p = reference_point
@@ -127,7 +127,6 @@ def write_static_deck(
             fh.write("*NODE PRINT, NSET=NALL\nU\n" if print_all else "*NODE PRINT, NSET=NLOAD\nU\n")
             fh.write("*NODE PRINT, NSET=NREF\nU\n")
             fh.write("*END STEP\n")
-    os.replace(tmp, path)
     return StaticDeck(path=path, ref_node=ref, rot_node=rot, amplitudes=amps)
 
 
@@ -135,14 +134,12 @@ def write_matrix_deck(path, mesh, E: float, nu: float, density: float, fixed_nod
     """Deck whose only step writes the assembled stiffness (and mass)
     matrices: *FREQUENCY, SOLVER=MATRIXSTORAGE (needs *DENSITY)."""
     path = Path(path)
-    tmp = path.with_suffix(".inp.tmp")
-    with open(tmp, "w") as fh:
+    with atomic_open(path) as fh:
         fh.write("** stiffkit: assembled stiffness for the CHOLMOD route\n")
         _write_mesh(fh, mesh.nodes, mesh.elements, mesh.ccx_type)
         _write_set(fh, "NSET", "NFIX", fixed_nodes)
         _write_material(fh, E, nu, density)
         fh.write("*BOUNDARY\nNFIX, 1, 3\n*STEP\n*FREQUENCY, SOLVER=MATRIXSTORAGE\n1\n*END STEP\n")
-    os.replace(tmp, path)
     return path
 
 

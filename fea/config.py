@@ -13,12 +13,8 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-try:  # Python >= 3.11
-    import tomllib
-except ImportError:  # pragma: no cover
-    import tomli as tomllib  # type: ignore
-
 from ..errors import InputError
+from ..io.tables import read_toml
 
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
 PLANES = ("x-min", "x-max", "y-min", "y-max", "z-min", "z-max")
@@ -357,10 +353,5 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
 def load_link(path) -> LinkJob:
     """Read and check LINK.toml (see the module docstring)."""
     p = Path(path)
-    if not p.is_file():
-        raise ConfigError(f"{p}: no such LINK.toml file")
-    try:
-        data = tomllib.loads(p.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: not valid TOML ({exc})") from None
+    data = read_toml(p, "LINK.toml", error=ConfigError)
     return parse_link(data, str(p), p.resolve().parent)

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import csv
+import json
 import math
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -67,3 +69,41 @@ def parse_vector(text: str, n: int, what: str) -> np.ndarray:
     if v.shape != (n,):
         raise InputError(f"{what}: expected {n} comma-separated numbers, got {v.size}")
     return v
+
+
+def matrix6(value, name: str, hint: str = "") -> np.ndarray:
+    """A 6x6 matrix of finite floats from ``value`` (nested lists or an
+    array), or InputError naming ``name`` (e.g. "file.json: 'compliance'");
+    ``hint`` follows the message of a value that is not numbers."""
+    try:
+        m = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be 6 rows of 6 numbers{hint}") from None
+    if m.shape != (6, 6):
+        raise InputError(f"{name} must be a 6x6 matrix, got shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise InputError(f"{name} contains NaN or Inf")
+    return m
+
+
+def _document(path, what: str, where: str, error, kind: str, parse, errors):
+    path = Path(path)
+    at = f"{where}: {path}" if where else str(path)
+    if not path.is_file():
+        raise error(f"{at}: no such {what} file")
+    try:
+        return parse(path.read_text())
+    except (UnicodeDecodeError, *errors) as exc:
+        raise error(f"{at}: not valid {kind} ({exc})") from None
+
+
+def read_json(path, what: str, where: str = "", error: type[InputError] = InputError):
+    """The JSON document in ``path``; ``error`` (InputError by default)
+    naming ``where`` (the caller's context, if any) and the file when it is
+    missing or not JSON; ``what`` names the kind of file in the message."""
+    return _document(path, what, where, error, "JSON", json.loads, (json.JSONDecodeError,))
+
+
+def read_toml(path, what: str, where: str = "", error: type[InputError] = InputError) -> dict:
+    """The TOML document in ``path``, with the messages of :func:`read_json`."""
+    return _document(path, what, where, error, "TOML", tomllib.loads, (tomllib.TOMLDecodeError,))

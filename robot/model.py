@@ -8,16 +8,17 @@ when the table carries a value) and a virtual spring of the chain.
 
 from __future__ import annotations
 
-import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .._core import calib as core
+from .._core.springs import rotate6
 from ..errors import InputError
+from ..io.linkjson import read_link_compliance
+from ..io.tables import matrix6, read_toml
 from .indices import stiffness_indices_where
 from .urdf import Chain, load_chain
 
@@ -266,43 +267,27 @@ def _where(path, i, table) -> str:
 
 
 def _matrix6(v, where) -> np.ndarray:
-    try:
-        C = np.array(v, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: value must be 6 rows of 6 numbers or a JSON file name") from None
-    if C.shape != (6, 6):
-        raise InputError(f"{where}: value must be a 6x6 matrix, got shape {C.shape}")
-    if not np.all(np.isfinite(C)):
-        raise InputError(f"{where}: value contains NaN or Inf")
+    C = matrix6(v, f"{where}: value", " or a JSON file name")
     if np.abs(C - C.T).max() > 1e-9 * max(np.abs(C).max(), 1e-300):
         raise InputError(f"{where}: value must be symmetric (max |C - C^T| = {np.abs(C - C.T).max():.3g})")
     return 0.5 * (C + C.T)
 
 
 def _six_value(table, base_dir, where) -> np.ndarray:
+    """The known 6x6 compliance of a link/base/tool effect: ``value`` as 6
+    rows of 6 numbers or the name of a ``stiffkit link`` JSON result, in the
+    spring frame's axes, or in axes turned by ``rpy`` from them."""
     v = table["value"]
     if isinstance(v, str):
         f = (base_dir / v) if not Path(v).is_absolute() else Path(v)
-        if not f.is_file():
-            raise InputError(f"{where}: value file {f} not found")
-        try:
-            data = json.loads(f.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise InputError(f"{where}: cannot read {f} as JSON ({exc})") from None
-        if "compliance" not in data:
-            raise InputError(f"{where}: {f} has no key 'compliance' (expected the output of stiffkit link)")
-        C = _matrix6(data["compliance"], f"{where}: {f}")
+        C = _matrix6(read_link_compliance(f, where), f"{where}: {f}")
     else:
         C = _matrix6(v, where)
     if "rpy" in table:
         rpy = table["rpy"]
         if not (isinstance(rpy, list) and len(rpy) == 3):
             raise InputError(f"{where}: rpy must be [r, p, y]")
-        R = rpy_matrix(rpy)
-        B = np.zeros((6, 6))
-        B[:3, :3] = R
-        B[3:, 3:] = R
-        C = B @ C @ B.T
+        C = rotate6(rpy_matrix(rpy), C)
     return C
 
 
@@ -469,12 +454,7 @@ def load_model(path) -> Model:
     whose effects all carry values.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such model file")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    doc = read_toml(path, "model")
     robot = doc.get("robot")
     if not isinstance(robot, dict) or "urdf" not in robot:
         raise InputError(f'{path}: missing [robot] table with urdf = "robot.urdf"')

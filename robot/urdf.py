@@ -15,6 +15,7 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
+from ..field.synthetic import rot_exp
 from .tree import load_tree, parse_urdf
 
 ACTUATED = ("revolute", "continuous")
@@ -141,9 +142,8 @@ class Chain:
 
 
 def _rot_axis(axis, angle) -> np.ndarray:
-    a = np.asarray(axis, float)
-    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+    """Rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
+    return rot_exp(np.asarray(axis, float) * angle)
 
 
 def load_chain(urdf_path: str | Path, base_link: str = "base_link", tool_frame: str = "tool0") -> Chain:

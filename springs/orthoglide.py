@@ -167,7 +167,7 @@ def link_compliances(
     for name, path in (files or {}).items():
         if name not in out:
             raise InputError(f"unknown Orthoglide link {name!r}: use foot, axle or bar")
-        out[name] = load_link_compliance(path)
+        out[name] = load_link_compliance(path, f"{name} link")
     return out
 
 

@@ -65,7 +65,7 @@ def smg_links(files: dict | None = None) -> dict:
     for name, path in (files or {}).items():
         if name not in out:
             raise InputError(f"unknown SMG link {name!r}: use proximal or distal")
-        out[name] = load_link_compliance(path)
+        out[name] = load_link_compliance(path, f"{name} link")
     return out
 
 

@@ -27,14 +27,14 @@ singular matrix, and ``rank`` says how many directions remain elastic.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from .._core import springs as core
 from ..errors import InputError
+from ..io.linkjson import read_link_compliance
+from ..io.tables import matrix6
 
 __all__ = [
     "Spring",
@@ -55,18 +55,8 @@ __all__ = [
 OP_SPRING, OP_JOINT, OP_SERIES, OP_PARALLEL = 1, 2, 3, 4
 _JOINT_TYPES = {"revolute": 1, "prismatic": 2}
 
-
-def load_link_compliance(path: str | Path) -> np.ndarray:
-    """6x6 compliance (SI) from a ``stiffkit link`` JSON file (key "compliance")."""
-    path = Path(path)
-    with open(path) as fh:
-        data = json.load(fh)
-    if "compliance" not in data:
-        raise InputError(f"{path}: no 'compliance' key (expected a `stiffkit link` JSON result)")
-    c = np.asarray(data["compliance"], dtype=float)
-    if c.shape != (6, 6):
-        raise InputError(f"{path}: 'compliance' must be 6x6, got {c.shape}")
-    return c
+#: 6x6 compliance (SI) of a ``stiffkit link`` JSON result (stiffkit.io.linkjson)
+load_link_compliance = read_link_compliance
 
 
 def _as_pose(a, shape, name) -> np.ndarray:
@@ -87,11 +77,7 @@ class Spring:
     name: str = ""
 
     def __post_init__(self):
-        m = np.asarray(self.matrix, dtype=float)
-        if m.shape != (6, 6):
-            raise InputError(f"spring {self.name!r}: matrix must be 6x6, got {m.shape}")
-        if not np.all(np.isfinite(m)):
-            raise InputError(f"spring {self.name!r}: matrix contains NaN or Inf")
+        m = matrix6(self.matrix, f"spring {self.name!r}")
         if self.kind not in ("compliance", "stiffness"):
             raise InputError(f"spring {self.name!r}: kind must be 'compliance' or 'stiffness'")
         self.matrix = m

@@ -1,0 +1,167 @@
+"""The cache of FEA solutions: a key that hashes everything that determines
+the six displacement fields, verified loads and atomic stores.
+
+An entry is ``<key>.npz`` in the cache folder; the field fit is recomputed
+from it on every run, so a rerun with other [field] or [fit] settings costs
+no FEA. An entry that cannot be read, or whose arrays do not fit together,
+is ignored (with a warning) and solved again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..io.files import atomic_open
+from ..meshing import Mesh
+from .config import LinkJob
+from .solve import FeaSolution, resolve_route, solve_fea
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["CACHE_VERSION", "cache_key", "store_solution", "load_solution", "fea_cached"]
+
+CACHE_VERSION = "fea-2"  # bump when the FEA results of a key change
+
+
+def _file_digest(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def cache_key(job: LinkJob, route: str) -> str:
+    """Hash of everything that determines the six displacement fields."""
+    geom = dict(job.geometry)
+    if "step" in geom:
+        geom = {"cad_sha256": _file_digest(geom["step"]), "suffix": Path(geom["step"]).suffix.lower()}
+    key = {
+        "v": CACHE_VERSION,
+        "geometry": geom,
+        "units": job.units,
+        "E": job.E,
+        "nu": job.nu,
+        "density": job.density if route == "matrix" else None,
+        "support": job.support_plane,
+        "load": job.load_plane,
+        "ref": job.reference_point,
+        "coupling": job.coupling,
+        "amplitudes": job.amplitudes,
+        "mesher": job.mesher,
+        "order": job.order,
+        "size": job.size,
+        "refine": job.refine,
+        "refine_radius": job.refine_radius,
+        "route": route,
+        "tol": job.plane_tolerance,
+        "optimize": job.optimize,
+    }
+    if job.structured:  # only then: keys of unstructured runs stay as they were
+        key["structured"] = True
+        key["across_factor"] = job.across_factor
+    return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
+
+
+def store_solution(path: Path, sol: FeaSolution, key: str | None = None) -> None:
+    """Write one entry atomically (a concurrent reader sees the old entry or the whole new one)."""
+    meta = {
+        "route": sol.route,
+        "timing": sol.timing,
+        "stats": sol.stats,
+        "mesher": sol.mesh.mesher,
+        "size_m": sol.mesh.size_m,
+        "mesh_info": sol.mesh.info,
+    }
+    if key is not None:
+        meta["key"] = key
+    with atomic_open(path, "wb") as fh:
+        np.savez(
+            fh,
+            nodes=sol.mesh.nodes,
+            elements=sol.mesh.elements,
+            U=sol.U,
+            amplitudes=sol.amplitudes,
+            ref=sol.ref_motion,
+            load=sol.load_nodes,
+            fixed=sol.fixed_nodes,
+            meta=np.array(json.dumps(meta)),
+        )
+
+
+def _check(sol: FeaSolution) -> None:
+    """ValueError unless the arrays of an entry fit together."""
+    n = sol.mesh.nodes.shape[0]
+    if sol.mesh.nodes.shape != (n, 3) or sol.U.shape != (6, n, 3):
+        raise ValueError(f"displacements {sol.U.shape} for nodes {sol.mesh.nodes.shape}")
+    if sol.amplitudes.shape != (6,) or sol.ref_motion.shape != (6, 6):
+        raise ValueError(f"amplitudes {sol.amplitudes.shape}, reference motion {sol.ref_motion.shape}")
+    for name, nodes in (("load", sol.load_nodes), ("fixed", sol.fixed_nodes)):
+        if nodes.ndim != 1 or nodes.size == 0 or nodes.min() < 1 or nodes.max() > n:
+            raise ValueError(f"{name} nodes outside 1..{n}")
+    if not (np.all(np.isfinite(sol.U)) and np.all(np.isfinite(sol.ref_motion))):
+        raise ValueError("displacements contain NaN or Inf")
+
+
+def load_solution(path: Path, key: str | None = None) -> FeaSolution | None:
+    """The entry at ``path``, or None (with a warning) when it cannot be
+    read, was stored under another key, or its arrays do not fit together."""
+    try:
+        with np.load(path) as z:
+            meta = json.loads(str(z["meta"]))
+            if key is not None and meta.get("key", key) != key:
+                raise ValueError(f"stored under key {meta['key']}")
+            mesh = Mesh(
+                nodes=z["nodes"],
+                elements=z["elements"],
+                mesher=meta["mesher"],
+                size_m=meta["size_m"],
+                info=meta.get("mesh_info", {}),
+            )
+            sol = FeaSolution(
+                mesh=mesh,
+                U=z["U"],
+                amplitudes=z["amplitudes"],
+                ref_motion=z["ref"],
+                load_nodes=z["load"],
+                fixed_nodes=z["fixed"],
+                route=meta["route"],
+                timing=meta["timing"],
+                stats=meta["stats"],
+            )
+        _check(sol)
+        return sol
+    except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
+        logger.warning("ignoring unreadable cache entry %s (%s)", path, exc)
+        return None
+
+
+def fea_cached(
+    job: LinkJob, cache_dir: Path | None, route: str | None = None, progress=None, workdir: Path | None = None
+) -> tuple[FeaSolution, bool, str]:
+    """FEA solution from the cache when present, else solved and stored:
+    (solution, cached, key)."""
+    route = route or resolve_route(job)
+    key = cache_key(job, route)
+    entry = cache_dir / f"{key}.npz" if cache_dir else None
+    if entry is not None and entry.is_file():
+        sol = load_solution(entry, key)
+        if sol is not None:
+            return sol, True, key
+    own = workdir is None
+    if own:
+        base = cache_dir if cache_dir is not None and cache_dir.exists() else None
+        workdir = Path(tempfile.mkdtemp(prefix=f"run-{key}-", dir=base))
+    sol = solve_fea(job, workdir, route, progress)
+    if own:  # on failure the folder stays for inspection
+        shutil.rmtree(workdir, ignore_errors=True)
+    if entry is not None:
+        store_solution(entry, sol, key)
+    return sol, False, key

@@ -1,0 +1,40 @@
+"""Load cases from CSV files (the input of ``stiffkit field``): the node
+positions, one displacement field per case, and the wrench of each case."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..io.tables import read_columns
+
+__all__ = ["read_fields", "axis_wrenches", "read_wrenches"]
+
+
+def read_fields(nodes_path, field_paths) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes (n, 3), displacements (m, n, 3)): NODES.csv with header x,y,z and
+    one DISP.csv with header ux,uy,uz per case, same nodes in the same order."""
+    nodes = read_columns(nodes_path, ["x", "y", "z"], "node")
+    disp = []
+    for f in field_paths:
+        d = read_columns(f, ["ux", "uy", "uz"], "displacement")
+        if d.shape != nodes.shape:
+            raise InputError(f"{f}: {d.shape[0]} displacement rows for {nodes.shape[0]} nodes in {nodes_path}")
+        disp.append(d)
+    return nodes, np.array(disp)
+
+
+def axis_wrenches(loads, n_cases: int) -> np.ndarray:
+    """The paper's six axis-aligned experiments (eq. 3): case j carries only
+    component j of ``loads`` (Fx, Fy, Fz, Mx, My, Mz)."""
+    if n_cases != 6:
+        raise InputError(f"--loads describes six axis-aligned cases, got {n_cases} displacement files")
+    return np.diag(np.asarray(loads, dtype=float))
+
+
+def read_wrenches(path, n_cases: int) -> np.ndarray:
+    """(m, 6) wrenches, one row per case, from a CSV with header fx,fy,fz,mx,my,mz."""
+    w = read_columns(path, ["fx", "fy", "fz", "mx", "my", "mz"], "wrench")
+    if w.shape[0] != n_cases:
+        raise InputError(f"{path}: {w.shape[0]} wrenches for {n_cases} load cases")
+    return w
