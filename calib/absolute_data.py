@@ -1,0 +1,238 @@
+"""Absolute measurements (docs/calibration.md section 6.3): where markers on
+the robot are, in the tracker's frame, one row per measured point.
+
+Columns: ``config`` (rows with the same label were measured in one posture),
+one column per actuated joint named as in the URDF (``q1..qN`` also accepted
+for a chain), ``frame`` (the link the point rides on; may be omitted when
+the model has one marker), ``x y z`` (m, tracker frame); optional
+``fx fy fz mx my mz`` (a payload wrench at the frame's origin, base axes,
+N and N m) and ``weight``. Every problem is named with the file, the line
+and the field.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..io.tables import parse_number
+
+__all__ = ["AbsoluteData", "read_absolute", "write_absolute", "WRENCH"]
+
+WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
+XYZ = ["x", "y", "z"]
+
+
+@dataclass
+class AbsoluteData:
+    """Rows of absolute measurements grouped into postures.
+
+    Q (np, ndof): the joint values of each posture (configuration), in the
+    order of ``joints``; rows: ``posture`` (n,) index into Q, ``frame`` (n,)
+    index into ``frames``, ``xyz`` (n, 3) measured points, ``weight`` (n,),
+    ``lines`` (n,) line numbers; ``payloads``: (posture, frame index,
+    wrench (6,)) per posture and frame that carries one."""
+
+    path: str
+    joints: list[str]
+    configs: list[str]
+    Q: np.ndarray
+    posture: np.ndarray
+    frame: np.ndarray
+    frames: list[str]
+    xyz: np.ndarray
+    weight: np.ndarray
+    lines: np.ndarray
+    payloads: list[tuple[int, int, np.ndarray]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def n(self) -> int:
+        return int(self.xyz.shape[0])
+
+    @property
+    def n_postures(self) -> int:
+        return int(self.Q.shape[0])
+
+    def subset(self, rows: np.ndarray) -> AbsoluteData:
+        """The rows ``rows`` (bool mask or indices), with the postures they use."""
+        rows = np.flatnonzero(rows) if np.asarray(rows).dtype == bool else np.asarray(rows, int)
+        used = np.unique(self.posture[rows])
+        remap = -np.ones(self.n_postures, int)
+        remap[used] = np.arange(used.size)
+        return AbsoluteData(
+            path=self.path,
+            joints=self.joints,
+            configs=[self.configs[k] for k in used],
+            Q=self.Q[used],
+            posture=remap[self.posture[rows]],
+            frame=self.frame[rows],
+            frames=self.frames,
+            xyz=self.xyz[rows],
+            weight=self.weight[rows],
+            lines=self.lines[rows],
+            payloads=[(int(remap[p]), f, w) for p, f, w in self.payloads if remap[p] >= 0],
+            warnings=list(self.warnings),
+        )
+
+
+def read_absolute(path: str | Path, joints: list[str], frames: list[str], mimic: dict | None = None) -> AbsoluteData:
+    """Read an absolute-measurement CSV for a robot with actuated ``joints``
+    (URDF order) and marker ``frames``; ``mimic`` names the joints whose
+    value follows another (a column for them is an error, not ignored)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such measurement file")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    reader = csv.reader(text.splitlines())
+    try:
+        header = [h.strip() for h in next(reader)]
+    except StopIteration:
+        raise InputError(
+            f"{path}: empty file; expected a header with config, the joint names, frame, x, y, z"
+        ) from None
+    dup = sorted({h for h in header if header.count(h) > 1 and h})
+    if dup:
+        raise InputError(f"{path}: duplicate column(s) {', '.join(dup)} in the header")
+    col = {h: k for k, h in enumerate(header)}
+    mimic = mimic or {}
+    for h in header:
+        if h in mimic:
+            raise InputError(
+                f"{path}: column {h!r} is a mimic joint (it follows {mimic[h]!r}); give only the actuated joints"
+            )
+    if all(j in col for j in joints):
+        jcols = [col[j] for j in joints]
+    elif all(f"q{k + 1}" in col for k in range(len(joints))) and not any(j in col for j in joints):
+        jcols = [col[f"q{k + 1}"] for k in range(len(joints))]
+    else:
+        missing = [j for j in joints if j not in col]
+        raise InputError(
+            f"{path}: missing joint column(s) {', '.join(missing)} (the actuated joints of the URDF are "
+            f"{', '.join(joints)}; header has {', '.join(header)})"
+        )
+    missing = [c for c in XYZ if c not in col]
+    if missing:
+        raise InputError(f"{path}: missing column(s) {', '.join(missing)} (measured position, m, tracker frame)")
+    if "frame" not in col and len(frames) != 1:
+        raise InputError(f"{path}: no 'frame' column, but the model has {len(frames)} markers ({', '.join(frames)})")
+    has_w = [c for c in WRENCH if c in col]
+    if has_w and len(has_w) != 6:
+        raise InputError(f"{path}: payload columns must be all of {' '.join(WRENCH)}, found only {' '.join(has_w)}")
+    cfg_of, configs, Qrows, cfg_line = {}, [], [], {}
+    post, frm, xyz, wt, lines, loads = [], [], [], [], [], {}
+    for lineno, row in enumerate(reader, start=2):
+        if not row or all(not x.strip() for x in row):
+            continue
+        if len(row) != len(header):
+            raise InputError(f"{path}, line {lineno}: {len(row)} fields, the header has {len(header)}")
+        label = row[col["config"]].strip() if "config" in col else f"line {lineno}"
+        if not label:
+            raise InputError(f"{path}, line {lineno}: field 'config' is empty")
+        q = np.array([parse_number(row[k], path, lineno, header[k]) for k in jcols])
+        if label in cfg_of:
+            k = cfg_of[label]
+            if not np.allclose(q, Qrows[k], rtol=0, atol=1e-9):
+                raise InputError(
+                    f"{path}, line {lineno}: configuration {label!r} has other joint values than on line "
+                    f"{cfg_line[label]} (rows of one configuration share one posture)"
+                )
+        else:
+            cfg_of[label] = len(configs)
+            cfg_line[label] = lineno
+            configs.append(label)
+            Qrows.append(q)
+        fname = row[col["frame"]].strip() if "frame" in col else frames[0]
+        if fname not in frames:
+            raise InputError(
+                f"{path}, line {lineno}: frame {fname!r} has no marker in the model (markers: {', '.join(frames)})"
+            )
+        p = np.array([parse_number(row[col[c]], path, lineno, c) for c in XYZ])
+        w = parse_number(row[col["weight"]], path, lineno, "weight") if "weight" in col else 1.0
+        if w < 0:
+            raise InputError(f"{path}, line {lineno}: weight {w} must be >= 0")
+        if has_w:
+            wr = np.array([parse_number(row[col[c]], path, lineno, c) for c in WRENCH])
+            key = (cfg_of[label], frames.index(fname))
+            if key in loads and not np.allclose(loads[key][0], wr, rtol=1e-12, atol=0):
+                raise InputError(
+                    f"{path}, line {lineno}: payload differs from line {loads[key][1]} for configuration "
+                    f"{label!r}, frame {fname!r} (one payload per frame and posture)"
+                )
+            loads.setdefault(key, (wr, lineno))
+        post.append(cfg_of[label])
+        frm.append(frames.index(fname))
+        xyz.append(p)
+        wt.append(w)
+        lines.append(lineno)
+    if not xyz:
+        raise InputError(f"{path}: no data rows")
+    wt = np.array(wt)
+    if not np.any(wt > 0):
+        raise InputError(f"{path}: every row has weight 0")
+    data = AbsoluteData(
+        path=str(path),
+        joints=list(joints),
+        configs=configs,
+        Q=np.array(Qrows),
+        posture=np.array(post, int),
+        frame=np.array(frm, int),
+        frames=list(frames),
+        xyz=np.array(xyz),
+        weight=wt,
+        lines=np.array(lines, int),
+        payloads=[(p, f, w) for (p, f), (w, _ln) in loads.items() if np.any(w)],
+    )
+    data.warnings = plausibility(data)
+    return data
+
+
+def plausibility(data: AbsoluteData) -> list[str]:
+    """Warnings about values implausible for their unit (degrees for
+    radians, millimetres for metres), naming the column and the fix."""
+    out = []
+    big = np.abs(data.Q).max(axis=0) if data.Q.size else np.zeros(0)
+    for j, v in zip(data.joints, big):
+        if v > 2 * math.pi + 1e-6:
+            out.append(
+                f"{data.path}: joint {j!r} reaches {v:.4g}, beyond one turn: are the joint values in degrees? "
+                f"(files are in rad: multiply by pi/180)"
+            )
+    span = np.ptp(data.xyz, axis=0).max() if data.n > 1 else 0.0
+    if span > 50.0:
+        out.append(
+            f"{data.path}: the measured points span {span:.4g} (x, y, z), implausible in metres for a robot: "
+            f"millimetres? (files are in m: divide by 1000)"
+        )
+    return out
+
+
+def write_absolute(path: str | Path, data: AbsoluteData) -> None:
+    """Write ``data`` as an absolute-measurement CSV (joint-name columns)."""
+    from ..io.files import atomic_write_text
+
+    head = ["config"] + data.joints + ["frame", "x", "y", "z"]
+    loads = {(p, f): w for p, f, w in data.payloads}
+    if loads:
+        head += WRENCH
+    if np.any(data.weight != 1):
+        head.append("weight")
+    rows = [",".join(head)]
+    for i in range(data.n):
+        p = data.posture[i]
+        cells = [data.configs[p]] + [f"{v:.17g}" for v in data.Q[p]]
+        cells += [data.frames[data.frame[i]]] + [f"{v:.17g}" for v in data.xyz[i]]
+        if loads:
+            cells += [f"{v:.17g}" for v in loads.get((p, data.frame[i]), np.zeros(6))]
+        if "weight" in head:
+            cells.append(f"{data.weight[i]:.17g}")
+        rows.append(",".join(cells))
+    atomic_write_text(path, "\n".join(rows) + "\n")
