@@ -78,3 +78,14 @@ def beam_stiffness(length: float, e: float, g: float, props: np.ndarray) -> np.n
 def normal_quantile(level: float) -> float:
     """z such that P(|Z| <= z) = level for a standard normal Z."""
     return float(_field.sk_normal_quantile(float(level)))
+
+
+def rigid_transform(p: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(R, t) of the rigid motion x ~ R p + t of the points p (n, 3) onto x
+    (n, 3): Procrustes with det R = +1 (Kabsch / Horn)."""
+    r, t, _rms, info = _field.sk_rigid_transform(np.asfortranarray(np.asarray(p, float).T),
+                                                 np.asfortranarray(np.asarray(x, float).T))
+    check(info, "rigid_transform (sk_rigid_transform)",
+          {1: "need at least 3 points in both sets", 3: "the points are collinear or coincident",
+           2: "the points contain NaN or Inf"})
+    return r, t

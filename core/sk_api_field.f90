@@ -115,3 +115,29 @@ subroutine sk_normal_quantile(level, z)
     real(c_double), intent(out) :: z
     z = normal_quantile(level)
 end subroutine sk_normal_quantile
+
+!> Rigid motion x ~ r p + t of the points p[3,n] onto x[3,n]: the
+!> Procrustes solution of Pashkevich et al. eqs. 6-10 with det r = +1 (the
+!> closed form of Kabsch / Horn); rms of the remaining distances.
+subroutine sk_rigid_transform(n, p, x, r, t, rms, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors
+    use sk_field_fit, only: fit_rigid, method_svd_pm
+    implicit none
+    integer(c_int), intent(in) :: n
+    real(c_double), intent(in) :: p(3, n), x(3, n)
+    real(c_double), intent(out) :: r(3, 3), t(3), rms
+    integer(c_int), intent(out) :: info
+    real(c_double) :: phi(3), covu(6, 6), res(3, n), ssr
+    integer(c_int) :: niter
+    r = 0
+    t = 0
+    rms = 0
+    if (n < 3) then
+        info = sk_err_size
+        return
+    end if
+    call fit_rigid(p, x - p, method_svd_pm, t, phi, r, covu, res, ssr, niter, info)
+    if (info == sk_ok) rms = sqrt(ssr/real(n, c_double))
+end subroutine sk_rigid_transform
+
