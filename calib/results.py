@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import tomli_w
 
-from ..robot.model import SYM, Model
+from ..robot.model import JOINT_KINDS, SYM, Model
 from ..robot.model_file import effects_toml
 from .problem import Problem
 
@@ -177,10 +177,12 @@ def model_tables_with_values(res: FitResult) -> list[dict]:
         terms = [t for t in model.terms if t.effect == i]
         for t in terms:
             tab = {k: v for k, v in table.items() if k not in ("value", "k_s", "r")}
-            if t.kind in ("joint", "joint_profile", "gravity_compensator"):
+            if t.kind in JOINT_KINDS:
                 tab["target"] = t.target
-            if t.kind == "joint":
+            if t.kind in ("joint", "joint_cubic", "joint_deadzone"):
                 tab["value"] = float(t.value[0])
+                if t.kind == "joint_deadzone":
+                    tab["tau0"] = res.problem.tau0(t)
             elif t.kind == "joint_profile":
                 tab["value"] = [float(v) for v in t.value]
             elif t.kind == "gravity_compensator":
