@@ -52,6 +52,8 @@ class FitResult:
     A: np.ndarray = field(repr=False)  # weighted Jacobian at the solution
     r: np.ndarray = field(repr=False)  # weighted residual
     pred6: np.ndarray = field(repr=False)
+    col_scale: np.ndarray | None = field(default=None, repr=False)  # A = weighted Jacobian * col_scale
+    not_excited: dict = field(default_factory=dict)  # parameter -> why the data do not inform it
 
     @property
     def residuals(self) -> np.ndarray:
@@ -86,6 +88,7 @@ class FitResult:
             "compensated_fraction": self.compensated_fraction,
             "parameters": [
                 {"name": n, "value": float(v), "std": None if not np.isfinite(s) else float(s), "group": g}
+                | ({"reason": self.not_excited[n]} if n in self.not_excited else {})
                 for n, v, s, g in zip(self.names, self.values, self.std, self.groups)
             ],
             # extensions
@@ -166,6 +169,8 @@ def format_parameters(res: FitResult) -> str:
     )
     for c in res.couplings:
         lines.append(f"coupled (only their combination is identifiable): {', '.join(c)}")
+    for n, why in res.not_excited.items():
+        lines.append(f"not identified (value 0 is a placeholder): {n}: {why}")
     return "\n".join(lines)
 
 
@@ -179,6 +184,9 @@ def model_tables_with_values(res: FitResult) -> list[dict]:
             tab = {k: v for k, v in table.items() if k not in ("value", "k_s", "r")}
             if t.kind in JOINT_KINDS:
                 tab["target"] = t.target
+            unknown = [n for n in t.names if n in res.not_excited]
+            if unknown:
+                tab["note"] = "not identified by the data (the loads do not excite it): " + ", ".join(unknown)
             if t.kind in ("joint", "joint_cubic", "joint_deadzone"):
                 tab["value"] = float(t.value[0])
                 if t.kind == "joint_deadzone":
