@@ -77,6 +77,18 @@ class Problem:
             self._torques = self.model.chain.joint_torques(self.meas.q, self.meas.w)
         return self._torques
 
+    def joint_twists(self) -> np.ndarray:
+        """(6, n, nj): the deflection of each row (point displacement, tool
+        rotation) per unit rotation of every chain joint about its axis
+        (zero for fixed joints); the joint spring's column is this times the
+        row's joint torque."""
+        ch = self.model.chain
+        P = ch.poses(self.meas.q)
+        point = P["pt"] + np.einsum("nij,nj->ni", P["rt"], self.meas.p)
+        z = np.einsum("nkij,kj->nki", P["rf"], ch.jaxis)  # (n, nj, 3)
+        t = np.cross(z, point[:, None, :] - P["pf"])
+        return np.concatenate([t, z], axis=2).transpose(2, 0, 1)
+
     def tau0(self, term) -> float:
         """Smoothing torque of a joint_deadzone term: declared, else chosen
         from these rows (robot.model.default_tau0)."""
