@@ -164,6 +164,7 @@ class Diagnosis:
     reasons: list[str] = field(default_factory=list)  # why no proposal
     warnings: list[str] = field(default_factory=list)
     residual_map: list[RM.Feature] = field(default_factory=list)
+    shapes: list[dict] = field(default_factory=list)  # binned residual along the leading features
 
     @property
     def p_value(self) -> float:
@@ -212,6 +213,7 @@ class Diagnosis:
             "no_proposal_reasons": self.reasons,
             "warnings": self.warnings,
             "residual_map": [f.to_json() for f in self.residual_map],
+            "residual_shapes": self.shapes,
         }
 
 
@@ -489,9 +491,57 @@ def diagnose(
     if verdict == "inadequate" and (dg.nothing_fits or dg.proposal is None):
         feats = RM.features(pb)
         dg.residual_map = RM.score_features(pb, A, res.r, feats, scale2, excess)
+        dg.shapes = [residual_shape(pb, res, f) for f in dg.residual_map[:3]]
     for c in ranked:
         del c._pr, c._cols, c._index, c._cv
     return dg
+
+
+def residual_shape(pb, res, f: RM.Feature, bins: int = 6) -> dict:
+    """The residual binned along a feature's variable: the joint rotation
+    that best explains each row against the joint's torque or angle, the
+    positional residual along the row order, or per configuration."""
+    out = {"feature": f.name, "kind": f.kind, "target": f.target}
+    if f.kind in ("torque", "angle"):
+        jr = RM.joint_residuals(pb, res.residuals)[f.target]
+        b = RM.binned(jr["tau" if f.kind == "torque" else "q"], jr["dq"], bins)
+        out.update(x_unit="N m" if f.kind == "torque" else "rad", y_unit="rad", **b)
+    elif f.kind == "order":
+        idx = np.arange(res.residuals.shape[0], dtype=float)
+        out.update(x_unit="row", y_unit="m")
+        for a in range(3):
+            b = RM.binned(idx, res.residuals[:, a], bins)
+            out["x"] = b["x"]
+            out[f"mean_d{'xyz'[a]}"] = b["mean"]
+    else:
+        e = np.linalg.norm(res.residuals, axis=1)
+        per = {}
+        for i, c in enumerate(pb.meas.config):
+            per.setdefault(c, []).append(e[i])
+        rms = sorted(((float(np.sqrt(np.mean(np.square(v)))), c) for c, v in per.items()), reverse=True)
+        out.update(worst=[{"config": c, "rms_position_m": r} for r, c in rms[:5]])
+    return out
+
+
+def _shape_lines(sh: dict) -> list[str]:
+    if sh["kind"] in ("torque", "angle"):
+        xs = "".join(f"{v:10.4g}" for v in sh["x"])
+        ys = "".join(f"{v * 1e6:10.3g}" for v in sh["mean"])
+        return [
+            f"  {sh['feature']}, binned ({sh['x_unit']}):{'':2s}{xs}",
+            f"  {'mean joint rotation residual (urad):':{len(sh['feature']) + 14}s}{ys}",
+        ]
+    if sh["kind"] == "order":
+        lines = [f"  {'row order, binned (row):':34s}" + "".join(f"{v:9.0f}" for v in sh["x"])]
+        for a in "xyz":
+            lines.append(
+                f"  {'mean d' + a + ' residual (mm):':34s}" + "".join(f"{v * 1e3:9.3g}" for v in sh[f"mean_d{a}"])
+            )
+        return lines
+    return [
+        "  worst configurations: "
+        + ", ".join(f"{w['config']} ({w['rms_position_m'] * 1e3:.3g} mm)" for w in sh["worst"])
+    ]
 
 
 def _cos(a, b) -> float:
@@ -850,6 +900,8 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
         for f in dg.residual_map[:6]:
             lp = f.log_p / math.log(10)
             lines.append(f"  {f.name:40s}{100 * f.excess_fraction:6.0f} %   ({f.dof} dof, log10 p = {lp:.3g})")
+        if dg.shapes:
+            lines += _shape_lines(dg.shapes[0])
         lines.append(
             "  a shape that takes most of it names the effect: torque -> a load-nonlinear joint (hardening, "
             "dead zone), angle -> a posture-dependent joint, row order -> drift of the instrument, "

@@ -18,7 +18,8 @@ residual (above the noise) it takes:
 
 For the plots, every row's residual is also expressed as the rotation of
 each joint that would best explain it (dq_j = J_j . r / |J_j|^2, point
-part), against the joint's angle and torque.
+part; NaN for a point on the joint's axis), against the joint's angle and
+torque.
 """
 
 from __future__ import annotations
@@ -140,7 +141,9 @@ def joint_residuals(pb, residuals: np.ndarray) -> dict:
             continue
         Jp = tw[0:3, :, j].T  # (n, 3)
         nn = np.sum(Jp * Jp, axis=1)
-        dq = np.where(nn > 0, np.sum(Jp * residuals, axis=1) / np.where(nn > 0, nn, 1.0), 0.0)
+        # a point (almost) on the joint's axis does not see its rotation: no estimate
+        ok = nn > 1e-4 * float(np.median(nn)) if np.any(nn > 0) else np.zeros(nn.shape, bool)
+        dq = np.where(ok, np.sum(Jp * residuals, axis=1) / np.where(ok, nn, 1.0), np.nan)
         out[name] = {"q": pb.meas.q[:, int(ch.qidx[j]) - 1], "tau": pb.torques[:, j], "dq": dq}
     return out
 
@@ -149,6 +152,8 @@ def binned(x, y, bins: int = 8) -> dict:
     """Mean and standard error of y in bins of x (equal counts)."""
     x = np.asarray(x, float)
     y = np.asarray(y, float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    x, y = x[ok], y[ok]
     if x.size == 0:
         return {"x": [], "mean": [], "sem": []}
     edges = np.unique(np.quantile(x, np.linspace(0, 1, bins + 1)))

@@ -137,6 +137,8 @@ def identified_model(res: FitResult) -> Model:
 def format_table(res: FitResult, unit: float = 1e-3, label: str = "") -> str:
     """Residual table like klimchik Table 2, in mm."""
     before, after = res.table()["before"], res.table()["after"]
+    if unit < 1.0 and max(before["max_position_m"], after["max_position_m"]) / unit >= 999.0:
+        unit = 1.0  # metres of deflection (a unit slip): keep the columns readable
     u = "mm" if unit == 1e-3 else "um" if unit == 1e-6 else "m"
     head = f"{'':34s}{'x':>15s}{'y':>15s}{'z':>15s}{'positional':>15s}\n{'errors, ' + u:34s}" + "".join(
         f"{'MAX':>7s}{'RMS':>8s}" for _ in range(4)

@@ -115,11 +115,14 @@ def make_scenario(
     loads_per_config: int = 3,
     markers=MARKERS,
     strength: float | None = None,
+    noise: bool = True,
 ) -> Scenario:
     """Data of one scenario (see the module text); ``strength`` sets the
     size of the defect where it has one (outliers: fraction of rows;
     hardening: the relative loss of compliance at the RMS torque; deadzone:
-    b in rad; drift: amplitude in m; weak: the unabsorbed norm in sigma)."""
+    b in rad; drift: amplitude in m; weak: the unabsorbed norm in sigma).
+    ``noise`` False leaves the Gaussian noise out (sigma is still declared),
+    so that replicas can add their own."""
     if name not in SCENARIOS:
         raise InputError(f"unknown scenario {name!r}; choose one of {', '.join(SCENARIOS)}")
     rng = np.random.default_rng(10_000 + seed)
@@ -184,7 +187,8 @@ def make_scenario(
         g = pb.evaluate(np.zeros(0), jac=False)[0]  # J tau per unit compliance
         c, th = 2.0e-7, info["tau_h"]
         meas.d = meas.d + (g[0:3] * (c / np.sqrt(1.0 + (tau[:, j] / th) ** 2) - c)).T
-    meas.d = meas.d + sigma * rng.normal(size=meas.d.shape)
+    if noise:
+        meas.d = meas.d + sigma * rng.normal(size=meas.d.shape)
     if name == "outliers":
         frac = 0.03 if strength is None else strength
         k = max(1, int(round(frac * meas.n)))
