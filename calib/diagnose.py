@@ -31,9 +31,10 @@
    two criteria disagree), are undecidable together (a tie), reported with the
    measurement that would separate them (the posture and load where their
    fits predict most differently). When the best candidate explains well
-   under half of the excess residual (and the best few together do not
-   explain most of it), nothing in the catalogue fits: the residual's
-   shape is shown instead (``residual_map``).
+   under half of the excess residual, the best few together do not explain
+   most of it, and the model with the best one is still inadequate, nothing
+   in the catalogue fits: the residual's shape is shown instead
+   (``residual_map``).
 4. A proposal (a ready ``[[effect]]`` table) is made only when the model is
    inadequate, the leader is not tied, something in the catalogue fits, and
    the leader lowers the held-out error.
@@ -544,6 +545,15 @@ def _shape_lines(sh: dict) -> list[str]:
     ]
 
 
+def _nested(A, Zs, Zb) -> bool:
+    """Do the columns Zb span Zs off the model A (the smaller candidate is
+    part of the bigger one, e.g. a joint's column in the next link's
+    spring)?"""
+    AZ = np.hstack([A, Zb])
+    _, dof, _ = core.score(AZ, np.zeros(AZ.shape[0]), Zs, np.array([1, Zs.shape[1] + 1], np.int32), 1e-10, ZTOL)
+    return int(dof[0]) == 0
+
+
 def _cos(a, b) -> float:
     na, nb = np.linalg.norm(a), np.linalg.norm(b)
     return float(a @ b) / (na * nb) if na > 0 and nb > 0 else 0.0
@@ -591,9 +601,8 @@ def _rank_honestly(dg: Diagnosis, pb, res, A, model, cterms, cands, sig) -> None
         for c in ranked[1:]:
             if c.family == L.family or c.log_p >= sig:
                 continue
-            cos = _cos(L._pr, c._pr)
-            if c.dof > L.dof and cos > DUPLICATE_COS:
-                continue  # the leader plus more columns: the leader is the parsimonious choice
+            if c.dof > L.dof and _cos(L._pr, c._pr) > DUPLICATE_COS and _nested(A, L._cols, c._cols):
+                continue  # the leader's columns plus more: the leader is the parsimonious choice
             close_p = (c.log_p - L.log_p) / math.log(10) <= TIE_LOG10
             # held-out error contradicting the ranking: c predicts new configurations significantly better
             close_cv = _cv_better(L._cv, c._cv)
@@ -639,7 +648,11 @@ def _rank_honestly(dg: Diagnosis, pb, res, A, model, cterms, cands, sig) -> None
                 st, dt, _ = core.score(A, res.r, Zt, np.array([1, Zt.shape[1] + 1], np.int32), 1e-10, ZTOL)
                 together = float((st[0] / dg.scale2 - dt[0]) / dg.excess)
             dg.together_fraction = together
-            dg.nothing_fits = together < TOGETHER_FITS
+            # ... and the leader leaves the model inadequate (else the excess was mostly noise)
+            rest = float(res.r @ res.r) / dg.scale2 - L.statistic
+            rest_dof = res.dof - L.dof
+            left = logsf_chi2(rest, rest_dof) < sig if rest_dof > 0 else False
+            dg.nothing_fits = together < TOGETHER_FITS and left
     # the proposal
     if dg.verdict != "inadequate":
         if dg.data_checks is not None and dg.data_checks.set_aside:
