@@ -193,7 +193,7 @@ def row_weights(stat, k: int, kind: str = "huber", c: float | None = None) -> np
     raise ValueError(f"unknown robust weight {kind!r}; choose huber or cauchy")
 
 
-def irls(A, b, obs_rows, n_rows: int, kind: str = "huber", max_iter: int = 50, rcond: float = 1e-10, tol=1e-8):
+def irls(A, b, obs_rows, n_rows: int, kind: str = "huber", max_iter: int = 30, rcond: float = 1e-10, tol=1e-6):
     """Robust least squares A x ~ b (observations already divided by their
     sigma) by iteratively reweighted least squares around the core's
     weighted least squares (one weight per row, shared by its
@@ -219,7 +219,9 @@ def irls(A, b, obs_rows, n_rows: int, kind: str = "huber", max_iter: int = 50, r
             w_new = row_weights(stat / scale**2, k, stage)
             sw = np.sqrt(w_new)[obs_rows]
             x_new = core.wls(A * sw[:, None], b * sw, rcond, 1e-6)[0]
-            done = np.linalg.norm(x_new - x) <= tol * max(np.linalg.norm(x_new), 1e-300) and np.allclose(w_new, w)
+            done = np.linalg.norm(x_new - x) <= tol * max(np.linalg.norm(x_new), 1e-300) or np.allclose(
+                w_new, w, rtol=0.0, atol=1e-3
+            )
             x, w = x_new, w_new
             if done:
                 break
@@ -395,8 +397,11 @@ def angle_units(q, labels=None, limit: float = 2 * math.pi + 1e-6) -> list[dict]
     q = np.atleast_2d(np.asarray(q, float))
     labels = [str(i) for i in range(q.shape[0])] if labels is None else labels
     out = []
+    big = np.abs(q) > limit
+    if not big.any():
+        return out
     for cfg, rows in _groups(labels).items():
-        cols = [j for j in range(q.shape[1]) if np.any(np.abs(q[rows, j]) > limit)]
+        cols = [j for j in range(q.shape[1]) if np.any(big[rows, j])]
         if cols:
             out.append(
                 {

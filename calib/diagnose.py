@@ -61,7 +61,7 @@ ZTOL = 1e-6  # a projected unit column shorter than this adds nothing
 DUPLICATE_COS = 0.99
 TIE_LOG10 = 1.0  # within a factor 10 of the leader's p-value: undecidable
 CV_FOLDS = 5
-CV_TOP = 8  # held-out error for this many leading candidates (and every tied one)
+CV_TOP = 5  # held-out error for this many leading candidates (and every tied one)
 NOTHING_FITS = 0.5  # the leader explains less than this fraction of the excess residual
 TOGETHER_FITS = 0.8  # ... unless the leading few together explain this much
 LOW_DOF = 30  # fewer residual degrees of freedom than this (or than half the observations): warn
@@ -196,7 +196,11 @@ class Diagnosis:
             ],
             "omnibus_inadequate": self.omnibus_inadequate,
             "multiplicity_p": self.multiplicity_p,
-            "multiplicity_method": f"max-score test over {self.n_tests} candidates, Monte Carlo ({self.nsim} draws)",
+            "multiplicity_method": (
+                f"max-score test over {self.n_tests} candidates, Monte Carlo ({self.nsim} draws)"
+                if self.nsim
+                else f"Bonferroni bound over {self.n_tests} candidates (far below alpha)"
+            ),
             "bonferroni_p": self.bonferroni_p,
             "best_candidate_inadequate": self.best_inadequate,
             "data_checks": dc.to_json() if dc is not None else None,
@@ -432,7 +436,11 @@ def diagnose(
         # when both sides of alpha are settled, fewer draws give its value
         settled = ranked[0].p_value >= alpha or bonf_p < alpha
         nsim_used = min(nsim, 199) if settled else nsim
-        mult_p = core.max_score(A, Zall, np.array(cstart, np.int32), 1e-10, ZTOL, lobs, d_pe or 0, nsim_used, seed)
+        if bonf_p < 0.01 * alpha:
+            # Bonferroni's bound is far below alpha: the alarm is certain, the bound is reported
+            mult_p, nsim_used = bonf_p, 0
+        else:
+            mult_p = core.max_score(A, Zall, np.array(cstart, np.int32), 1e-10, ZTOL, lobs, d_pe or 0, nsim_used, seed)
     best_alarm = mult_p is not None and mult_p < alpha
     verdict = "inadequate" if (omnibus or best_alarm) else "adequate"
 
@@ -567,10 +575,12 @@ def _cv(A, r, obs_rows, folds, npts, wp, labels):
     if not np.any(np.isfinite(e)):
         return None, None
     sq = np.sum((e.reshape(-1, npts)[0:3] / wp) ** 2, axis=0)
-    per = {}
-    for i, c in enumerate(labels):
-        per.setdefault(c, []).append(sq[i])
-    return CV.rms_rows(e, npts, coords=(0, 1, 2), scale=1.0 / wp), np.array([np.nanmean(v) for v in per.values()])
+    _, idx = np.unique(np.asarray(labels, dtype=object).astype(str), return_inverse=True)
+    ok = np.isfinite(sq)
+    tot = np.bincount(idx[ok], weights=sq[ok], minlength=idx.max() + 1)
+    cnt = np.bincount(idx[ok], minlength=idx.max() + 1)
+    per = np.where(cnt > 0, tot / np.maximum(cnt, 1), np.nan)
+    return CV.rms_rows(e, npts, coords=(0, 1, 2), scale=1.0 / wp), per
 
 
 def _cv_better(a, b) -> bool:
@@ -846,10 +856,10 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
         f"log10 p = {dg.log_p / math.log(10):.3g}  ->  {dg.verdict.upper()} (alpha {dg.alpha:g})",
     ]
     if dg.multiplicity_p is not None:
-        floor_p = dg.nsim and dg.multiplicity_p <= 1.0 / (dg.nsim + 1) + 1e-12
+        bound = not dg.nsim or dg.multiplicity_p <= 1.0 / (dg.nsim + 1) + 1e-12
         lines.append(
-            f"best candidate, corrected for looking at all {dg.n_tests}: p {'<=' if floor_p else '='} "
-            f"{dg.multiplicity_p:.3g} (max-score test; "
+            f"best candidate, corrected for looking at all {dg.n_tests}: p {'<=' if bound else '='} "
+            f"{dg.multiplicity_p:.3g} ({'max-score test' if dg.nsim else 'Bonferroni bound'}; "
             f"Bonferroni {dg.bonferroni_p:.3g})" + ("  -> alarm" if dg.best_inadequate else "")
         )
     cv = dg.cv_rms_position_m

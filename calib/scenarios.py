@@ -119,13 +119,16 @@ def make_scenario(
     markers=MARKERS,
     strength: float | None = None,
     noise: bool = True,
+    fresh: bool = False,
 ) -> Scenario:
     """Data of one scenario (see the module text); ``strength`` sets the
     size of the defect where it has one (outliers: fraction of rows;
     hardening: the relative loss of compliance at the RMS torque; deadzone:
     b in rad; drift: amplitude in m; weak: the unabsorbed norm in sigma).
     ``noise`` False leaves the Gaussian noise out (sigma is still declared),
-    so that replicas can add their own."""
+    so that replicas can add their own. ``fresh`` True gives new data of the
+    same robot and physics for checking predictions: no data errors
+    (outliers, unit slips, drift) and the full design for ``few_rows``."""
     if name not in SCENARIOS:
         raise InputError(f"unknown scenario {name!r}; choose one of {', '.join(SCENARIOS)}")
     rng = np.random.default_rng(10_000 + seed)
@@ -133,8 +136,9 @@ def make_scenario(
     truth = _truth(links)
     effects = base_effects(links)
     info: dict = {}
-    if name == "few_rows":
+    if name == "few_rows" and not fresh:
         n_configs, loads_per_config, markers = 6, 3, markers[:1]
+    if name == "few_rows":
         truth = [e for e in truth if not (e["kind"] == "link")]
         truth.append({"kind": "link", "target": "link_3", "value": kr270_links()["link_3"].tolist()})
         effects = [{"kind": "joint", "target": "all"}, {"kind": "gravity_compensator", "target": "joint_a2", **GEOM}]
@@ -192,7 +196,9 @@ def make_scenario(
         meas.d = meas.d + (g[0:3] * (c / np.sqrt(1.0 + (tau[:, j] / th) ** 2) - c)).T
     if noise:
         meas.d = meas.d + sigma * rng.normal(size=meas.d.shape)
-    if name == "outliers":
+    if fresh:
+        pass
+    elif name == "outliers":
         frac = 0.03 if strength is None else strength
         k = max(1, int(round(frac * meas.n)))
         rows = np.sort(rng.choice(meas.n, k, replace=False))

@@ -62,6 +62,12 @@ bonferroni_p, omnibus_inadequate, cv_rms_position_m (model and per candidate),
 ties [{candidates, separate_by}], nothing_fits, proposal (the [[effect]] table
 or null), no_proposal_reasons, warnings, residual_map, residual_shapes.
 
+extension kinds (docs/calibration.md s7), also usable in MODEL.toml:
+  joint_cubic     dq = c tau + c3 tau^3, tau the torque of the row's wrench about the joint
+                  (hardening c3 < 0, softening c3 > 0) -> J.cubic, value = c3
+  joint_deadzone  dq = c tau + b tanh(tau / tau0), backlash +-b (rad) -> J.backlash, value = b;
+                  tau0 (N m) defaults to 5 % of the RMS torque about the joint in the data
+
 plots (--plots DIR): candidates; residual vectors, histograms, measured vs
 predicted; residual vs joint angle, vs joint torque, per configuration, along
 the row order.

@@ -16,7 +16,7 @@ module sk_calib
     use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: svd, all_finite, matmul_tn
+    use sk_linalg, only: svd, all_finite, matmul_tn, sym_eig
     implicit none
     private
     public :: wls_svd, score_tests, select_independent, chi2_logsf, f_logsf
@@ -262,10 +262,13 @@ contains
     !> it is F(dof_c, dpe) against an independent pure-error variance.
     !>
     !> Under the model the residual's part in candidate c's projected space
-    !> Q_c is Q_c^T e with e ~ N(0, I_n), so nsim draws of e give the null
-    !> distribution of min_c log p_c exactly up to Monte Carlo error;
-    !> each candidate's statistic is compared with its critical value at
-    !> lobs (found once by bisection). p = (1 + #hits) / (1 + nsim).
+    !> Q_c is Q_c^T e with e ~ N(0, I_n): the stacked s = Q^T e is Gaussian
+    !> with covariance G = Q^T Q (identity blocks, the correlations between
+    !> candidates off the diagonal), drawn as s = V sqrt(Lambda) g from the
+    !> eigen-decomposition of G (a cost per draw independent of n). nsim
+    !> draws give the null distribution of min_c log p_c exactly up to Monte
+    !> Carlo error; each candidate's statistic is compared with its critical
+    !> value at lobs (found once by bisection). p = (1 + #hits) / (1 + nsim).
     !> The draws are reproducible (seed); the caller's random state is kept.
     subroutine max_score_test(a, z, cstart, rcond, ztol, lobs, dpe, nsim, seed, p, info)
         real(dp), intent(in) :: a(:, :), z(:, :), rcond, ztol, lobs
@@ -273,7 +276,8 @@ contains
         real(dp), intent(out) :: p
         integer(ip), intent(out) :: info
         integer, parameter :: nblk = 64
-        real(dp), allocatable :: u(:, :), q(:, :), qall(:, :), crit(:), e(:, :), sb(:, :), g(:)
+        real(dp), allocatable :: u(:, :), q(:, :), qall(:, :), crit(:), e(:, :), sb(:, :), g(:), gram(:, :), &
+            lam(:), vec(:, :), lt(:, :)
         integer(ip), allocatable :: dof(:), off(:)
         integer, allocatable :: state(:), myseed(:)
         real(dp) :: zref, s2, st
@@ -316,18 +320,28 @@ contains
         do c = 1, ncand
             if (dof(c) > 0) crit(c) = critical_value(real(dof(c), dp), real(dpe, dp), lobs)
         end do
+        ! s = Q^T e ~ N(0, G): the square root L = V sqrt(max(Lambda, 0)) of G
+        allocate(gram(dtot, dtot), lam(dtot), vec(dtot, dtot), lt(dtot, dtot))
+        call matmul_tn(qall(:, 1:dtot), qall(:, 1:dtot), gram, info)
+        if (info /= sk_ok) return
+        call sym_eig(gram, lam, vec, info)
+        if (info /= sk_ok) return
+        do i = 1, dtot
+            vec(:, i) = vec(:, i)*sqrt(max(lam(i), 0.0_dp))
+        end do
+        lt = transpose(vec)
         call random_seed(size=ns)
         allocate(state(ns), myseed(ns))
         call random_seed(get=state)
         myseed = [(seed + 7919*i, i=1, ns)]
         call random_seed(put=myseed)
-        allocate(e(n, nblk), sb(dtot, nblk), g(max(dpe, 1)))
+        allocate(e(dtot, nblk), sb(dtot, nblk), g(max(dpe, 1)))
         hits = 0
         done = 0
         do while (done < nsim)
             nb = min(nblk, nsim - done)
             call gaussian(e(:, 1:nb))
-            call matmul_tn(qall(:, 1:dtot), e(:, 1:nb), sb(:, 1:nb), info)
+            call matmul_tn(lt, e(:, 1:nb), sb(:, 1:nb), info)
             if (info /= sk_ok) exit
             do j = 1, nb
                 s2 = 1.0_dp

@@ -138,11 +138,15 @@ class Chain:
         axes) at postures Q (N, dof): tau_k = z_k . (m + (p_tool - p_k) x f),
         the load component that twists joint k (klimchik eq. 12: J_k^T W)."""
         W = np.atleast_2d(np.asarray(W, dtype=float))
-        P = self.poses(Q)
-        if W.shape != (P["pt"].shape[0], 6):
-            raise InputError(f"wrenches must have shape ({P['pt'].shape[0]}, 6), got {W.shape}")
-        axes = np.einsum("nkij,kj->nki", P["rf"], self.jaxis)
-        lever = P["pt"][:, None, :] - P["pf"]
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        if W.shape != (Q.shape[0], 6):
+            raise InputError(f"wrenches must have shape ({Q.shape[0]}, 6), got {W.shape}")
+        # rows share postures (several loads and markers each): frames once per posture
+        Qu, inv = np.unique(Q, axis=0, return_inverse=True)
+        inv = inv.reshape(-1)
+        P = self.poses(Qu)
+        axes = np.einsum("nkij,kj->nki", P["rf"], self.jaxis)[inv]
+        lever = (P["pt"][:, None, :] - P["pf"])[inv]
         moment = W[:, None, 3:] + np.cross(lever, W[:, None, :3])
         return np.einsum("nki,nki->nk", axes, moment)
 

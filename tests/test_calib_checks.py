@@ -131,7 +131,8 @@ def test_max_score_between_best_p_and_bonferroni():
     cs = np.array([1, 3, 5, 7, 9, 11, 13], np.int32)  # six candidates of two columns
     lobs = math.log(1e-3)
     p = core.max_score(a, z, cs, 1e-10, 1e-6, lobs, 0, 4000, 1)
-    assert 1e-3 < p < 6e-3
+    se = math.sqrt(6e-3 / 4000)  # Monte Carlo error near the bounds
+    assert 1e-3 < p < 6e-3 + 3 * se
     p2 = core.max_score(a, np.hstack([z, z]), np.concatenate([cs, cs[1:] + 12]).astype(np.int32), 1e-10, 1e-6, lobs,
                         0, 4000, 1)  # fmt: skip
     assert abs(p2 - p) < 4 * math.sqrt(p * (1 - p) / 4000)
