@@ -25,7 +25,8 @@
    leading candidates also get their held-out error: cross-validation by
    configuration (K folds, the points of a configuration never split).
 3. Honest ranking: candidates whose explained parts coincide (cosine above
-   0.99) are indistinguishable; candidates of other targets within
+   0.99, and their difference no larger than noise would make it) are
+   indistinguishable; candidates of other targets within
    TIE_LOG10 of the leader in log10 p, or whose held-out error is
    significantly lower than the leader's (paired over configurations: the
    two criteria disagree), are undecidable together (a tie), reported with the
@@ -451,7 +452,10 @@ def diagnose(
         for b in lead[i + 1 :]:
             if a.family == b.family:
                 continue
-            if _cos(a._pr, b._pr) > DUPLICATE_COS:
+            # the same part of the residual, up to what noise could make of the difference
+            d2 = float(np.sum((a._pr - b._pr) ** 2)) / scale2
+            k = a.dof + b.dof
+            if _cos(a._pr, b._pr) > DUPLICATE_COS and d2 < k + 3.0 * math.sqrt(2.0 * k):
                 a.indistinguishable_from.append(b.label)
                 b.indistinguishable_from.append(a.label)
 
@@ -856,11 +860,16 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
         f"log10 p = {dg.log_p / math.log(10):.3g}  ->  {dg.verdict.upper()} (alpha {dg.alpha:g})",
     ]
     if dg.multiplicity_p is not None:
-        bound = not dg.nsim or dg.multiplicity_p <= 1.0 / (dg.nsim + 1) + 1e-12
+        if dg.nsim:
+            bound = dg.multiplicity_p <= 1.0 / (dg.nsim + 1) + 1e-12
+            how = (
+                f"p {'<=' if bound else '='} {dg.multiplicity_p:.3g} (max-score test; Bonferroni {dg.bonferroni_p:.3g})"
+            )
+        else:
+            how = f"p <= {max(dg.bonferroni_p, 1e-300):.3g} (Bonferroni bound)"
         lines.append(
-            f"best candidate, corrected for looking at all {dg.n_tests}: p {'<=' if bound else '='} "
-            f"{dg.multiplicity_p:.3g} ({'max-score test' if dg.nsim else 'Bonferroni bound'}; "
-            f"Bonferroni {dg.bonferroni_p:.3g})" + ("  -> alarm" if dg.best_inadequate else "")
+            f"best candidate, corrected for looking at all {dg.n_tests}: {how}"
+            + ("  -> alarm" if dg.best_inadequate else "")
         )
     cv = dg.cv_rms_position_m
     lines.append(
