@@ -87,6 +87,37 @@ def score(
     return stat, dof, pr
 
 
+def max_score(
+    a: np.ndarray,
+    z: np.ndarray,
+    cstart: np.ndarray,
+    rcond: float,
+    ztol: float,
+    lobs: float,
+    dpe: int = 0,
+    nsim: int = 999,
+    seed: int = 12345,
+) -> float:
+    """Multiplicity-corrected p-value of the best of the candidate blocks of
+    ``score``: the probability under the model (unit Gaussian noise) that
+    some candidate reaches a log p-value <= ``lobs``, by ``nsim`` Monte
+    Carlo draws on the candidates' projected spaces (chi-square tests, or F
+    tests against ``dpe`` pure-error degrees of freedom)."""
+    pval, info = _calib.sk_max_score(
+        np.asfortranarray(a),
+        np.asfortranarray(z),
+        np.asarray(cstart, np.int32),
+        rcond,
+        ztol,
+        float(lobs),
+        int(dpe),
+        int(nsim),
+        int(seed),
+    )
+    check(info, "max-score test (sk_max_score)", {6: "nsim must be >= 1 and dpe >= 0"})
+    return float(pval)
+
+
 def null_relations(v: np.ndarray, nrank: int, tol: float) -> np.ndarray:
     """Sparse relations (p - nrank, p) spanning the null space of V (eq. 21)."""
     rel, info = _calib.sk_null_relations(np.asfortranarray(v), int(nrank), tol)

@@ -80,11 +80,15 @@ def calibration_demo(
             break
         say("   diagnose, best candidates:")
         for c in dg.candidates[:3]:
+            cv = f"  held-out {c.cv_rms_position_m * 1e3:.4f} mm" if c.cv_rms_position_m is not None else ""
             say(
                 f"     {c.label:32s} dof {c.dof:3d}  log10 p {c.log_p / math.log(10):9.3g}  explains "
-                f"{100 * c.explained_fraction:5.1f} %  RMS after {c.rms_after_m * 1e3:.4f} mm"
+                f"{100 * c.explained_fraction:5.1f} %  RMS after {c.rms_after_m * 1e3:.4f} mm{cv}"
             )
-        best = dg.candidates[0]
+        if dg.proposal is None:
+            say("   no effect proposed: " + "; ".join(dg.reasons))
+            break
+        best = dg.proposal
         add = dict(best.effect)
         if best.kind == "joint_profile" and best.target == "joint_a2":
             # the hint names the physical kind; the datasheet gives its geometry

@@ -17,7 +17,7 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
-from ..robot.model import Model, load_model
+from ..robot.model import JOINT_KINDS, SYM, Model, load_model
 from .measure import Measurements, read_measurements
 from .problem import Problem
 from .results import (
@@ -46,6 +46,8 @@ __all__ = [
     "model_tables_with_values",
     "write_model",
     "GROUP_NAMES",
+    "NEGLIGIBLE",
+    "negligible_columns",
     "RCOND",
     "GTOL",
 ]
@@ -53,6 +55,60 @@ __all__ = [
 GROUP_NAMES = {1: "identifiable", 2: "non-identifiable", 3: "semi-identifiable"}
 RCOND = 1e-10  # singular values below RCOND * s_max are zero (unit-norm columns)
 GTOL = 1e-6  # M4a: a row of V below this norm counts as zero
+#: a parameter whose column is this small against the best-excited parameter of
+#: its kind (the data's scale) is not excited by the loads: non-identifiable
+NEGLIGIBLE = 1e-6
+
+
+def _block(e: int) -> str:
+    a, b = SYM[e]
+    return "translation" if b < 3 else ("rotation" if a >= 3 else "coupling")
+
+
+def negligible_columns(pb: Problem, A) -> tuple[np.ndarray, list[str]]:
+    """Parameters that the loads of these data do not excite, judged
+    against the data's scale, not against rounding: a joint-type parameter
+    (joint, joint_profile, joint_cubic, joint_deadzone, compensator) whose
+    joint's RMS torque is below NEGLIGIBLE times the largest RMS joint
+    torque; a 6x6 spring element whose column is below NEGLIGIBLE times the
+    largest column of the same block (translation, rotation, coupling) of
+    any spring. Returns (mask (npar,), reason per parameter)."""
+    npar = A.shape[1]
+    mask = np.zeros(npar, bool)
+    reasons = [""] * npar
+    if npar == 0:
+        return mask, reasons
+    tau = np.sqrt(np.mean(pb.torques**2, axis=0)) if pb.meas.n else np.zeros(0)
+    act = pb.model.chain.qidx > 0
+    tmax = float(tau[act].max()) if np.any(act) else 0.0
+    norms = np.linalg.norm(A, axis=0)
+    blocks: dict[str, float] = {}
+    cols = []
+    for i, t in enumerate(pb.terms):
+        if not t.free:
+            continue
+        sl = pb.layout[i]
+        for k, col in enumerate(range(sl.start, sl.stop)):
+            cols.append((col, t, k))
+            if t.kind == "six":
+                blk = _block(t.elements[k])
+                blocks[blk] = max(blocks.get(blk, 0.0), norms[col])
+    for col, t, k in cols:
+        if t.kind in JOINT_KINDS and tmax > 0 and tau[t.joint] < NEGLIGIBLE * tmax:
+            mask[col] = True
+            reasons[col] = (
+                f"the loads do not twist {t.target} (RMS torque {tau[t.joint]:.3g} N m against {tmax:.3g} N m "
+                f"about the most loaded joint)"
+            )
+        elif t.kind == "six":
+            blk = _block(t.elements[k])
+            ref = blocks.get(blk, 0.0)
+            if ref > 0 and 0 < norms[col] < NEGLIGIBLE * ref:
+                mask[col] = True
+                reasons[col] = (
+                    f"its column is {norms[col] / ref:.2g} of the largest {blk} column: the loads do not excite it"
+                )
+    return mask, reasons
 
 
 def equilibrate(A, nonlinear):
@@ -174,8 +230,17 @@ def fit(
     nlmask = np.array([t.nonlinear for t in pb.terms if t.free for _ in t.names], dtype=bool)
     lam, it, converged = 0.0, 0, True
     pred, J = pb.evaluate(theta)
+    neg, reasons = negligible_columns(pb, pb.weighted(J))
+
+    def weigh(Jx):
+        # parameters the loads do not excite get a zero column: the core
+        # reports them non-identifiable (value 0, no standard error)
+        Ax = pb.weighted(Jx)
+        Ax[:, neg] = 0.0
+        return Ax
+
     if npar:
-        A = pb.weighted(J)
+        A = weigh(J)
         b = y - pb.weighted(pred)
         cost = float(b @ b)
         if not nonlinear:
@@ -216,7 +281,7 @@ def fit(
                         np.abs(delta) <= 1e-10 * (np.abs(trial) + 1e-300)
                     )
                     theta, pred, J, b, cost = trial, p2, J2, b2, c2
-                    A = pb.weighted(J)
+                    A = weigh(J)
                     lam = lam / 10.0 if lam > 1e-12 else 0.0
                     if small:
                         converged = True
@@ -227,12 +292,13 @@ def fit(
                         converged = True  # no further decrease possible
                         break
         pred, J = pb.evaluate(theta)
-        A = pb.weighted(J)
+        A = weigh(J)
         b = y - pb.weighted(pred)
         eq = equilibrate(A, nlmask)
         _, stdu, s, v, rank, group, _ = solve_wls(A, b, scale=eq)
         A = A * eq  # equilibrated: for the score tests of the diagnosis
     else:
+        eq = np.ones(0)
         A = np.zeros((nobs, 0))
         b = y - pb.weighted(pred)
         stdu, s, v, rank, group = np.zeros(0), np.zeros(0), np.zeros((0, 0)), 0, np.zeros(0, int)
@@ -270,4 +336,6 @@ def fit(
         A=A,
         r=b,
         pred6=pred,
+        col_scale=eq,
+        not_excited={names[k]: reasons[k] for k in np.nonzero(neg)[0]},
     )

@@ -176,3 +176,104 @@ def candidates_plot(dg, path, top: int = 12) -> str:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return str(path)
+
+
+def residual_plots(dg, outdir, label: str = "diagnose") -> list[str]:
+    """Where the residual lives (diagnose --plots): the residual as the
+    rotation of each joint that would best explain it, against the joint's
+    angle and against its torque (with binned means), and the positional
+    residual per configuration and along the row order (drift), with the
+    rows set aside by the data checks marked."""
+    from .residual_map import binned, joint_residuals
+
+    plt = _plt()
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    files = []
+    res = dg.fit
+    pb = res.problem
+    jr = joint_residuals(pb, res.residuals)
+    names = list(jr)
+    ncol = min(3, max(len(names), 1))
+    nrow = max(1, -(-len(names) // ncol))
+    for key, xlabel, unit, fname in (
+        ("q", "joint angle", "rad", "residual_vs_joint_angle"),
+        ("tau", "torque about the joint", "N m", "residual_vs_joint_torque"),
+    ):
+        fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
+        for ax, name in zip(axes.flat, names):
+            x, y = jr[name][key], jr[name]["dq"] * 1e6
+            ax.scatter(x, y, s=5, c="0.6")
+            b = binned(x, y)
+            ax.errorbar(b["x"], b["mean"], yerr=b["sem"], color="C3", marker="o", ms=3, lw=1.2, label="binned mean")
+            ax.axhline(0, color="k", lw=0.6)
+            ax.set_title(name, fontsize=9)
+            ax.set_xlabel(f"{xlabel} ({unit})", fontsize=8)
+            ax.set_ylabel("joint rotation residual (urad)", fontsize=8)
+        for ax in list(axes.flat)[len(names) :]:
+            ax.axis("off")
+        axes.flat[0].legend(fontsize=7)
+        fig.suptitle(
+            f"{label}: residual as the joint rotation that best explains each row, against the {xlabel} "
+            f"(a trend names a {'posture' if key == 'q' else 'load'}-dependent joint)",
+            fontsize=9,
+        )
+        fig.tight_layout()
+        f = out / f"{label}_{fname}.png"
+        fig.savefig(f, dpi=110)
+        plt.close(fig)
+        files.append(str(f))
+
+    full = dg.fit_all if dg.fit_all is not None else res
+    e = np.linalg.norm(full.residuals, axis=1) * 1e3
+    aside = set(dg.data_checks.set_aside) if dg.data_checks is not None else set()
+    cfgs = list(dict.fromkeys(full.problem.meas.config))
+    per = {c: [] for c in cfgs}
+    for i, c in enumerate(full.problem.meas.config):
+        if i not in aside:
+            per[c].append(e[i])
+    fig, ax = plt.subplots(figsize=(max(6, 0.25 * len(cfgs) + 2), 4))
+    rms = [float(np.sqrt(np.mean(np.square(per[c])))) if per[c] else 0.0 for c in cfgs]
+    ax.bar(np.arange(len(cfgs)), rms, color="C0")
+    ax.axhline(dg.floor * 1e3, color="k", ls="--", label="noise floor sqrt(3) sigma")
+    for i, c in enumerate(full.problem.meas.config):
+        if i in aside:
+            ax.plot(cfgs.index(c), e[i], "rx", ms=6)
+    ax.set_xticks(np.arange(len(cfgs)))
+    ax.set_xticklabels(cfgs, rotation=90, fontsize=6)
+    ax.set_yscale("symlog", linthresh=max(dg.floor * 1e3, 1e-6))
+    ax.set_ylabel("positional residual RMS (mm)")
+    ax.set_title(f"{label}: residual per configuration (x: rows set aside by the data checks)", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    f = out / f"{label}_residual_vs_configuration.png"
+    fig.savefig(f, dpi=110)
+    plt.close(fig)
+    files.append(str(f))
+
+    fig, ax = plt.subplots(figsize=(9, 4))
+    r = full.residuals * 1e3
+    idx = np.arange(r.shape[0])
+    keep = np.array([i not in aside for i in idx])
+    w = max(3, r.shape[0] // 20)
+    for a in range(3):
+        ax.plot(idx[keep], r[keep, a], ".", ms=3, color=f"C{a}", alpha=0.5)
+        sm = np.convolve(r[keep, a], np.ones(w) / w, mode="same")
+        ax.plot(idx[keep], sm, "-", color=f"C{a}", label=f"d{'xyz'[a]} (moving mean of {w})")
+    if aside:
+        ax.plot(idx[~keep], np.zeros((~keep).sum()), "rx", label="set aside")
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_xlabel("row (file order)")
+    ax.set_ylabel("residual (mm)")
+    lim = 6 * dg.sigma_position * 1e3
+    if np.any(keep):
+        lim = max(lim, float(np.abs(r[keep]).max()) * 1.1)
+    ax.set_ylim(-lim, lim)
+    ax.set_title(f"{label}: residual along the row order (a trend is drift of the instrument or fixture)", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    f = out / f"{label}_residual_vs_row_order.png"
+    fig.savefig(f, dpi=110)
+    plt.close(fig)
+    files.append(str(f))
+    return files

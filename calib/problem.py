@@ -4,7 +4,8 @@ Jacobian with respect to the free parameters.
 The observation basis of every spring comes from the core in one call
 (klimchik eqs. 4-5, 12); this module combines it into the columns of the
 model's parameters (joint compliances, profiles, gravity compensators,
-6-dof springs, point offset).
+6-dof springs, point offset) and, for the load-nonlinear joint kinds, the
+joint torque of every row.
 """
 
 from __future__ import annotations
@@ -13,7 +14,15 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
-from ..robot.model import SPRING_JOINT, Model, compensator_h, profile_basis
+from ..robot.model import (
+    LOAD_NONLINEAR,
+    SPRING_JOINT,
+    Model,
+    compensator_h,
+    default_tau0,
+    load_factor,
+    profile_basis,
+)
 from .measure import Measurements
 
 __all__ = ["Problem"]
@@ -59,6 +68,39 @@ class Problem:
         self.wrow = np.array([wp] * 3 + [wr] * 3)[: self.rows]
         self.y = meas.d.T if meas.r is None else np.vstack([meas.d.T, meas.r.T])
         self.layout = self._layout(self.terms)
+        self._torques = None
+
+    @property
+    def torques(self) -> np.ndarray:
+        """Torque about every chain joint's axis of each row's wrench (n, nj)."""
+        if self._torques is None:
+            self._torques = self.model.chain.joint_torques(self.meas.q, self.meas.w)
+        return self._torques
+
+    def joint_twists(self) -> np.ndarray:
+        """(6, n, nj): the deflection of each row (point displacement, tool
+        rotation) per unit rotation of every chain joint about its axis
+        (zero for fixed joints); the joint spring's column is this times the
+        row's joint torque."""
+        ch = self.model.chain
+        P = ch.poses(self.meas.q)
+        point = P["pt"] + np.einsum("nij,nj->ni", P["rt"], self.meas.p)
+        z = np.einsum("nkij,kj->nki", P["rf"], ch.jaxis)  # (n, nj, 3)
+        t = np.cross(z, point[:, None, :] - P["pf"])
+        return np.concatenate([t, z], axis=2).transpose(2, 0, 1)
+
+    def tau0(self, term) -> float:
+        """Smoothing torque of a joint_deadzone term: declared, else chosen
+        from these rows (robot.model.default_tau0)."""
+        v = term.geometry.get("tau0")
+        return float(v) if v is not None else default_tau0(self.torques[:, term.joint])
+
+    def load_column(self, term, B=None) -> np.ndarray:
+        """(6, n) rows of a load-nonlinear joint term per unit of its value."""
+        B = self.basis()[0] if B is None else B
+        g = B[:, :, self.offset[(SPRING_JOINT, term.joint + 1)]]
+        tau0 = self.tau0(term) if term.kind == "joint_deadzone" else None
+        return g * load_factor(term.kind, self.torques[:, term.joint], tau0)
 
     @staticmethod
     def _layout(terms):
@@ -137,6 +179,13 @@ class Problem:
                     dl.setdefault(t.joint, []).append((layout[i], fn))
             elif t.kind == "gravity_compensator":
                 comp[t.joint] = (t, val, layout.get(i))
+            elif t.kind in LOAD_NONLINEAR:
+                # linear in its value, nonlinear in the joint torque; added to
+                # the joint's deflection after any compensator
+                col = self.load_column(t, B)
+                pred += col * val[0]
+                if t.free and jac:
+                    J[:, :, layout[i]] = col[:, :, None]
         for j, c in cb.items():
             g = B[:, :, self.offset[(SPRING_JOINT, j + 1)]]
             if j in comp:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._core import calib as core
-from ..robot.model import SYM
+from ..robot.model import LOAD_NONLINEAR, SYM
 from .fit import coupling_groups, fit, solve_wls
 
 
@@ -167,7 +167,7 @@ def reduced_model(model, red: Reduction):
     comp = {t.joint for t in model.terms if t.kind == "gravity_compensator"}
     terms = []
     for t in model.terms:
-        if not t.free or t.kind in ("joint_profile", "gravity_compensator", "point_offset"):
+        if not t.free or t.kind in ("joint_profile", "gravity_compensator", "point_offset", *LOAD_NONLINEAR):
             terms.append(t)
         elif t.kind == "joint":
             if t.names[0] in keep or t.joint in comp:

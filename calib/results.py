@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import tomli_w
 
-from ..robot.model import SYM, Model
+from ..robot.model import JOINT_KINDS, SYM, Model
 from ..robot.model_file import effects_toml
 from .problem import Problem
 
@@ -52,6 +52,8 @@ class FitResult:
     A: np.ndarray = field(repr=False)  # weighted Jacobian at the solution
     r: np.ndarray = field(repr=False)  # weighted residual
     pred6: np.ndarray = field(repr=False)
+    col_scale: np.ndarray | None = field(default=None, repr=False)  # A = weighted Jacobian * col_scale
+    not_excited: dict = field(default_factory=dict)  # parameter -> why the data do not inform it
 
     @property
     def residuals(self) -> np.ndarray:
@@ -86,6 +88,7 @@ class FitResult:
             "compensated_fraction": self.compensated_fraction,
             "parameters": [
                 {"name": n, "value": float(v), "std": None if not np.isfinite(s) else float(s), "group": g}
+                | ({"reason": self.not_excited[n]} if n in self.not_excited else {})
                 for n, v, s, g in zip(self.names, self.values, self.std, self.groups)
             ],
             # extensions
@@ -134,6 +137,8 @@ def identified_model(res: FitResult) -> Model:
 def format_table(res: FitResult, unit: float = 1e-3, label: str = "") -> str:
     """Residual table like klimchik Table 2, in mm."""
     before, after = res.table()["before"], res.table()["after"]
+    if unit < 1.0 and max(before["max_position_m"], after["max_position_m"]) / unit >= 999.0:
+        unit = 1.0  # metres of deflection (a unit slip): keep the columns readable
     u = "mm" if unit == 1e-3 else "um" if unit == 1e-6 else "m"
     head = f"{'':34s}{'x':>15s}{'y':>15s}{'z':>15s}{'positional':>15s}\n{'errors, ' + u:34s}" + "".join(
         f"{'MAX':>7s}{'RMS':>8s}" for _ in range(4)
@@ -166,6 +171,8 @@ def format_parameters(res: FitResult) -> str:
     )
     for c in res.couplings:
         lines.append(f"coupled (only their combination is identifiable): {', '.join(c)}")
+    for n, why in res.not_excited.items():
+        lines.append(f"not identified (value 0 is a placeholder): {n}: {why}")
     return "\n".join(lines)
 
 
@@ -177,10 +184,15 @@ def model_tables_with_values(res: FitResult) -> list[dict]:
         terms = [t for t in model.terms if t.effect == i]
         for t in terms:
             tab = {k: v for k, v in table.items() if k not in ("value", "k_s", "r")}
-            if t.kind in ("joint", "joint_profile", "gravity_compensator"):
+            if t.kind in JOINT_KINDS:
                 tab["target"] = t.target
-            if t.kind == "joint":
+            unknown = [n for n in t.names if n in res.not_excited]
+            if unknown:
+                tab["note"] = "not identified by the data (the loads do not excite it): " + ", ".join(unknown)
+            if t.kind in ("joint", "joint_cubic", "joint_deadzone"):
                 tab["value"] = float(t.value[0])
+                if t.kind == "joint_deadzone":
+                    tab["tau0"] = res.problem.tau0(t)
             elif t.kind == "joint_profile":
                 tab["value"] = [float(v) for v in t.value]
             elif t.kind == "gravity_compensator":

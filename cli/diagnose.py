@@ -1,19 +1,43 @@
 """``stiffkit diagnose``: is what the model leaves noise? If not, what is missing?
 
 Fits the model, then
+  0. checks the data before blaming the model: a robust fit (IRLS, Huber
+     weights) lists rows whose residual is a gross error (Bonferroni over
+     the rows, standing out from their configuration), configurations
+     recorded in the wrong unit (mm or um for m, degrees for radians, a
+     load in kN) with the fix, and configurations off as a whole. Gross
+     errors and unit slips are set aside for the rest; when the model then
+     fits the rest to the noise, no effect is proposed, and it says so;
   1. tests adequacy: chi-square of the weighted residual against the
      declared sigma_position (or, without it, the lack-of-fit F test against
-     the pure error of replicated rows);
+     the pure error of replicated rows), and beside it the best candidate's
+     score test corrected for having looked at every candidate (max-score
+     test, Monte Carlo in the core): a weak effect the omnibus test dilutes
+     still raises the alarm;
   2. scores every candidate effect the model lacks (every kind of the
-     contract on every target) by a score test: the candidate's columns are
-     projected off the model's, the rank left is its degrees of freedom
-     (zero: already spanned, reported as non-identifiable). Ranked by the
-     statistic against its dof (log p-value), with the fraction of the
-     residual it explains and the RMS it would leave;
-  3. flags candidates that explain the same residual: the data cannot tell
-     them apart.
+     contract on every target, and the extensions joint_cubic, dq = c tau +
+     c3 tau^3, and joint_deadzone, dq = c tau + b tanh(tau / tau0), for
+     joints whose deflection is not linear in the load) by a score test: the
+     candidate's columns are projected off the model's, the rank left is its
+     degrees of freedom (zero: already spanned, reported as
+     non-identifiable). Ranked by the statistic against its dof (log
+     p-value), with the share of the residual (and of its excess above the
+     noise) it explains, the RMS it would leave and, for the leaders, the
+     held-out RMS (cross-validation by configuration);
+  3. reports honestly: candidates whose explained parts coincide are
+     indistinguishable; rivals within 1 in log10 p of the leader (or better
+     on held-out configurations) are undecidable together, with the posture
+     and load that would separate them; few residual degrees of freedom and
+     an 'adequate' below 0.8 x the noise floor are warned about; when the
+     best candidate explains well under half of the excess residual,
+     nothing in the catalogue fits, and the residual's shape is shown
+     (against each joint's torque and angle, the row order, the
+     configurations; --plots draws them).
+A ready [[effect]] table is proposed only when the model is inadequate, the
+leader is not tied, something fits, and it lowers the held-out error.
 Nonlinear candidates are linearised at the current fit; a gravity
-compensator is proposed through its generic form joint_profile, with a hint.
+compensator is proposed through its generic form joint_profile, with a hint
+when a compensator's shape reproduces the profile found.
 """
 
 from __future__ import annotations
@@ -25,13 +49,31 @@ from pathlib import Path
 from ..calib.diagnose import diagnose, format_diagnosis
 from ..calib.fit import format_table
 from ..calib.measure import read_measurements
-from ..calib.plots import candidates_plot, fit_plots
+from ..calib.plots import candidates_plot, fit_plots, residual_plots
 from ..errors import InputError
 from ..robot.model import KINDS, load_model
 
 HELP = """\
+JSON (--json): the contract keys (verdict, sigma_position_m, rms_position_m,
+candidates[kind, target, statistic, p_value, explained_fraction, rms_after_m,
+effect]) and the extensions: data_checks {outliers, unit_slips, angle_units,
+outlying_configurations, set_aside}, verdict_all_rows, multiplicity_p,
+bonferroni_p, omnibus_inadequate, cv_rms_position_m (model and per candidate),
+ties [{candidates, separate_by}], nothing_fits, proposal (the [[effect]] table
+or null), no_proposal_reasons, warnings, residual_map, residual_shapes.
+
+extension kinds (docs/calibration.md s7), also usable in MODEL.toml:
+  joint_cubic     dq = c tau + c3 tau^3, tau the torque of the row's wrench about the joint
+                  (hardening c3 < 0, softening c3 > 0) -> J.cubic, value = c3
+  joint_deadzone  dq = c tau + b tanh(tau / tau0), backlash +-b (rad) -> J.backlash, value = b;
+                  tau0 (N m) defaults to 5 % of the RMS torque about the joint in the data
+
+plots (--plots DIR): candidates; residual vectors, histograms, measured vs
+predicted; residual vs joint angle, vs joint torque, per configuration, along
+the row order.
+
 example:
-  stiffkit diagnose kr270/model.toml kr270/measurements.csv --json d.json
+  stiffkit diagnose kr270/model.toml kr270/measurements.csv --json d.json --plots figs
   # then append the suggested [[effect]] table to model.toml and fit again
 """
 
@@ -50,7 +92,13 @@ def register(sub) -> None:
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of the adequacy test")
     p.add_argument("--sigma", type=float, help="override sigma_position (m)")
     p.add_argument("--top", type=int, default=10, help="candidates to print")
-    p.add_argument("--plots", metavar="DIR", help="PNGs: the candidates, and the fit's residual figures")
+    p.add_argument(
+        "--plots", metavar="DIR", help="PNGs: the candidates, the fit's residual figures, where the residual lives"
+    )
+    p.add_argument("--no-checks", action="store_true", help="skip the data checks (robust fit, gross errors, units)")
+    p.add_argument(
+        "--cv", type=int, default=5, metavar="K", help="folds of the cross-validation by configuration (0: off)"
+    )
     p.add_argument(
         "--kinds", help="comma-separated candidate kinds to score (default: every kind), e.g. joint,link,point_offset"
     )
@@ -67,8 +115,16 @@ def run(args) -> int:
         bad = [k for k in kinds if k not in KINDS]
         if bad:
             raise InputError(f"--kinds: unknown kind(s) {', '.join(bad)}; choose from {', '.join(KINDS)}")
-    dg = diagnose(model, meas, sigma_position=args.sigma, alpha=args.alpha, kinds=kinds)
-    print(format_table(dg.fit))
+    dg = diagnose(
+        model,
+        meas,
+        sigma_position=args.sigma,
+        alpha=args.alpha,
+        kinds=kinds,
+        checks=not args.no_checks,
+        cv_folds=args.cv,
+    )
+    print(format_table(dg.fit_all if dg.fit_all is not None else dg.fit))
     print()
     print(format_diagnosis(dg, top=args.top))
     if args.json:
@@ -80,6 +136,7 @@ def run(args) -> int:
         files = fit_plots(dg.fit, args.plots, label="diagnose")
         if dg.candidates:
             files.append(candidates_plot(dg, Path(args.plots) / "diagnose_candidates.png"))
+        files += residual_plots(dg, args.plots, label="diagnose")
         for f in files:
             print(f"wrote {f}")
     return 0

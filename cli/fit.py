@@ -21,6 +21,7 @@ from ..calib.fit import fit, format_parameters, format_table, write_model
 from ..calib.measure import read_measurements
 from ..calib.plots import fit_plots
 from ..calib.reduce import format_reduction, reduce_model, reduced_model
+from ..calib.robust import format_checks, robust_fit
 from ..robot.model import load_model
 
 HELP = """\
@@ -28,6 +29,7 @@ inputs:
   MODEL.toml   [robot] urdf/base_link/tool_frame, optional [measurements]
                sigma_position (m), and [[effect]] tables: kind = joint | link |
                base | tool | joint_profile | gravity_compensator | point_offset
+               | joint_cubic | joint_deadzone
   MEAS.csv     config, q1..qN, fx fy fz mx my mz, [px py pz], dx dy dz, [rx ry rz]
                (wrench at the tool-frame origin in base axes; point in tool
                coordinates; deflection in base axes; SI units)
@@ -42,6 +44,12 @@ effects (where each virtual spring acts; parameter names as printed):
   gravity_compensator  spring between the bodies of a joint: give a, b, beta, s0 (m, rad);
                     identifies k_s (N/m); needs a joint effect on the same joint
   point_offset      the measured points sit at p + r (tool frame): identifies r (m)
+  joint_cubic       (extension) a joint stiffening or softening with the load: adds c3 tau^3 to its
+                    rotation, tau the torque of the row's wrench about the joint -> J.cubic (rad/(N m)^3)
+  joint_deadzone    (extension) backlash: adds b tanh(tau / tau0) (b in rad; tau0 in N m, default 5 % of
+                    the RMS torque about the joint in the data, written back) -> J.backlash
+  a parameter that the loads do not excite (its joint's torque, or its spring column, below 1e-6 of
+  the best-excited of its kind) is non-identifiable: value 0 (a placeholder) and a reason
   any effect with value = ... is known, not identified (contract s5)
   [measurements] sigma_position (m) weights the rows and scales the standard errors
   (else estimated from the residual); sigma_rotation (rad) for rx ry rz rows.
@@ -52,6 +60,8 @@ outputs:
   --write-model OUT.toml the model with every identified value (contract s5),
                          ready for `stiffkit stiffness`
   --compare OLD.json     side-by-side with an earlier fit
+  --robust               check the data first (robust Huber fit; gross errors, unit slips,
+                         with the fix) and fit without the rows it lists
   --reduce               model reduction M1-M5 (klimchik Table 1): report, then fit
                          only the selected independent parameters (the others fixed
                          at 0), so every reported parameter is identifiable
@@ -83,6 +93,11 @@ def register(sub) -> None:
         "--reduce", action="store_true", help="reduce the model (M1-M5), print Table 1, fit the independent subset"
     )
     p.add_argument("--sigma", type=float, help="override sigma_position (m)")
+    p.add_argument(
+        "--robust",
+        action="store_true",
+        help="check the data (gross errors, unit slips) and fit without the rows listed",
+    )
     p.add_argument("--quiet", action="store_true", help="table only, no parameter list")
     p.set_defaults(func=run)
 
@@ -91,7 +106,16 @@ def run(args) -> int:
 
     model = load_model(args.model)
     meas = read_measurements(args.measurements, model.chain.dof)
-    res = fit(model, meas, sigma_position=args.sigma)
+    checks = None
+    if args.robust:
+        res, checks, _plain = robust_fit(model, meas, sigma_position=args.sigma)
+        text = format_checks(checks)
+        print(text if text else "data checks: no gross errors, no unit slips")
+        if checks.set_aside:
+            print(f"fitted without the {len(checks.set_aside)} rows listed")
+        print()
+    else:
+        res = fit(model, meas, sigma_position=args.sigma)
     red = None
     if args.reduce:
         red = reduce_model(model, meas, sigma_position=args.sigma)
@@ -109,6 +133,8 @@ def run(args) -> int:
         print()
         print(format_parameters(res))
     out = res.to_json()
+    if checks is not None:
+        out["data_checks"] = checks.to_json()
     if red is not None:
         out["reduction"] = red.to_json()
     if args.json:

@@ -89,6 +89,19 @@ subroutine sk_score(n, p, nz, nc1, a, r, z, cstart, rcond, ztol, stat, dof, pr, 
     call score_tests(a, r, z, cstart, rcond, ztol, stat, dof, pr, info)
 end subroutine sk_score
 
+!> Multiplicity-corrected test of the best candidate (sk_calib%max_score_test).
+subroutine sk_max_score(n, p, nz, nc1, a, z, cstart, rcond, ztol, lobs, dpe, nsim, seed, pval, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_calib, only: max_score_test
+    implicit none
+    integer(c_int), intent(in) :: n, p, nz, nc1, dpe, nsim, seed
+    real(c_double), intent(in) :: a(n, p), z(n, nz), rcond, ztol, lobs
+    integer(c_int), intent(in) :: cstart(nc1)
+    real(c_double), intent(out) :: pval
+    integer(c_int), intent(out) :: info
+    call max_score_test(a, z, cstart, rcond, ztol, lobs, dpe, nsim, seed, pval, info)
+end subroutine sk_max_score
+
 !> Sparse relations between coupled parameters (sk_calib%null_relations).
 subroutine sk_null_relations(p, nr, v, nrank, tol, rel, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int

@@ -1,6 +1,7 @@
 !> Small dense linear algebra shared by the core: cross-product matrices,
 !> rotations (exponential and logarithm maps of SO(3)), and thin checked
-!> wrappers around LAPACK (dgesv, dgesvd, dsyev, dpotrf/dpotri).
+!> wrappers around LAPACK (dgesv, dgesvd, dsyev, dpotrf/dpotri) and BLAS
+!> (dgemm).
 !>
 !> Wrappers copy their inputs, check sizes and return an `info` from
 !> sk_errors (never the raw LAPACK code).
@@ -11,7 +12,7 @@ module sk_linalg
     private
     public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
-    public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small
+    public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small, matmul_tn
 
     interface all_finite
         module procedure all_finite_1, all_finite_2, all_finite_3
@@ -54,6 +55,13 @@ module sk_linalg
             real(dp), intent(inout) :: a(lda, *)
             integer, intent(out) :: info
         end subroutine dpotri
+        subroutine dgemm(transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc)
+            import :: dp
+            character, intent(in) :: transa, transb
+            integer, intent(in) :: m, n, k, lda, ldb, ldc
+            real(dp), intent(in) :: alpha, beta, a(lda, *), b(ldb, *)
+            real(dp), intent(inout) :: c(ldc, *)
+        end subroutine dgemm
     end interface
 
 contains
@@ -230,6 +238,29 @@ contains
             info = sk_ok
         end if
     end subroutine inverse
+
+    !> c = a^T b for a[k,m], b[k,n], c[m,n] (BLAS dgemm); info sk_err_size
+    !> when the shapes do not agree.
+    subroutine matmul_tn(a, b, c, info)
+        real(dp), intent(in) :: a(:, :), b(:, :)
+        real(dp), intent(out) :: c(:, :)
+        integer(ip), intent(out) :: info
+        integer :: k, m, n
+        k = size(a, 1)
+        m = size(a, 2)
+        n = size(b, 2)
+        if (size(b, 1) /= k .or. any(shape(c) /= [m, n])) then
+            info = sk_err_size
+            return
+        end if
+        info = sk_ok
+        if (m == 0 .or. n == 0) return
+        if (k == 0) then
+            c = 0.0_dp
+            return
+        end if
+        call dgemm('T', 'N', m, n, k, 1.0_dp, a, k, b, k, 0.0_dp, c, m)
+    end subroutine matmul_tn
 
     !> Thin SVD a = u diag(s) vt of a[m,n], k = min(m,n): u[m,k], s[k], vt[k,n].
     subroutine svd(a, u, s, vt, info)

@@ -22,7 +22,23 @@ from ..io.tables import matrix6, read_toml
 from .indices import stiffness_indices_where
 from .urdf import Chain, load_chain
 
-KINDS = ("joint", "link", "base", "tool", "joint_profile", "gravity_compensator", "point_offset")
+KINDS = (
+    "joint",
+    "link",
+    "base",
+    "tool",
+    "joint_profile",
+    "gravity_compensator",
+    "point_offset",
+    "joint_cubic",
+    "joint_deadzone",
+)
+#: kinds that act on one joint's spring (target: a joint name)
+JOINT_KINDS = ("joint", "joint_profile", "gravity_compensator", "joint_cubic", "joint_deadzone")
+#: joint kinds whose deflection is not linear in the joint torque (contract extensions)
+LOAD_NONLINEAR = ("joint_cubic", "joint_deadzone")
+#: default smoothing of joint_deadzone: tau0 = this fraction of the RMS torque about the joint
+DEADZONE_TAU0_FRACTION = 0.05
 TEMPLATES = ("full", "beam", "diagonal")
 AXES = "xyz"
 SPRING_JOINT, SPRING_FRAME, SPRING_BASE, SPRING_TOOL = 1, 2, 3, 4
@@ -67,8 +83,8 @@ def rpy_matrix(rpy) -> np.ndarray:
 class Term:
     """One expanded effect: a spring (or a point offset) with its parameters.
 
-    kind: joint | joint_profile | gravity_compensator | six (link/base/tool)
-          | point_offset
+    kind: joint | joint_profile | gravity_compensator | joint_cubic
+          | joint_deadzone | six (link/base/tool) | point_offset
     """
 
     kind: str
@@ -80,7 +96,7 @@ class Term:
     value: np.ndarray | None = None  # known values of the parameters
     joint: int = -1  # 0-based chain index (joint kinds)
     qcol: int = -1  # 0-based q column (joint kinds)
-    geometry: dict = field(default_factory=dict)  # compensator a, b, beta, s0
+    geometry: dict = field(default_factory=dict)  # compensator a, b, beta, s0; deadzone tau0
     template: str = ""
     axis: int = 0
     source: str = ""  # kind as written (link/base/tool)
@@ -124,10 +140,15 @@ class Model:
         return any(t.kind == kind and t.target == target for t in self.terms)
 
     # -- evaluation with known values -----------------------------------
-    def joint_compliances(self, Q: np.ndarray, terms=None) -> dict[int, np.ndarray]:
+    def joint_compliances(self, Q: np.ndarray, terms=None, wrench=None) -> dict[int, np.ndarray]:
         """Compliance of every joint spring at postures Q (N, dof), from the
-        known values of joint, joint_profile and gravity_compensator terms:
-        {chain joint index: (N,)}."""
+        known values of the joint kinds: {chain joint index: (N,)}.
+
+        Without ``wrench`` the compliance at zero load: joint_cubic adds
+        nothing there (its tangent at tau = 0) and joint_deadzone has none
+        (InputError). With ``wrench`` (N, 6) (tool-frame origin, base axes)
+        the secant compliance under that load, dq_j / tau_j, so that the
+        tool compliance times the wrench is the deflection."""
         terms = self.terms if terms is None else terms
         c = {}
         for t in terms:
@@ -145,6 +166,27 @@ class Model:
                     raise InputError(f"gravity_compensator on {t.target!r} has no k_s; identify it first")
                 h = compensator_h(Q[:, t.qcol], t.geometry)
                 c[t.joint] = c[t.joint] / (1.0 + c[t.joint] * t.value[0] * h)
+        tau = None
+        for t in terms:
+            if t.kind not in LOAD_NONLINEAR:
+                continue
+            if t.value is None:
+                raise InputError(
+                    f"{t.kind} on {t.target!r} has no value; identify it first (stiffkit fit --write-model)"
+                )
+            if wrench is None:
+                if t.kind == "joint_deadzone":
+                    raise InputError(
+                        f"joint_deadzone on {t.target!r}: a joint with a dead zone deflects by an amount "
+                        f"that depends on the sign and size of the load, so it has no compliance at a "
+                        f"posture alone; give the load (Model.tool_compliance(Q, wrench=W) is the secant "
+                        f"compliance under W, whose product with W is the deflection)"
+                    )
+                continue  # joint_cubic: no contribution to the tangent at zero load
+            if tau is None:
+                tau = self.chain.joint_torques(Q, wrench)
+            c.setdefault(t.joint, np.zeros(Q.shape[0]))
+            c[t.joint] = c[t.joint] + t.value[0] * load_factor(t.kind, tau[:, t.joint], t.geometry.get("tau0"))
         return c
 
     def six_values(self, terms=None) -> dict[tuple[int, int], np.ndarray]:
@@ -188,19 +230,27 @@ class Model:
             col += n
         return out
 
-    def tool_compliance(self, Q, return_stiffness: bool = False):
+    def tool_compliance(self, Q, return_stiffness: bool = False, wrench=None):
         """Tool-frame compliance (N, 6, 6) at postures Q (N, dof): base axes,
         about the tool-frame origin, sum_i J_i C_i J_i^T, one core call.
 
         With ``return_stiffness`` also (K (N,6,6), rank (N,), ok (N,) bool):
         K = C^-1 where C is positive definite, else zeros and ok False.
+        ``wrench`` (N, 6) (tool-frame origin, base axes): the secant
+        compliance under that load for load-nonlinear joints (joint_cubic,
+        joint_deadzone; see joint_compliances); without it the compliance at
+        zero load.
         """
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         if Q.ndim != 2 or Q.shape[1] != self.chain.dof:
             raise InputError(f"postures must have shape (N, {self.chain.dof}), got {np.shape(Q)}")
         if not np.all(np.isfinite(Q)):
             raise InputError("postures contain NaN or Inf")
-        jc = self.joint_compliances(Q)
+        if wrench is not None:
+            wrench = np.atleast_2d(np.asarray(wrench, dtype=float))
+            if wrench.shape != (Q.shape[0], 6) or not np.all(np.isfinite(wrench)):
+                raise InputError(f"wrench must be a finite array of shape ({Q.shape[0]}, 6), got {np.shape(wrench)}")
+        jc = self.joint_compliances(Q, wrench=wrench)
         six = self.six_values()
         springs = [(SPRING_JOINT, j + 1) for j in sorted(jc)] + list(six)
         ns = max(len(springs), 1)
@@ -242,6 +292,38 @@ def profile_basis(q: np.ndarray) -> np.ndarray:
     """(N, 5): 1, cos q, sin q, cos 2q, sin 2q (joint_profile)."""
     q = np.asarray(q, float)
     return np.column_stack([np.ones_like(q), np.cos(q), np.sin(q), np.cos(2 * q), np.sin(2 * q)])
+
+
+def load_factor(kind: str, tau: np.ndarray, tau0=None) -> np.ndarray:
+    """Secant factor of a load-nonlinear joint kind: its joint deflection is
+    value * factor * tau (contract extensions).
+
+    joint_cubic:    dq = c3 tau^3              -> factor tau^2
+    joint_deadzone: dq = b tanh(tau / tau0)    -> factor tanh(tau / tau0) / tau
+                    (a backlash of +-b smoothed over |tau| ~ tau0; 1 / tau0 at tau = 0)
+    """
+    tau = np.asarray(tau, float)
+    if kind == "joint_cubic":
+        return tau * tau
+    if kind == "joint_deadzone":
+        if tau0 is None or not tau0 > 0:
+            raise InputError(f"joint_deadzone needs a positive tau0 (N m), got {tau0!r}")
+        x = tau / tau0
+        small = np.abs(x) < 1e-4
+        safe = np.where(small, 1.0, tau)
+        return np.where(small, (1.0 - x * x / 3.0) / tau0, np.tanh(x) / safe)
+    raise ValueError(f"not a load-nonlinear kind: {kind!r}")
+
+
+def default_tau0(tau: np.ndarray) -> float:
+    """Smoothing torque of joint_deadzone chosen from the data: a fraction
+    (DEADZONE_TAU0_FRACTION) of the RMS torque about the joint over the rows,
+    rounded to 2 significant digits so that it reads well in a model file."""
+    rms = float(np.sqrt(np.mean(np.asarray(tau, float) ** 2))) if np.size(tau) else 0.0
+    v = DEADZONE_TAU0_FRACTION * rms
+    if not v > 0:
+        return 1.0
+    return float(f"{v:.2g}")
 
 
 def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
@@ -325,6 +407,8 @@ KEYS = {
     "base": {"target", "template", "axis", "value", "rpy"},
     "tool": {"target", "template", "axis", "value", "rpy"},
     "point_offset": {"target", "r"},
+    "joint_cubic": {"target", "value"},
+    "joint_deadzone": {"target", "value", "tau0"},
 }
 
 
@@ -342,7 +426,7 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
         )
     target = table.get("target", "all" if kind == "joint" else "")
     terms = []
-    if kind in ("joint", "joint_profile", "gravity_compensator"):
+    if kind in JOINT_KINDS:
         if kind == "joint" and target == "all":
             joints = chain.actuated
             if "value" in table and not isinstance(table["value"], (int, float)):
@@ -379,6 +463,14 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
                     if v.shape != (5,) or not np.all(np.isfinite(v)):
                         raise InputError(f"{where}: value must be [c0, c1, c2, c3, c4]")
                     t.value = v
+            elif kind in LOAD_NONLINEAR:
+                t.names = [f"{jn}.cubic" if kind == "joint_cubic" else f"{jn}.backlash"]
+                if "value" in table:
+                    t.value = np.array([_number(table, "value", where)])
+                if kind == "joint_deadzone" and "tau0" in table:
+                    t.geometry = {"tau0": _number(table, "tau0", where, positive=True)}
+                elif kind == "joint_deadzone" and "value" in table:
+                    raise InputError(f"{where}: a joint_deadzone with a value needs its tau0 (N m) too")
             else:
                 t.names = [f"{jn}.k_s"]
                 t.geometry = {

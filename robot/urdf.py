@@ -134,6 +134,24 @@ class Chain:
             raise InputError(f"postures must have shape (N, {self.dof}), got {np.shape(Q)}")
         return core.chain_poses(self.core_arrays(), np.asfortranarray(Q.T))
 
+    def joint_torques(self, Q, W) -> np.ndarray:
+        """Torque (N m) about every joint's axis (N, nj; 0 for fixed joints)
+        of the wrenches W (N, 6) (force, moment at the tool-frame origin, base
+        axes) at postures Q (N, dof): tau_k = z_k . (m + (p_tool - p_k) x f),
+        the load component that twists joint k (klimchik eq. 12: J_k^T W)."""
+        W = np.atleast_2d(np.asarray(W, dtype=float))
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        if W.shape != (Q.shape[0], 6):
+            raise InputError(f"wrenches must have shape ({Q.shape[0]}, 6), got {W.shape}")
+        # rows share postures (several loads and markers each): frames once per posture
+        Qu, inv = np.unique(Q, axis=0, return_inverse=True)
+        inv = inv.reshape(-1)
+        P = self.poses(Qu)
+        axes = np.einsum("nkij,kj->nki", P["rf"], self.jaxis)[inv]
+        lever = (P["pt"][:, None, :] - P["pf"])[inv]
+        moment = W[:, None, 3:] + np.cross(lever, W[:, None, :3])
+        return np.einsum("nki,nki->nk", axes, moment)
+
     def forward(self, q) -> tuple[np.ndarray, np.ndarray]:
         """Tool frame (R (3,3), p (3,)) at posture q (the core's forward
         kinematics, as every other pose of the chain)."""

@@ -43,6 +43,16 @@ CASES = [
         ],
     ),
     (
+        "joint_cubic",
+        joints_truth() + [{"kind": "joint_cubic", "target": "joint_a2", "value": -2e-15}],
+        [{"kind": "joint", "target": "all"}, {"kind": "joint_cubic", "target": "joint_a2"}],
+    ),
+    (
+        "joint_deadzone",
+        joints_truth() + [{"kind": "joint_deadzone", "target": "joint_a4", "value": 2e-4, "tau0": 20.0}],
+        [{"kind": "joint", "target": "all"}, {"kind": "joint_deadzone", "target": "joint_a4", "tau0": 20.0}],
+    ),
+    (
         "point_offset",
         joints_truth() + [{"kind": "point_offset", "r": [0.03, -0.02, 0.05]}],
         [{"kind": "joint", "target": "all"}, {"kind": "point_offset"}],
@@ -61,7 +71,7 @@ def test_exact_recovery_noise_free(name, truth, effects):
         assert g == "identifiable", f"{n} is {g}"
         t = true.get(n, 0.0)  # template elements absent from the truth are zero
         tol = 1e-8 * max(abs(t), 1e-3 * scale) if n.split(".")[-1].startswith("c") else 1e-8 * max(abs(t), 1e-12)
-        if n.endswith("k_s"):
+        if n.endswith(("k_s", ".cubic", ".backlash")):
             tol = 1e-8 * abs(t)
         assert abs(v - t) <= tol, f"{n}: {v!r} vs {t!r}"
         checked += 1

@@ -80,6 +80,9 @@ def test_non_number_and_short_row(kr, tmp_path):
         ('kind = "gravity_compensator"\ntarget = "joint_a2"\na = 0.4', r"missing 'b'"),
         ('kind = "link"\ntarget = "link_2"\nvalue = [[1.0, 2.0], [2.0, 1.0]]', r"must be a 6x6 matrix"),
         ('kind = "link"\ntarget = "link_2"\ntemplat = "beam"', r"unknown key\(s\) templat for kind 'link'"),
+        ('kind = "joint_deadzone"\ntarget = "joint_a4"\nvalue = 1e-4', r"joint_deadzone with a value needs its tau0"),
+        ('kind = "joint_deadzone"\ntarget = "joint_a4"\ntau0 = -2.0', r"tau0 = -2.0 must be positive"),
+        ('kind = "joint_cubic"\ntarget = "all"', r"unknown joint 'all'"),
     ],
 )
 def test_bad_effect_tables(kr, tmp_path, effect, msg):

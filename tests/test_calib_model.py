@@ -7,10 +7,11 @@ import math
 
 import numpy as np
 import pytest
-from _calib_util import data, joints_truth, spd
+from _calib_util import data, joints_truth, model, spd
 
 import stiffkit
 from stiffkit.calib import synth as S
+from stiffkit.robot.model import model_from_tables
 from stiffkit.robot.urdf import urdf_text
 
 
@@ -248,3 +249,37 @@ def test_tool_compliance_symmetric_psd_and_batched_like_single_calls():
             assert np.linalg.eigvalsh(Ci).min() > -1e-12 * np.abs(Ci).max()
 
     check()
+
+
+def test_load_nonlinear_joints_secant_compliance_and_round_trip(tmp_path):
+    """joint_cubic / joint_deadzone (contract extensions): the secant tool
+    compliance under a row's wrench times that wrench is the row's predicted
+    rotation; without a load the dead zone has no compliance (a clear
+    error) and the cubic is its tangent at zero load; write-model keeps tau0."""
+    from stiffkit.calib.fit import fit, write_model
+    from stiffkit.calib.problem import Problem
+
+    nl = [
+        {"kind": "joint_cubic", "target": "joint_a2", "value": -2e-15},
+        {"kind": "joint_deadzone", "target": "joint_a4", "value": 2e-4, "tau0": 15.0},
+    ]
+    chain, tm, meas = data(joints_truth() + nl, sigma=0.0, seed=3, n_configs=8)
+    pred, _ = Problem(tm, meas).evaluate(np.zeros(0), jac=False)
+    C = tm.tool_compliance(meas.q, wrench=meas.w)
+    twist = np.einsum("nij,nj->ni", C, meas.w)
+    np.testing.assert_allclose(twist[:, 3:], pred[3:].T, rtol=0, atol=1e-12 * np.abs(pred[3:]).max())
+    with pytest.raises(stiffkit.InputError, match="dead zone"):
+        tm.tool_compliance(meas.q)
+    lin = model_from_tables(chain, joints_truth())
+    cub = model_from_tables(chain, joints_truth() + nl[:1])
+    np.testing.assert_allclose(cub.tool_compliance(meas.q), lin.tool_compliance(meas.q), rtol=1e-14)
+    # tau0 chosen from the data (5 % of the RMS torque) and written back
+    res = fit(
+        model(chain, [{"kind": "joint", "target": "all"}, {"kind": "joint_deadzone", "target": "joint_a4"}]), meas
+    )
+    tau = chain.joint_torques(meas.q, meas.w)[:, chain.joint_index("joint_a4")]
+    tau0 = res.problem.tau0(res.problem.terms[-1])
+    assert tau0 == pytest.approx(0.05 * np.sqrt(np.mean(tau**2)), rel=0.05)
+    write_model(res, tmp_path / "m.toml")
+    text = (tmp_path / "m.toml").read_text()
+    assert 'kind = "joint_deadzone"' in text and f"tau0 = {tau0!r}" in text

@@ -12,6 +12,7 @@ program test_calib
     call test_score()
     call test_tails()
     call test_select()
+    call test_max_score()
     call finish('calib')
 
 contains
@@ -78,5 +79,45 @@ contains
         call select_independent(a, [1, 2, 3], 1.0e-8_dp, sel, info)
         call expect(all(sel == [1, 0, 1]), 'select: order decides')
     end subroutine test_select
+
+    !> The max-score test against closed forms: one candidate (its own
+    !> chi-square p-value), a duplicated candidate (no penalty for looking
+    !> twice at the same column), two orthogonal ones (Sidak, 1-(1-p)^2), a
+    !> candidate spanned by the model (ignored), and the F variant.
+    subroutine test_max_score()
+        integer, parameter :: n = 12, nsim = 40000
+        real(dp) :: a(n, 1), z(n, 3), p, lobs, se
+        integer(ip) :: info
+        integer :: i
+        a(:, 1) = 1.0_dp
+        z = 0.0_dp
+        do i = 1, n
+            z(i, 1) = real(i, dp)                 ! a trend
+            z(i, 2) = real(mod(i, 2), dp)         ! an alternation
+        end do
+        z(:, 3) = 2.0_dp
+        lobs = log(0.05_dp)
+        se = 3*sqrt(0.05_dp*0.95_dp/nsim)
+        call max_score_test(a, z, [1, 2], 1.0e-10_dp, 1.0e-6_dp, lobs, 0, nsim, 7, p, info)
+        call expect(info == sk_ok .and. abs(p - 0.05_dp) < se, 'max score: one candidate is its own test')
+        call max_score_test(a, reshape([z(:, 1), z(:, 1)], [n, 2]), [1, 2, 3], 1.0e-10_dp, 1.0e-6_dp, lobs, 0, &
+            nsim, 7, p, info)
+        call expect(info == sk_ok .and. abs(p - 0.05_dp) < se, 'max score: a duplicate costs nothing')
+        ! the alternation projected off the mean is not orthogonal to the trend:
+        ! use the first half / second half contrast instead, orthogonal to both
+        z(:, 2) = [(merge(1.0_dp, -1.0_dp, i <= n/2), i=1, n)]
+        z(:, 1) = [(merge(real(i, dp) - 3.5_dp, -(real(i - n/2, dp) - 3.5_dp), i <= n/2), i=1, n)]
+        call max_score_test(a, z(:, 1:2), [1, 2, 3], 1.0e-10_dp, 1.0e-6_dp, lobs, 0, nsim, 11, p, info)
+        call expect(info == sk_ok .and. abs(dot_product(z(:, 1), z(:, 2))) < 1e-12_dp, 'max score: orthogonal pair')
+        call expect(abs(p - (1.0_dp - 0.95_dp**2)) < 3*sqrt(0.0975_dp*0.9025_dp/nsim), 'max score: Sidak for two')
+        call max_score_test(a, z, [1, 2, 3, 4], 1.0e-10_dp, 1.0e-6_dp, lobs, 0, nsim, 11, p, info)
+        call expect(abs(p - (1.0_dp - 0.95_dp**2)) < 3*sqrt(0.0975_dp*0.9025_dp/nsim), 'max score: spanned ignored')
+        call max_score_test(a, z(:, 1:1), [1, 2], 1.0e-10_dp, 1.0e-6_dp, lobs, 5, nsim, 3, p, info)
+        call expect(info == sk_ok .and. abs(p - 0.05_dp) < se, 'max score: F against pure error')
+        call max_score_test(a, z(:, 1:1), [1, 2], 1.0e-10_dp, 1.0e-6_dp, 0.0_dp, 0, nsim, 3, p, info)
+        call expect(p == 1.0_dp, 'max score: log p = 0 is p = 1')
+        call max_score_test(a, z(:, 1:1), [1, 2], 1.0e-10_dp, 1.0e-6_dp, lobs, 0, 0, 3, p, info)
+        call expect(info == sk_err_argument, 'max score: nsim >= 1')
+    end subroutine test_max_score
 
 end program test_calib

@@ -1,0 +1,66 @@
+"""Cross-validation by configuration: K folds in which the points of one
+configuration (posture) are never split, and the held-out residuals of a
+linear(ised) least-squares problem.
+
+Generic: labels are any per-row configuration names; the problem is
+``A x ~ b`` with observations already divided by their sigma and
+``obs_rows`` naming the row of each observation (several observations per
+row: coordinates). For a nonlinear model, A and b are its Jacobian and
+residual at the full-data fit, so that each fold takes one Gauss-Newton
+step from there (exact for models linear in their parameters).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._core import calib as core
+
+__all__ = ["config_folds", "held_out_residuals", "rms_rows"]
+
+
+def config_folds(labels, k: int = 5) -> list[np.ndarray]:
+    """Row indices of the test set of each fold: the configurations, in the
+    order they first appear, dealt to min(k, #configurations) folds in
+    turn (deterministic; neighbouring configurations land in different
+    folds, so a drift along the row order is not a fold)."""
+    order: dict[str, list[int]] = {}
+    for i, c in enumerate(labels):
+        order.setdefault(str(c), []).append(i)
+    cfgs = list(order)
+    k = max(1, min(int(k), len(cfgs)))
+    folds = [[] for _ in range(k)]
+    for j, c in enumerate(cfgs):
+        folds[j % k].extend(order[c])
+    return [np.array(sorted(f), dtype=int) for f in folds if f]
+
+
+def held_out_residuals(A, b, obs_rows, folds, rcond: float = 1e-10) -> np.ndarray:
+    """Residual of every observation predicted by a fit to the other folds
+    (the core's weighted least squares, minimum-norm when a fold leaves a
+    parameter undetermined). NaN for a fold whose training set has fewer
+    observations than parameters."""
+    A = np.asarray(A, float)
+    b = np.asarray(b, float)
+    obs_rows = np.asarray(obs_rows)
+    out = np.full(b.shape, np.nan)
+    if A.shape[1] == 0:
+        return b.copy()
+    for f in folds:
+        test = np.isin(obs_rows, f)
+        train = ~test
+        if train.sum() < A.shape[1] or not test.any():
+            continue
+        x = core.wls(A[train], b[train], rcond, 1e-6)[0]
+        out[test] = b[test] - A[test] @ x
+    return out
+
+
+def rms_rows(e, n_rows: int, coords=None, scale: float = 1.0) -> float:
+    """RMS over rows of the norm of each row's residual (observations laid
+    out coordinate-major, e[c * n_rows + i]), using the coordinates
+    ``coords`` (default all), times ``scale`` (e.g. sigma, to get metres)."""
+    e = np.asarray(e, float).reshape(-1, n_rows)
+    if coords is not None:
+        e = e[list(coords)]
+    return float(np.sqrt(np.nanmean(np.sum(e * e, axis=0))) * scale)
