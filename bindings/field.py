@@ -83,9 +83,16 @@ def normal_quantile(level: float) -> float:
 def rigid_transform(p: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(R, t) of the rigid motion x ~ R p + t of the points p (n, 3) onto x
     (n, 3): Procrustes with det R = +1 (Kabsch / Horn)."""
-    r, t, _rms, info = _field.sk_rigid_transform(np.asfortranarray(np.asarray(p, float).T),
-                                                 np.asfortranarray(np.asarray(x, float).T))
-    check(info, "rigid_transform (sk_rigid_transform)",
-          {1: "need at least 3 points in both sets", 3: "the points are collinear or coincident",
-           2: "the points contain NaN or Inf"})
+    r, t, _rms, info = _field.sk_rigid_transform(
+        np.asfortranarray(np.asarray(p, float).T), np.asfortranarray(np.asarray(x, float).T)
+    )
+    check(
+        info,
+        "rigid_transform (sk_rigid_transform)",
+        {
+            1: "need at least 3 points in both sets",
+            3: "the points are collinear or coincident",
+            2: "the points contain NaN or Inf",
+        },
+    )
     return r, t
