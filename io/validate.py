@@ -267,7 +267,7 @@ def array(
     fin = np.isfinite(a)
     if not fin.all():
         i = _first_bad(~fin)
-        raise InputError(f"{name}{list(i) if i else ''} is {a[i]}: every value must be finite")
+        raise InputError(f"{name}{list(i) if i else ''} is {a[i]}: NaN or Inf where every value must be finite")
     if qq is not None and a.size:
         big = np.abs(a) > qq.limit
         if big.any():
