@@ -153,7 +153,14 @@ def _session(command: list):
     old_show = warnings.showwarning
     old_stdout = sys.stdout
 
+    seen = set()
+
     def show(message, category, filename, lineno, file=None, line=None):
+        key = getattr(message, "key", None)
+        if key is not None:  # the same finding reached twice (option, then the API)
+            if key in seen:
+                return
+            seen.add(key)
         kind = "" if issubclass(category, StiffkitWarning) else f"({category.__name__}) "
         print(f"stiffkit {command[0] or ''}".rstrip() + f": warning: {kind}{message}", file=sys.stderr)
 

@@ -131,8 +131,16 @@ def read_table(path, what: str = "table") -> Table:
             line = reader.line_num
             if not row or all(not x.strip() for x in row):
                 continue
-            if len(row) != len(header):
-                raise InputError(f"{path}, line {line}: {len(row)} fields, but the header has {len(header)} columns")
+            if len(row) < len(header):
+                raise InputError(
+                    f"{path}, line {line}: field {header[len(row)]!r} is missing "
+                    f"(row has {len(row)} fields, the header {len(header)})"
+                )
+            if len(row) > len(header):
+                raise InputError(
+                    f"{path}, line {line}: {len(row)} fields, but the header has {len(header)} columns "
+                    "(an extra field: a decimal comma, or a comma inside a value?)"
+                )
             rows.append(row)
             lines.append(line)
     except csv.Error as exc:

@@ -63,7 +63,13 @@ class Quantity:
     @property
     def label(self) -> str:
         """The quantity in words ("joint compliance"; "E" is Young's modulus)."""
-        return {"E": "Young's modulus E", "matrix6": "6x6 matrix element"}.get(self.name, self.name.replace("_", " "))
+        special = {
+            "E": "Young's modulus E",
+            "matrix6": "6x6 matrix element",
+            "sigma_position": "position noise (sigma)",
+            "sigma_rotation": "rotation noise (sigma)",
+        }
+        return special.get(self.name, self.name.replace("_", " "))
 
 
 _MM = (("mm", 1e-3),)
@@ -130,9 +136,13 @@ def _range_text(lo, hi, lo_open, hi_open) -> str:
     return f"{'<' if hi_open else '<='} {_fmt(hi)}"
 
 
-def warn(message: str, stacklevel: int = 3) -> None:
-    """A :class:`PlausibilityWarning` (the command line prints it as one line)."""
-    warnings.warn(message, PlausibilityWarning, stacklevel=stacklevel)
+def warn(message: str, stacklevel: int = 3, key=None) -> None:
+    """A :class:`PlausibilityWarning` (the command line prints it as one
+    line); ``key`` identifies the finding (e.g. (quantity, value)) so that a
+    value checked twice on its way (option, then API) is reported once."""
+    w = PlausibilityWarning(message)
+    w.key = key
+    warnings.warn(w, stacklevel=stacklevel)
 
 
 def _an(word: str) -> str:
@@ -164,7 +174,7 @@ def plausible(v: float, name: str, q: str | Quantity | None) -> None:
         return
     why = _implausible(v, q)
     if why:
-        warn(f"{name} = {_fmt(v)}{_unit(q, None)} {why}", stacklevel=4)
+        warn(f"{name} = {_fmt(v)}{_unit(q, None)} {why}", stacklevel=4, key=(q.name, float(v)))
 
 
 def number(
@@ -211,7 +221,7 @@ def number(
     if check_plausible and qq is not None:
         why = _implausible(v, qq)
         if why:
-            warn(f"{name} = {_fmt(value)}{u} {why}", stacklevel=3)
+            warn(f"{name} = {_fmt(value)}{u} {why}", stacklevel=3, key=(qq.name, v))
     return int(v) if integer else v
 
 
