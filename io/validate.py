@@ -129,6 +129,8 @@ def _unit(q: Quantity | None, unit: str | None) -> str:
 
 
 def _range_text(lo, hi, lo_open, hi_open) -> str:
+    if lo == 0 and hi is None:
+        return "positive" if lo_open else ">= 0"
     if lo is not None and hi is not None:
         return f"in {'(' if lo_open else '['}{_fmt(lo)}, {_fmt(hi)}{')' if hi_open else ']'}"
     if lo is not None:

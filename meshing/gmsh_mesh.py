@@ -181,12 +181,21 @@ def mesh_part(
         raise InputError(f"mesh.mesher = {mesher!r}: gmsh or tetgen")
     gmsh = _gmsh()
     t0 = time.perf_counter()
-    gmsh.initialize(readConfigFiles=False)
+    # interruptible=False: gmsh would otherwise reset SIGINT to its default
+    # while it runs, and Ctrl-C would kill Python without any cleanup
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setNumber("General.NumThreads", 1)
         gmsh.model.add("link")
         _add_geometry(gmsh, geometry, units)
+        box = np.array(gmsh.model.getBoundingBox(-1, -1))
+        extent = box[3:] - box[:3]  # geometry units (OCC pads by ~1e-7)
+        if size > extent.max():
+            raise MeshError(
+                f"{geometry.get('step', geometry.get('shape'))}: element size {size:g} {units} is larger than the "
+                f"whole part ({' x '.join(f'{e:.4g}' for e in extent)} {units}); give a fraction of its smallest side"
+            )
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
         gmsh.option.setNumber("Mesh.MeshSizeMin", size if not refine else refine * size)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
@@ -223,6 +232,7 @@ def mesh_part(
         gmsh.finalize()
     mesh.size_m = size * scale
     mesh.mesher = mesher
+    mesh.info["extent"] = [float(e) for e in extent]
     if structured:
         mesh.info["structured"] = True
         mesh.info["across_factor"] = across_factor
