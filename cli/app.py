@@ -156,11 +156,13 @@ def _session(command: list):
     seen = set()
 
     def show(message, category, filename, lineno, file=None, line=None):
-        key = getattr(message, "key", None)
-        if key is not None:  # the same finding reached twice (option, then the API)
-            if key in seen:
-                return
-            seen.add(key)
+        # the same finding reached twice (an option, then the API; a file read twice)
+        keys = {("text", str(message))}
+        if getattr(message, "key", None) is not None:
+            keys.add(message.key)
+        if keys & seen:
+            return
+        seen.update(keys)
         kind = "" if issubclass(category, StiffkitWarning) else f"({category.__name__}) "
         print(f"stiffkit {command[0] or ''}".rstrip() + f": warning: {kind}{message}", file=sys.stderr)
 
