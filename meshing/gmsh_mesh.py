@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import logging
 import shutil
+import signal
 import subprocess
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -26,6 +28,18 @@ logger = logging.getLogger(__name__)
 CAD_SUFFIXES = {".step": "STEP", ".stp": "STEP", ".brep": "BREP", ".brp": "BREP", ".iges": "IGES", ".igs": "IGES"}
 #: geometry unit -> OpenCASCADE target unit of STEP/IGES import
 OCC_UNITS = {"mm": "MM", "m": "M", "cm": "CM", "in": "INCH"}
+
+
+def _python_signals() -> None:
+    """Give SIGINT and SIGTERM back to Python: gmsh's initialisation installs
+    C handlers for them that end the process at once, so a Ctrl-C or a
+    SIGTERM later in the run (while ccx runs) would skip every cleanup."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(sig)
+        if handler is not None:
+            signal.signal(sig, handler)
 
 
 def _gmsh():
@@ -184,6 +198,7 @@ def mesh_part(
     # interruptible=False: gmsh would otherwise reset SIGINT to its default
     # while it runs, and Ctrl-C would kill Python without any cleanup
     gmsh.initialize(readConfigFiles=False, interruptible=False)
+    _python_signals()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setNumber("General.NumThreads", 1)
