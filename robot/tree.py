@@ -133,7 +133,7 @@ def _origin(j: object, path="URDF") -> np.ndarray:
 
 
 #: numeric attributes checked before the library reads them: (element, attribute, count)
-_NUMERIC = (("origin", "xyz", 3), ("origin", "rpy", 3), ("axis", "xyz", 3), ("mass", "value", 1))
+_NUMERIC = (("origin", "xyz", 3), ("origin", "rpy", 3), ("axis", "xyz", 3))
 
 
 def _owner(el, parents) -> str:
@@ -155,8 +155,8 @@ def check_urdf_text(text: str, path) -> None:
     except ET.ParseError as exc:
         line, col = exc.position
         raise InputError(
-            f"{path}, line {line}: not well-formed XML ({str(exc).split(':')[0]}, column {col}); "
-            "is the file complete?"
+            f"{path}, line {line}: cannot parse the URDF: not well-formed XML ({str(exc).split(':')[0]}, "
+            f"column {col}); is the file complete?"
         ) from None
     if root.tag != "robot":
         raise InputError(f"{path}: the root element is <{root.tag}>, a URDF's is <robot>")
@@ -176,9 +176,7 @@ def check_urdf_text(text: str, path) -> None:
             except ValueError:
                 vals = None
             if vals is None or len(vals) != n or not all(math.isfinite(v) for v in vals):
-                raise InputError(
-                    f"{path}: {_owner(el, parents)}: <{tag} {attr}=\"{raw}\"> must be {n} finite number(s)"
-                )
+                raise InputError(f'{path}: {_owner(el, parents)}: <{tag} {attr}="{raw}"> must be {n} finite number(s)')
             if tag == "origin" and attr == "xyz":
                 far = max(far, max(abs(v) for v in vals))
     if far > V.QUANTITIES["position"].plausible[1]:
