@@ -22,8 +22,10 @@ from ..io.files import FIGURE_SUFFIXES
 from ..springs.reports import orthoglide_report, smg_report, tree_report
 from . import args as A
 
-#: the largest workspace map: N^3 postures in one core call (101^3 = 1e6)
-MAP_MAX = 101
+#: the largest workspace map: N^3 postures in one core call, about 6 KB each
+#: (61^3 = 227,000 postures, 1.3 GB); and the most SMG postures (4 KB each)
+MAP_MAX = 61
+POSTURES_MAX = 200_000
 
 HELP_ORTHOGLIDE = """\
 model (see stiffkit/springs/orthoglide.py): three PRPaR legs, L = 310 mm,
@@ -119,7 +121,7 @@ def register(sub) -> None:
         "--map",
         type=A.count("--map", 2, MAP_MAX),
         metavar="N",
-        help=f"workspace map on an N^3 grid (2 <= N <= {MAP_MAX})",
+        help=f"workspace map on an N^3 grid (2 <= N <= {MAP_MAX}; memory ~6 KB per posture)",
     )
     o.add_argument("--png", help="PNG of the map slices (with --map)")
     o.add_argument("--json", help="write results to this JSON file")
@@ -133,7 +135,10 @@ def register(sub) -> None:
         HELP_SMG,
     )
     s.add_argument(
-        "--postures", type=A.count("--postures", 2, 10**6), default=401, help="points along the trajectory (2-1e6)"
+        "--postures",
+        type=A.count("--postures", 2, POSTURES_MAX),
+        default=401,
+        help=f"points along the trajectory (2-{POSTURES_MAX}; memory ~4 KB per posture)",
     )
     s.add_argument(
         "--pi-joints",

@@ -74,6 +74,7 @@ def mesh_job(job: LinkJob) -> Mesh:
         optimize=job.optimize,
         structured=job.structured,
         across_factor=job.across_factor,
+        source=f"{job.source}: [mesh] size",
         **kw,
     )
     if "step" in job.geometry:  # a CAD part's size is known once it is read

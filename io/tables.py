@@ -82,6 +82,11 @@ class Table:
 
     def require(self, columns, note: str = "") -> None:
         missing = [c for c in columns if c not in self.header]
+        if missing and len(self.header) == 1 and any(sep in self.header[0] for sep in ";\t"):
+            raise InputError(
+                f"{self.path}, line 1: one column {self.header[0]!r}: the fields are separated by "
+                f"{'a semicolon' if ';' in self.header[0] else 'tabs'}; stiffkit's CSV files use commas"
+            )
         if missing:
             raise InputError(
                 f"{self.path}, line 1: missing column(s) {', '.join(missing)}{note} "
@@ -219,6 +224,14 @@ def _no_constant(name: str):
     raise ValueError(f"{name} is not a JSON number (JSON has no NaN or Infinity)")
 
 
+def _no_duplicates(pairs: list) -> dict:
+    keys = [k for k, _ in pairs]
+    dup = sorted({k for k in keys if keys.count(k) > 1})
+    if dup:
+        raise ValueError(f"the key {dup[0]!r} appears twice in one object (which one is meant?)")
+    return dict(pairs)
+
+
 def _document(path, what: str, where: str, error, kind: str, parse, errors):
     path = Path(path)
     at = f"{where}: {path}" if where else str(path)
@@ -232,10 +245,17 @@ def _document(path, what: str, where: str, error, kind: str, parse, errors):
 def read_json(path, what: str, where: str = "", error: type[InputError] = InputError):
     """The JSON document in ``path``; ``error`` (InputError by default)
     naming ``where`` (the caller's context, if any) and the file when it is
-    missing, not UTF-8 or not JSON (NaN and Infinity are not JSON);
+    missing, not UTF-8 or not JSON (NaN and Infinity are not JSON, and an
+    object that names a key twice is refused);
     ``what`` names the kind of file in the message."""
     return _document(
-        path, what, where, error, "JSON", lambda t: json.loads(t, parse_constant=_no_constant), (json.JSONDecodeError,)
+        path,
+        what,
+        where,
+        error,
+        "JSON",
+        lambda t: json.loads(t, parse_constant=_no_constant, object_pairs_hook=_no_duplicates),
+        (json.JSONDecodeError,),
     )
 
 

@@ -205,9 +205,12 @@ def number(
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         kind = "an integer" if integer else "a number"
         raise InputError(f"{name} = {value!r} must be {kind}{u.replace(' ', ' in ', 1) if u else ''}")
-    if integer and not float(value).is_integer():
+    try:
+        v = float(value)
+    except OverflowError:  # an integer beyond double precision
+        raise InputError(f"{name} = {str(value)[:12]}... is out of range (beyond double precision)") from None
+    if integer and not v.is_integer():
         raise InputError(f"{name} = {_fmt(value)} must be an integer")
-    v = float(value)
     if not math.isfinite(v):
         raise InputError(f"{name} = {value} must be a finite number")
     if qq is not None and abs(v) > qq.limit:
@@ -264,6 +267,8 @@ def array(
     elif raw.dtype.kind == "O":
         try:
             a = np.array(value, dtype=float)
+        except OverflowError:
+            raise InputError(f"{name} holds an integer beyond double precision") from None
         except (TypeError, ValueError):
             raise InputError(f"{name} must be an array of numbers; it holds {_kinds(raw)}") from None
     else:
