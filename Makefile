@@ -18,12 +18,13 @@ LINK ?= examples/beam.toml
 export OMP_NUM_THREADS ?= 1
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
-.PHONY: help system-deps venv install test test-core test-py lint format demo bench clean link-stiffness convergence
+.PHONY: help system-deps venv install test test-core test-py test-valgrind lint format demo bench clean link-stiffness convergence
 .DEFAULT_GOAL := help
 
 help:
 	@echo "stiffkit make targets"
 	@echo "  make test        install what is missing, run the Fortran unit tests (-fcheck=all) and pytest"
+	@echo "  make test-valgrind   the Fortran unit tests under valgrind (memory errors, leaks; optional, ~15 s)"
 	@echo "  make demo        install what is missing, run the main job on a built-in example"
 	@echo "  make bench       benchmarks (figures for the README results section)"
 	@echo "  make lint        ruff (lint + format check) and gfortran/gcc warnings as errors"
@@ -67,6 +68,16 @@ test-core: install
 	  $(VENV)/bin/meson setup $(CHECK_BUILD) -Dchecks=true -Dbuildtype=debug \
 	    -Dpython.install_env=auto >/dev/null; fi
 	$(VENV)/bin/meson test -C $(CHECK_BUILD) --print-errorlogs
+
+# The Fortran unit tests under valgrind (optional, not part of `make test`):
+# invalid reads/writes, uninitialised values and definite leaks are errors.
+VALGRIND := valgrind -q --error-exitcode=1 --leak-check=full --errors-for-leak-kinds=definite --track-origins=yes
+test-valgrind: install
+	@command -v valgrind >/dev/null || { echo "valgrind is not installed: sudo apt-get install -y valgrind"; exit 1; }
+	@if [ ! -d $(CHECK_BUILD) ]; then \
+	  $(VENV)/bin/meson setup $(CHECK_BUILD) -Dchecks=true -Dbuildtype=debug \
+	    -Dpython.install_env=auto >/dev/null; fi
+	$(VENV)/bin/meson test -C $(CHECK_BUILD) --print-errorlogs --timeout-multiplier 20 --wrap='$(VALGRIND)'
 
 test-py: install
 	$(PY) -m pytest -q tests

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _calib
-from .errors import check
+from .errors import call, check
 
 
 def tool_compliance(
@@ -20,11 +20,16 @@ def tool_compliance(
     """Tool compliance and stiffness at postures q (ndof, N) Fortran-ordered.
 
     Returns (C (N,6,6), K (N,6,6), rank (N,), kinfo (N,))."""
-    c, k, rank, kinfo, info = _calib.sk_tool_compliance(**chain, stype=stype, sidx=sidx, cs=cs, cj=cj, q=q)
+    c, k, rank, kinfo, info = call(
+        _calib.sk_tool_compliance, "sk_tool_compliance", **chain, stype=stype, sidx=sidx, cs=cs, cj=cj, q=q
+    )
     check(
         info,
         "tool_compliance (sk_tool_compliance)",
-        {6: "the chain or spring description is inconsistent (axis not unit, bad index)"},
+        {
+            6: "the chain or spring description is inconsistent (axis not unit, bad index)",
+            9: "a joint compliance is negative or a 6x6 spring value has a negative eigenvalue: not a physical spring",
+        },
     )
     return (
         np.ascontiguousarray(np.transpose(c, (2, 0, 1))),
@@ -36,7 +41,7 @@ def tool_compliance(
 
 def chain_poses(chain: dict, q: np.ndarray) -> dict[str, np.ndarray]:
     """Frames at postures q (ndof, N): rf (N, nj, 3, 3), pf (N, nj, 3), rt (N, 3, 3), pt (N, 3)."""
-    rf, pf, rt, pt, info = _calib.sk_chain_poses(**chain, q=q)
+    rf, pf, rt, pt, info = call(_calib.sk_chain_poses, "sk_chain_poses", **chain, q=q)
     check(
         info,
         "chain poses (sk_chain_poses)",
@@ -54,14 +59,16 @@ def spring_basis(
     nb: int, chain: dict, stype: np.ndarray, sidx: np.ndarray, q: np.ndarray, w: np.ndarray, p: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Observation basis B (6, n, nb) of every spring and the tool rotations (n, 3, 3)."""
-    b, rt, info = _calib.sk_spring_basis(nb, **chain, stype=stype, sidx=sidx, q=q, w=w, p=p)
+    b, rt, info = call(_calib.sk_spring_basis, "sk_spring_basis", nb, **chain, stype=stype, sidx=sidx, q=q, w=w, p=p)
     check(info, "observation basis (sk_spring_basis)")
     return b, np.transpose(rt, (2, 0, 1))
 
 
 def spring_jacobians(nd: int, chain: dict, stype: np.ndarray, sidx: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Jacobians (6, nd) of every spring at one posture q (ndof,)."""
-    jac, _rt, _pt, info = _calib.sk_spring_jacobians(nd, **chain, stype=stype, sidx=sidx, q=q)
+    jac, _rt, _pt, info = call(
+        _calib.sk_spring_jacobians, "sk_spring_jacobians", nd, **chain, stype=stype, sidx=sidx, q=q
+    )
     check(info, "spring Jacobians (sk_spring_jacobians)")
     return jac
 
@@ -70,7 +77,7 @@ def wls(a: np.ndarray, y: np.ndarray, rcond: float, gtol: float) -> tuple:
     """Weighted least squares by a scaled rank-revealing SVD with M4a groups.
 
     Returns (theta, stdu, s, v, rank, group, res)."""
-    theta, stdu, s, v, rank, group, res, info = _calib.sk_wls(np.asfortranarray(a), y, rcond, gtol)
+    theta, stdu, s, v, rank, group, res, info = call(_calib.sk_wls, "sk_wls", np.asfortranarray(a), y, rcond, gtol)
     check(info, "weighted least squares (sk_wls)", {8: "fewer observations than parameters"})
     return theta, stdu, s, v, int(rank), group, res
 
@@ -80,8 +87,15 @@ def score(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Score statistics, degrees of freedom and projected ranks of candidate
     column blocks z[:, cstart[c]-1 : cstart[c+1]-1] against the model a."""
-    stat, dof, pr, info = _calib.sk_score(
-        np.asfortranarray(a), r, np.asfortranarray(z), np.asarray(cstart, np.int32), rcond, ztol
+    stat, dof, pr, info = call(
+        _calib.sk_score,
+        "sk_score",
+        np.asfortranarray(a),
+        r,
+        np.asfortranarray(z),
+        np.asarray(cstart, np.int32),
+        rcond,
+        ztol,
     )
     check(info, "score tests (sk_score)")
     return stat, dof, pr
@@ -120,23 +134,23 @@ def max_score(
 
 def null_relations(v: np.ndarray, nrank: int, tol: float) -> np.ndarray:
     """Sparse relations (p - nrank, p) spanning the null space of V (eq. 21)."""
-    rel, info = _calib.sk_null_relations(np.asfortranarray(v), int(nrank), tol)
+    rel, info = call(_calib.sk_null_relations, "sk_null_relations", np.asfortranarray(v), int(nrank), tol)
     check(info, "coupling relations (sk_null_relations)")
     return rel
 
 
 def select_independent(a: np.ndarray, order: np.ndarray, tol: float) -> np.ndarray:
     """Columns of a (in the preference order, 0-based) kept as independent: bool (p,)."""
-    sel, info = _calib.sk_select(np.asfortranarray(a), np.asarray(order, np.int32) + 1, tol)
+    sel, info = call(_calib.sk_select, "sk_select", np.asfortranarray(a), np.asarray(order, np.int32) + 1, tol)
     check(info, "independent subset (sk_select)")
     return sel.astype(bool)
 
 
 def chi2_logsf(x: float, k: float) -> float:
     """log P(chi2_k > x)."""
-    return float(_calib.sk_chi2_logsf(float(x), float(k)))
+    return float(call(_calib.sk_chi2_logsf, "sk_chi2_logsf", float(x), float(k)))
 
 
 def f_logsf(f: float, d1: float, d2: float) -> float:
     """log P(F(d1, d2) > f)."""
-    return float(_calib.sk_f_logsf(float(f), float(d1), float(d2)))
+    return float(call(_calib.sk_f_logsf, "sk_f_logsf", float(f), float(d1), float(d2)))

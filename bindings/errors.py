@@ -24,6 +24,14 @@ INFO: dict[int, tuple[type[StiffkitError], str]] = {
     6: (InputError, "an argument is out of its range"),
     7: (ConvergenceError, "the iteration did not converge"),
     8: (InputError, "too few data are left for the estimate"),
+    9: (
+        InputError,
+        "a compliance or stiffness has a negative eigenvalue (or a joint a negative compliance): not a physical spring",
+    ),
+    10: (
+        InputError,
+        "the result is not finite: the input magnitudes are beyond double precision (check their units)",
+    ),
     31: (InputError, "a file is missing, unreadable or malformed"),
     32: (StiffkitError, "out of memory"),
 }
@@ -38,17 +46,34 @@ NAMES: dict[int, str] = {
     6: "argument",
     7: "noconv",
     8: "too_few",
+    9: "indefinite",
+    10: "overflow",
     31: "io",
     32: "nomem",
 }
 
 
 def check(info: int, routine: str, details: dict[int, str] | None = None) -> None:
-    """Raise the exception that ``info`` stands for, naming ``routine``."""
+    """Raise the exception that ``info`` stands for, naming ``routine`` and
+    saying what was wrong (the code itself is the exception's ``info``
+    attribute, not part of the message: it means nothing to a user)."""
     info = int(info)
     if info == 0:
         return
     cls, text = INFO.get(info, (StiffkitError, f"unknown status {info}"))
     if details and info in details:
         text = details[info]
-    raise cls(f"{routine}: {text} (info={info})")
+    exc = cls(f"{routine}: {text}")
+    exc.info = info
+    raise exc
+
+
+def call(fn, routine: str, *args, **kwargs):
+    """``fn(*args, **kwargs)`` of an f2py extension, with the extension's
+    own argument errors (ValueError, TypeError: an array that does not
+    convert, a wrong size) raised as InputError naming ``routine``."""
+    try:
+        return fn(*args, **kwargs)
+    except (ValueError, TypeError) as exc:
+        text = " ".join(str(exc).split())
+        raise InputError(f"{routine}: the arguments do not fit the core's signature ({text})") from None

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 from . import _sparse
-from .errors import check
+from .errors import call, check
 
 _IO = {
     31: "file missing, unreadable or malformed (expected 'row col value' / 'node.direction' lines)",
@@ -22,11 +22,11 @@ def read_triplets(path) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """rows, cols (1-based, upper triangle), values and the equation count
     of a CalculiX .sti/.mas file."""
     path = str(Path(path))
-    nnz, neq, info = _sparse.sk_triplet_count(path)
+    nnz, neq, info = call(_sparse.sk_triplet_count, "sk_triplet_count", path)
     check(info, f"read_triplets (sk_triplet_count) {path}", _IO)
     if nnz < 1:
         raise InputError(f"read_triplets: {path} holds no matrix entries")
-    rows, cols, vals, info = _sparse.sk_triplet_read(path, nnz)
+    rows, cols, vals, info = call(_sparse.sk_triplet_read, "sk_triplet_read", path, nnz)
     check(info, f"read_triplets (sk_triplet_read) {path}", _IO)
     return rows, cols, vals, int(neq)
 
@@ -34,11 +34,11 @@ def read_triplets(path) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
 def read_dofs(path) -> tuple[np.ndarray, np.ndarray]:
     """node and direction (1-3) of every equation of a CalculiX .dof file."""
     path = str(Path(path))
-    neq, info = _sparse.sk_dof_count(path)
+    neq, info = call(_sparse.sk_dof_count, "sk_dof_count", path)
     check(info, f"read_dofs (sk_dof_count) {path}", _IO)
     if neq < 1:
         raise InputError(f"read_dofs: {path} lists no equations")
-    node, direction, info = _sparse.sk_dof_read(path, neq)
+    node, direction, info = call(_sparse.sk_dof_read, "sk_dof_read", path, neq)
     check(info, f"read_dofs (sk_dof_read) {path}", _IO)
     return node, direction
 
@@ -46,8 +46,13 @@ def read_dofs(path) -> tuple[np.ndarray, np.ndarray]:
 def cholmod_solve(rows, cols, vals, b) -> tuple[np.ndarray, dict]:
     """x = K^-1 b for every column of b (n, nrhs), one factorisation."""
     b = np.asfortranarray(np.atleast_2d(np.asarray(b, dtype=float).T).T)
-    x, times, lnz, info = _sparse.sk_sparse_solve(
-        np.asarray(rows, dtype=np.int32), np.asarray(cols, dtype=np.int32), np.asarray(vals, dtype=float), b
+    x, times, lnz, info = call(
+        _sparse.sk_sparse_solve,
+        "sk_sparse_solve",
+        np.asarray(rows, dtype=np.int32),
+        np.asarray(cols, dtype=np.int32),
+        np.asarray(vals, dtype=float),
+        b,
     )
     check(
         info,
@@ -72,7 +77,9 @@ def rigid_solve(rows, cols, vals, n: int, ceq, offsets) -> tuple[np.ndarray, np.
     constrained), ``offsets`` (nc, 3) node - reference point. Returns u
     (n, 6): every equation under the six unit wrenches, q (6, 6): the
     reference-point compliance, and timings."""
-    u, q, times, lnz, info = _sparse.sk_rigid_solve(
+    u, q, times, lnz, info = call(
+        _sparse.sk_rigid_solve,
+        "sk_rigid_solve",
         int(n),
         np.asarray(rows, dtype=np.int32),
         np.asarray(cols, dtype=np.int32),
@@ -104,8 +111,11 @@ def rigid_solve(rows, cols, vals, n: int, ceq, offsets) -> tuple[np.ndarray, np.
 def face_weights(nodes: np.ndarray, face_conn: np.ndarray) -> tuple[np.ndarray, float]:
     """Weights of every node (integrals of the face shape functions over the
     faces (nf, 3|6), 1-based node numbers) and the faces' total area."""
-    w, area, info = _sparse.sk_face_weights(
-        np.asfortranarray(np.asarray(nodes, float).T), np.asfortranarray(np.asarray(face_conn, np.int32).T)
+    w, area, info = call(
+        _sparse.sk_face_weights,
+        "sk_face_weights",
+        np.asfortranarray(np.asarray(nodes, float).T),
+        np.asfortranarray(np.asarray(face_conn, np.int32).T),
     )
     check(info, "face_weights (sk_face_weights)")
     return w, float(area)
@@ -114,8 +124,12 @@ def face_weights(nodes: np.ndarray, face_conn: np.ndarray) -> tuple[np.ndarray, 
 def distributing_loads(points: np.ndarray, weights: np.ndarray, reference) -> np.ndarray:
     """(6, nf, 3) nodal forces of the six unit wrenches at ``reference``
     spread like CalculiX's *DISTRIBUTING over ``points`` (nf, 3)."""
-    g, info = _sparse.sk_distributing_loads(
-        np.asfortranarray(np.asarray(points, float).T), np.asarray(weights, float), np.asarray(reference, float)
+    g, info = call(
+        _sparse.sk_distributing_loads,
+        "sk_distributing_loads",
+        np.asfortranarray(np.asarray(points, float).T),
+        np.asarray(weights, float),
+        np.asarray(reference, float),
     )
     check(
         info,
@@ -130,8 +144,11 @@ def distributing_loads(points: np.ndarray, weights: np.ndarray, reference) -> np
 
 def work_conjugate(g: np.ndarray, u: np.ndarray) -> np.ndarray:
     """(m, 6) reference motions G^T u of fields u (m, nf, 3), g (6, nf, 3)."""
-    x, info = _sparse.sk_work_conjugate(
-        np.asfortranarray(np.transpose(g, (2, 1, 0))), np.asfortranarray(np.transpose(u, (2, 1, 0)))
+    x, info = call(
+        _sparse.sk_work_conjugate,
+        "sk_work_conjugate",
+        np.asfortranarray(np.transpose(g, (2, 1, 0))),
+        np.asfortranarray(np.transpose(u, (2, 1, 0))),
     )
     check(info, "work_conjugate (sk_work_conjugate)")
     return x.T

@@ -7,12 +7,13 @@ import numpy as np
 
 from ..errors import InputError
 from . import _springs
-from .errors import check
+from .errors import call, check
 
 _TREE_DETAILS = {
-    6: "the tree is malformed (empty series/parallel, bad leaf index or joint type, "
-    "negative joint compliance) or lscale <= 0 or rcond outside [0, 1)",
+    6: "the tree is malformed (empty series/parallel, bad leaf index or joint type) "
+    "or lscale <= 0 or rcond outside [0, 1)",
     2: "a spring matrix or joint compliance contains NaN or Inf",
+    9: "a spring matrix has a negative eigenvalue or a joint a negative compliance: not a physical spring",
 }
 
 
@@ -36,8 +37,23 @@ def spring_tree(
 
     Returns (c, k, free, nfree, rigid, nrigid, ratio) with the 6x6 arrays as
     (np, 6, 6)."""
-    c, k, free, nfree, rigid, nrigid, ratio, info = _springs.sk_spring_tree(
-        prog, lkind, lmat, lrot, lpos, jtype, jcomp, jpassive, jaxis, jpoint, tpos, trot, float(lscale), float(rcond)
+    c, k, free, nfree, rigid, nrigid, ratio, info = call(
+        _springs.sk_spring_tree,
+        "evaluate (sk_spring_tree)",
+        prog,
+        lkind,
+        lmat,
+        lrot,
+        lpos,
+        jtype,
+        jcomp,
+        jpassive,
+        jaxis,
+        jpoint,
+        tpos,
+        trot,
+        float(lscale),
+        float(rcond),
     )
     check(info, "evaluate (sk_spring_tree)", _TREE_DETAILS)
     mv = lambda a: np.moveaxis(a, 2, 0)  # noqa: E731
@@ -46,7 +62,9 @@ def spring_tree(
 
 def stiffness_indices(k: np.ndarray, lscale: float) -> tuple:
     """kappa_t, kappa_r (N,), lambda_f, lambda_n (N, 3) of N stiffness matrices (N, 6, 6)."""
-    kt, kr, lf, ln, info = _springs.sk_stiffness_indices(np.moveaxis(k, 0, 2), float(lscale))
+    kt, kr, lf, ln, info = call(
+        _springs.sk_stiffness_indices, "stiffness_indices (sk_stiffness_indices)", np.moveaxis(k, 0, 2), float(lscale)
+    )
     check(
         info,
         "stiffness_indices (sk_stiffness_indices)",
@@ -71,7 +89,19 @@ def rotate6(rot: np.ndarray, c: np.ndarray) -> np.ndarray:
         c3 = np.broadcast_to(c, (n, 6, 6))
     except ValueError:
         raise InputError(f"rotate6: {rot.shape[0]} rotations for {c.shape[0]} matrices") from None
-    cr, info = _springs.sk_rotate6(np.moveaxis(r3, 0, 2), np.moveaxis(c3, 0, 2))
+    cr, info = call(_springs.sk_rotate6, "rotate6 (sk_rotate6)", np.moveaxis(r3, 0, 2), np.moveaxis(c3, 0, 2))
     check(info, "rotate6 (sk_rotate6)", {2: "a rotation or a 6x6 matrix contains NaN or Inf"})
     cr = np.moveaxis(cr, 2, 0)
     return cr[0] if single else cr
+
+
+def psd_defect(m: np.ndarray) -> tuple[np.ndarray, float]:
+    """How far each 6x6 spring of m (6,6) or (N,6,6) is from positive
+    semi-definite, unit-free (sk_linalg::psd_defect): (dmin (N,), tol);
+    dmin < -tol means a negative eigenvalue (not a physical spring)."""
+    m = np.asarray(m, dtype=float)
+    m3 = m[None] if m.ndim == 2 else m
+    if m3.ndim != 3 or m3.shape[1:] != (6, 6):
+        raise InputError(f"psd_defect: expected (6,6) or (N,6,6), got {m.shape}")
+    dmin, tol = call(_springs.sk_psd_defect, "psd_defect (sk_psd_defect)", np.moveaxis(m3, 0, 2))
+    return dmin, float(tol)

@@ -2,30 +2,61 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from ..errors import InputError
+from ..io import validate as V
+from ..io.tables import read_json
 
 
 def load_result(path) -> dict:
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such fit result file")
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not JSON ({exc})") from None
-    for key in ("rms_position_m", "max_position_m", "axes", "parameters"):
-        if key not in d:
-            raise InputError(f"{path}: missing key {key!r}; expected the output of stiffkit fit --json")
+    """A fit result (JSON of ``stiffkit fit --json``), checked by :func:`check_result`."""
+    if not isinstance(path, (str, Path)):
+        raise InputError(f"a fit result is a JSON file name or the dict of fit --json, got {type(path).__name__}")
+    return check_result(read_json(path, "fit result"), str(path))
+
+
+def _num(d: dict, key: str, where: str, optional: bool = False):
+    if key not in d:
+        if optional:
+            return None
+        raise InputError(f"{where}: missing key {key!r}; expected the output of stiffkit fit --json")
+    return V.number(d[key], f"{where}: {key!r}", lo=0.0 if key != "compensated_fraction" else None)
+
+
+def check_result(d, where: str = "fit result") -> dict:
+    """The keys compare reads, each of the right type: numbers (finite,
+    residuals >= 0), the three axes, the parameters (name and value)."""
+    if not isinstance(d, dict):
+        raise InputError(
+            f"{where}: a JSON object is expected (the output of stiffkit fit --json), got {type(d).__name__}"
+        )
+    for key in ("rms_position_m", "max_position_m", "compensated_fraction"):
+        _num(d, key, where, optional=key == "compensated_fraction")
+    axes = d.get("axes")
+    if not isinstance(axes, dict):
+        raise InputError(f"{where}: 'axes' must be an object with x, y, z; expected the output of stiffkit fit --json")
+    for ax in "xyz":
+        if not isinstance(axes.get(ax), dict):
+            raise InputError(f"{where}: 'axes' has no object {ax!r}")
+        for key in ("rms_m", "max_m"):
+            _num(axes[ax], key, f"{where}: axes.{ax}")
+    params = d.get("parameters")
+    if not isinstance(params, list):
+        raise InputError(f"{where}: 'parameters' must be a list; expected the output of stiffkit fit --json")
+    for i, p in enumerate(params):
+        if not isinstance(p, dict) or not isinstance(p.get("name"), str):
+            raise InputError(f"{where}: parameters[{i}] must be an object with a 'name' string")
+        V.number(p.get("value"), f"{where}: parameters[{i}] ({p['name']}) 'value'")
+    if "rank" in d:
+        V.number(d["rank"], f"{where}: 'rank'", lo=0, integer=True)
     return d
 
 
 def compare(a, b, names=("A", "B"), parameters: bool = True) -> str:
     """Table of the residuals and parameters of two fits, before/after."""
-    A = load_result(a) if not isinstance(a, dict) else a
-    B = load_result(b) if not isinstance(b, dict) else b
+    A = load_result(a) if not isinstance(a, dict) else check_result(a, str(names[0]))
+    B = load_result(b) if not isinstance(b, dict) else check_result(b, str(names[1]))
     w = 14
     lines = [f"{'':30s}{names[0]:>{w}s}{names[1]:>{w}s}{'change':>{w}s}"]
 

@@ -16,7 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..io.tables import parse_number
+from ..io import validate as V
+from ..io.files import atomic_open
+from ..io.tables import read_table
 
 WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
 POINT = ["px", "py", "pz"]
@@ -58,75 +60,47 @@ class Measurements:
 def read_measurements(path, dof: int) -> Measurements:
     """Read and check a measurement CSV for a robot with ``dof`` joints.
 
-    Raises InputError naming the file, the line and the field for a missing
-    column, a non-number, NaN or Inf, or a row with too few fields.
+    The table rules of stiffkit.io.tables hold (UTF-8, distinct header
+    names, as many fields per row as the header). Raises InputError naming
+    the file, the line and the field for a missing column, a non-number,
+    NaN or Inf, or a value out of its quantity's range; warns when a
+    column looks like another unit (mm, degrees) and when a row repeats
+    another exactly (a copy: replicated measurements differ by their noise).
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such measurement file")
+    dof = V.count(dof, "dof", 1)
     qcols = [f"q{i}" for i in range(1, dof + 1)]
-    with path.open(newline="", encoding="utf-8-sig") as fh:  # a spreadsheet's BOM is not a column name
-        reader = csv.reader(fh)
-        try:
-            header = [h.strip() for h in next(reader)]
-        except StopIteration:
-            raise InputError(
-                f"{path}: empty file; expected a header with config, "
-                f"{', '.join(qcols)}, {', '.join(WRENCH)}, {', '.join(DEFL)}"
-            ) from None
-        required = qcols + WRENCH + DEFL
-        missing = [c for c in required if c not in header]
-        if missing:
-            raise InputError(
-                f"{path}, line 1: missing column(s) {', '.join(missing)} "
-                f"(the robot has {dof} joints; header has: {', '.join(header)})"
-            )
-        has_p = any(c in header for c in POINT)
-        has_r = any(c in header for c in ROT)
-        for group, name in ((POINT, "point"), (ROT, "rotation")):
-            present = [c for c in group if c in header]
-            if present and len(present) != 3:
-                absent = [c for c in group if c not in header]
-                raise InputError(f"{path}, line 1: {name} columns incomplete: missing {', '.join(absent)}")
-        numeric = qcols + WRENCH + DEFL + (POINT if has_p else []) + (ROT if has_r else [])
-        has_config = "config" in header
-        labels = numeric + (["config"] if has_config else [])
-        idx = {c: header.index(c) for c in labels}
-        rows, configs, lines = [], [], []
-        for lineno, row in enumerate(reader, start=2):
-            if not row or all(not x.strip() for x in row):
-                continue
-            vals = {}
-            for c in labels:
-                i = idx[c]
-                if i >= len(row):
-                    raise InputError(
-                        f"{path}, line {lineno}: field {c!r} is missing "
-                        f"(row has {len(row)} fields, header {len(header)})"
-                    )
-                if c == "config":
-                    continue
-                vals[c] = parse_number(row[i], path, lineno, c)
-            rows.append(vals)
-            configs.append(row[idx["config"]].strip() if has_config else f"row{lineno}")
-            lines.append(lineno)
-    if not rows:
-        raise InputError(f"{path}: no data rows")
+    table = read_table(path, "measurement")
+    table.require(qcols + WRENCH + DEFL, f" (the robot has {dof} joints)")
+    for group, name in ((POINT, "point"), (ROT, "rotation")):
+        present = [c for c in group if table.has(c)]
+        if present and len(present) != 3:
+            absent = [c for c in group if not table.has(c)]
+            raise InputError(f"{path}, line 1: {name} columns incomplete: missing {', '.join(absent)}")
+    n = len(table)
+    q = table.numbers(qcols, "angle")
+    w = np.hstack([table.numbers(WRENCH[:3], "force"), table.numbers(WRENCH[3:], "moment")])
+    p = table.numbers(POINT, "position") if table.has("px") else np.zeros((n, 3))
+    d = table.numbers(DEFL, "deflection")
+    r = table.numbers(ROT, "rotation") if table.has("rx") else None
+    configs = table.text("config") if table.has("config") else [f"row{ln}" for ln in table.lines]
+    rows = np.hstack([q, w, p, d] + ([r] if r is not None else []))
+    _warn_copies(rows, table.lines, path)
+    return Measurements(q=q, w=w, p=p, d=d, r=r, config=configs, lines=list(table.lines), path=str(path))
 
-    def cols(names):
-        return np.array([[r[c] for c in names] for r in rows], dtype=float)
 
-    n = len(rows)
-    return Measurements(
-        q=cols(qcols),
-        w=cols(WRENCH),
-        p=cols(POINT) if has_p else np.zeros((n, 3)),
-        d=cols(DEFL),
-        r=cols(ROT) if has_r else None,
-        config=configs,
-        lines=lines,
-        path=str(path),
-    )
+def _warn_copies(rows: np.ndarray, lines: list[int], path) -> None:
+    """One warning when rows repeat each other exactly (every number equal)."""
+    _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    inverse = np.ravel(inverse)
+    dup = [i for i in range(rows.shape[0]) if first[inverse[i]] != i]
+    if dup:
+        i = dup[0]
+        V.warn(
+            f"{path}, line {lines[i]}: repeats line {lines[first[inverse[i]]]} exactly"
+            f"{f' ({len(dup)} such rows)' if len(dup) > 1 else ''}; replicated measurements differ by their "
+            "noise, so this looks like a copied row"
+        )
 
 
 def write_measurements(path, meas: Measurements) -> None:
@@ -135,7 +109,7 @@ def write_measurements(path, meas: Measurements) -> None:
     header = ["config"] + [f"q{i}" for i in range(1, dof + 1)] + WRENCH + POINT + DEFL
     if meas.r is not None:
         header += ROT
-    with open(path, "w", newline="") as fh:
+    with atomic_open(path, "w", newline="") as fh:
         wr = csv.writer(fh)
         wr.writerow(header)
         for i in range(meas.n):

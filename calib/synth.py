@@ -24,6 +24,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..field import cantilever_compliance, section_properties
+from ..io import validate as V
+from ..io.files import atomic_write_text
+from ..io.tables import read_text
 from ..robot.model import model_from_tables
 from ..robot.model_file import model_toml
 from ..robot.urdf import load_chain, urdf_text
@@ -46,6 +49,11 @@ KR270_RANGES = [(-2.5, 2.5), (-1.4, 0.2), (-1.0, 1.2), (-2.5, 2.5), (0.4, 1.9), 
 KR270_JOINT_C = [3.0e-7, 2.0e-7, 3.0e-7, 1.5e-6, 1.6e-6, 2.5e-6]  # rad/(N m)
 
 KR270_COMPENSATOR = dict(a=0.45, b=0.12, beta=0.3, s0=0.25, k_s=5.0e7)
+
+#: the most measurement rows one synthesis writes (a CSV of ~100 MB)
+MAX_ROWS = 10**6
+#: the files write_synth writes into its folder
+OUTPUT_FILES = ("robot.urdf", "model.toml", "truth.toml", "measurements.csv")
 
 
 def beam_compliance(length, E, nu, outer, inner) -> np.ndarray:
@@ -130,18 +138,37 @@ def synthesize(
     ``replicates`` times (independent noise), so there are
     n_configs * loads_per_config * len(markers) * replicates rows.
     """
+    n_configs = V.count(n_configs, "n_configs", 1, MAX_ROWS)
+    loads_per_config = V.count(loads_per_config, "loads_per_config", 1, MAX_ROWS)
+    replicates = V.count(replicates, "replicates", 1, 1000)
+    markers = V.array(markers, "markers", (None, 3), "position", min_rows=1)
+    nrows = n_configs * loads_per_config * markers.shape[0] * replicates
+    if nrows > MAX_ROWS:
+        raise InputError(f"n_configs x loads_per_config x markers x replicates = {nrows} rows; at most {MAX_ROWS}")
+    sigma = V.number(sigma, "sigma", "sigma_position", lo=0.0)
+    if sigma_rotation is not None:
+        sigma_rotation = V.number(sigma_rotation, "sigma_rotation", "sigma_rotation", lo=0.0)
+    force = V.number(force, "force", "force", lo=0.0, lo_open=True)
+    moment = V.number(moment, "moment", "moment", lo=0.0)
+    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+        V.count(seed, "seed", 0)
     rng = np.random.default_rng(seed)
     tmp = Path(workdir or tempfile.mkdtemp(prefix="stiffkit_synth_"))
     tmp.mkdir(parents=True, exist_ok=True)
     if isinstance(joints, (str, Path)):  # an existing URDF: copy it
-        text = Path(joints).read_text()
-        (tmp / "robot.urdf").write_text(text)
+        text = read_text(joints, "URDF")
+        if Path(joints).resolve() != (tmp / "robot.urdf").resolve():
+            atomic_write_text(tmp / "robot.urdf", text)
         chain = load_chain(tmp / "robot.urdf", "base_link", tool_frame)
     else:
-        (tmp / "robot.urdf").write_text(urdf_text("synthetic", joints))
+        atomic_write_text(tmp / "robot.urdf", urdf_text("synthetic", joints))
         chain = load_chain(tmp / "robot.urdf", "base_link", joints[-1]["child"])
     dof = chain.dof
     ranges = ranges or [(-math.pi, math.pi)] * dof
+    r = V.array(ranges, "ranges", (dof, 2), "angle")
+    if np.any(r[:, 0] > r[:, 1]):
+        k = int(np.argmax(r[:, 0] > r[:, 1]))
+        raise InputError(f"ranges[{k}] = {list(r[k])}: the lower bound exceeds the upper")
     Qc = random_postures(n_configs, ranges, rng)
     Rt = np.array([chain.forward(q)[0] for q in Qc])
     rows_q, rows_w, rows_p, rows_c = [], [], [], []
@@ -193,10 +220,13 @@ def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):
     sigma = kw.get("sigma", 2e-5)
     sr = kw.get("sigma_rotation")
     tool = kw.get("tool_frame", "tool0") if isinstance(joints, (str, Path)) else joints[-1]["child"]
-    (out / "model.toml").write_text(
-        model_toml(fit_effects, sigma if declare_sigma and sigma > 0 else None, tool_frame=tool, sigma_rotation=sr)
+    atomic_write_text(
+        out / "model.toml",
+        model_toml(fit_effects, sigma if declare_sigma and sigma > 0 else None, tool_frame=tool, sigma_rotation=sr),
     )
-    (out / "truth.toml").write_text(model_toml(truth, sigma if sigma > 0 else None, tool_frame=tool, sigma_rotation=sr))
+    atomic_write_text(
+        out / "truth.toml", model_toml(truth, sigma if sigma > 0 else None, tool_frame=tool, sigma_rotation=sr)
+    )
     write_measurements(out / "measurements.csv", meas)
     return out
 

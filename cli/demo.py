@@ -23,10 +23,13 @@ calib  A KR-270-like robot measured under load (synthetic, with a known
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ..calib.demo import calibration_demo
+from ..errors import InputError
 from ..fea.demo import fea_demo
 from ..field.demo import field_demo
+from . import args as A
 
 
 def register(sub) -> None:
@@ -36,15 +39,22 @@ def register(sub) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=A.count("--seed", 0), default=1, help="seed of the random numbers (>= 0)")
     p.add_argument("--only", choices=["field", "fea", "calib"], help="run one part of the demo only")
     p.add_argument("--no-fea", action="store_true", help="skip the real FEA run")
-    p.add_argument("--size", type=float, default=5.0, help="element size of the FEA demo, mm (default 5)")
+    p.add_argument(
+        "--size",
+        type=A.number("--size", lo=1.0, hi=10.0),
+        default=5.0,
+        help="element size of the FEA demo, mm, 1-10 (default 5; 1 mm is about a million nodes)",
+    )
     p.add_argument("--out", default="build/demo", help="folder for the calibration demo's data and figures")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise InputError(f"--out {args.out}: a file, not a folder")
     if args.only in (None, "field"):
         field_demo(args.seed)
     if args.only in (None, "fea") and not args.no_fea:

@@ -12,7 +12,8 @@ import argparse
 
 from ..field.cases import axis_wrenches, read_fields, read_wrenches
 from ..field.report import field_report
-from ..io.tables import parse_vector
+from ..io import validate as V
+from . import args as A
 
 HELP = """\
 inputs:
@@ -48,27 +49,40 @@ def register(sub) -> None:
     p.add_argument("fields", nargs="+", help="CSV of displacements (ux,uy,uz), one per load case")
     p.add_argument("--reference", required=True, help="reference point x,y,z (m)")
     p.add_argument("--method", default="lin", choices=["lin", "svd+", "svd-", "svd+-", "exact"])
-    p.add_argument("--trim", type=float, default=0.0, help="fraction of nodes dropped as outliers (0-0.5)")
+    p.add_argument(
+        "--trim",
+        type=A.number("--trim", lo=0.0, hi=0.5, hi_open=True),
+        default=0.0,
+        help="fraction of nodes dropped as outliers, in [0, 0.5)",
+    )
     g = p.add_mutually_exclusive_group()
     g.add_argument("--loads", help="Fx,Fy,Fz,Mx,My,Mz of six axis-aligned cases")
     g.add_argument("--wrenches", help="CSV of the wrench of each case (fx,fy,fz,mx,my,mz)")
-    p.add_argument("--confidence", type=float, default=0.99)
+    p.add_argument(
+        "--confidence",
+        type=A.number("--confidence", lo=0.0, hi=1.0, lo_open=True, hi_open=True),
+        default=0.99,
+        help="two-sided level of the intervals, in (0, 1) (default 0.99)",
+    )
     p.add_argument("--symmetrize", action="store_true", help="report (k + k^T)/2")
     p.add_argument("--json", help="write the results to this JSON file")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    if args.json:
+        V.output_path(args.json, "--json", [args.nodes, *args.fields, args.wrenches])
+    reference = A.vector(args.reference, 3, "--reference (m)", "position")
     nodes, disp = read_fields(args.nodes, args.fields)
     wrenches = None
     if args.loads:
-        wrenches = axis_wrenches(parse_vector(args.loads, 6, "--loads"), len(args.fields))
+        wrenches = axis_wrenches(A.vector(args.loads, 6, "--loads (N, N m)", "force"), len(args.fields))
     elif args.wrenches:
         wrenches = read_wrenches(args.wrenches, len(args.fields))
     rep = field_report(
         nodes,
         disp,
-        parse_vector(args.reference, 3, "--reference"),
+        reference,
         method=args.method,
         trim=args.trim,
         wrenches=wrenches,

@@ -13,8 +13,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..errors import InputError
 from ..fea.config import load_link
 from ..fea.job import run_link
+from ..io import validate as V
+from ..io.files import FIGURE_SUFFIXES
+from . import args as A
 
 HELP = """\
 LINK.toml (format: docs/link.md; lengths in geometry.units):
@@ -69,7 +73,9 @@ def register(sub) -> None:
     p.add_argument("--png", help="write histograms of the fit residuals (PNG)")
     p.add_argument("--route", choices=["auto", "ccx", "matrix"], help="override [solver] route")
     p.add_argument("--order", type=int, choices=[1, 2], help="override [mesh] order")
-    p.add_argument("--size", type=float, help="override [mesh] size (geometry units)")
+    p.add_argument(
+        "--size", type=A.number("--size", lo=0.0, lo_open=True), help="override [mesh] size (geometry units)"
+    )
     p.add_argument("--cache", default=".stiffkit-cache", help="cache folder (default %(default)s)")
     p.add_argument("--no-cache", action="store_true", help="always run the FEA again")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
@@ -77,6 +83,17 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    inputs = [args.link]
+    for opt, path, suffixes in (
+        ("--json", args.json, None),
+        ("--vtu", args.vtu, (".vtu",)),
+        ("--png", args.png, FIGURE_SUFFIXES),
+    ):
+        if path:
+            V.output_path(path, opt, inputs, suffixes)
+    V.distinct_outputs({"--json": args.json, "--vtu": args.vtu, "--png": args.png})
+    if not args.no_cache and Path(args.cache).exists() and not Path(args.cache).is_dir():
+        raise InputError(f"--cache {args.cache}: a file, not a folder")
     job = load_link(args.link)
     if args.route:
         job.route = args.route

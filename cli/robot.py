@@ -14,9 +14,18 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from ..errors import InputError
-from ..io.tables import parse_vector
+from ..io import validate as V
+from ..io.files import FIGURE_SUFFIXES
 from ..springs.reports import orthoglide_report, smg_report, tree_report
+from . import args as A
+
+#: the largest workspace map: N^3 postures in one core call, about 6 KB each
+#: (61^3 = 227,000 postures, 1.3 GB); and the most SMG postures (4 KB each)
+MAP_MAX = 61
+POSTURES_MAX = 200_000
 
 HELP_ORTHOGLIDE = """\
 model (see stiffkit/springs/orthoglide.py): three PRPaR legs, L = 310 mm,
@@ -104,11 +113,16 @@ def register(sub) -> None:
     _add_link_file(o, "foot|axle|bar compliance from a `stiffkit link` JSON (repeatable)")
     o.add_argument(
         "--actuator-compliance",
-        type=float,
+        type=A.number("--actuator-compliance", "linear_compliance", lo=0.0),
         default=0.0,
         help="compliance of each linear actuator along its axis, m/N (default rigid)",
     )
-    o.add_argument("--map", type=int, metavar="N", help="workspace map on an N^3 grid")
+    o.add_argument(
+        "--map",
+        type=A.count("--map", 2, MAP_MAX),
+        metavar="N",
+        help=f"workspace map on an N^3 grid (2 <= N <= {MAP_MAX}; memory ~6 KB per posture)",
+    )
     o.add_argument("--png", help="PNG of the map slices (with --map)")
     o.add_argument("--json", help="write results to this JSON file")
     o.set_defaults(func=run_orthoglide)
@@ -120,7 +134,12 @@ def register(sub) -> None:
         "McGill SMG (Taghvaeipour et al. 2010) stiffness indices.",
         HELP_SMG,
     )
-    s.add_argument("--postures", type=int, default=401, help="points along the trajectory")
+    s.add_argument(
+        "--postures",
+        type=A.count("--postures", 2, POSTURES_MAX),
+        default=401,
+        help=f"points along the trajectory (2-{POSTURES_MAX}; memory ~4 KB per posture)",
+    )
     s.add_argument(
         "--pi-joints",
         default="paper",
@@ -128,7 +147,11 @@ def register(sub) -> None:
         help="paper: one passive joint per Pi link (eq. 23); both: true distal parallelograms",
     )
     _add_link_file(s, "proximal|distal link compliance from a `stiffkit link` JSON")
-    s.add_argument("--lscale", type=float, help="characteristic length for the indices, m")
+    s.add_argument(
+        "--lscale",
+        type=A.number("--lscale", "length", lo=0.0, lo_open=True),
+        help="characteristic length for the indices, m",
+    )
     s.add_argument("--png", help="PNG of kappa_t, kappa_r along the trajectory (Fig. 10)")
     s.add_argument("--json", help="write results to this JSON file")
     s.set_defaults(func=run_smg)
@@ -142,7 +165,10 @@ def register(sub) -> None:
     )
     t.add_argument("tree", help="TREE.json (see below)")
     t.add_argument(
-        "--rcond", type=float, default=1e-9, help="eigenvalue ratio below which a direction counts as free or rigid"
+        "--rcond",
+        type=A.number("--rcond", lo=0.0, hi=1.0, hi_open=True),
+        default=1e-9,
+        help="eigenvalue ratio below which a direction counts as free or rigid, in [0, 1)",
     )
     t.add_argument("--json", help="write results to this JSON file")
     t.set_defaults(func=run_tree)
@@ -166,8 +192,21 @@ def _link_files(items) -> dict:
         name, eq, path = it.partition("=")
         if not eq or not name or not path:
             raise InputError(f"--link-file expects NAME=PATH, got {it!r}")
+        if name in out:
+            raise InputError(f"--link-file {it}: {name!r} is given twice")
         out[name] = path
     return out
+
+
+def _check_outputs(args, inputs=()) -> None:
+    """Output names checked before the work: files, not folders, not an
+    input, not the same file twice, a figure suffix for --png."""
+    png = getattr(args, "png", None)
+    if png:
+        V.output_path(png, "--png", inputs, FIGURE_SUFFIXES)
+    if args.json:
+        V.output_path(args.json, "--json", inputs)
+    V.distinct_outputs({"--png": png, "--json": args.json})
 
 
 def _write_files(rep, args) -> None:
@@ -183,10 +222,15 @@ def _write_files(rep, args) -> None:
 def run_orthoglide(args) -> int:
     if args.png and not args.map:
         raise InputError("--png needs --map N")
+    files = _link_files(args.link_file)
+    _check_outputs(args, files.values())
+    point = A.vector(args.point, 3, "--point (mm)")
+    if np.abs(point).max() > 1e4:
+        raise InputError(f"--point {args.point}: the Orthoglide's workspace is a 200 mm cube about 0,0,0 (mm)")
     rep = orthoglide_report(
-        parse_vector(args.point, 3, "--point"),
+        point,
         args.links,
-        _link_files(args.link_file),
+        files,
         args.actuator_compliance,
         args.map,
     )
@@ -196,13 +240,16 @@ def run_orthoglide(args) -> int:
 
 
 def run_smg(args) -> int:
-    rep = smg_report(args.postures, _link_files(args.link_file), args.pi_joints, args.lscale)
+    files = _link_files(args.link_file)
+    _check_outputs(args, files.values())
+    rep = smg_report(args.postures, files, args.pi_joints, args.lscale)
     print(rep.text())
     _write_files(rep, args)
     return 0
 
 
 def run_tree(args) -> int:
+    _check_outputs(args, [args.tree])
     rep = tree_report(args.tree, args.rcond)
     print(rep.text())
     _write_files(rep, args)

@@ -18,9 +18,12 @@ from __future__ import annotations
 
 import argparse
 
-from ..io.tables import parse_vector, read_columns
+from ..io import validate as V
+from ..io.files import FIGURE_SUFFIXES
+from ..io.tables import read_columns
 from ..robot.model import load_model
 from ..robot.stiffness_report import INDICES, compute_indices, index_status, stiffness_report
+from . import args as A
 
 __all__ = ["register", "run", "INDICES", "compute_indices", "index_status"]  # the index registry lives in robot
 
@@ -54,17 +57,31 @@ def register(sub) -> None:
         "--npz", help="write arrays q, compliance, stiffness, rank, ok, kappa_t, kappa_r, indices_ok, lscale to NPZ"
     )
     p.add_argument("--plot", help="PNG of the principal compliances and the indices along the postures")
-    p.add_argument("--lscale", type=float, help="characteristic length of the indices, m (default: the chain's length)")
+    p.add_argument(
+        "--lscale",
+        type=A.number("--lscale", "length", lo=0.0, lo_open=True),
+        help="characteristic length of the indices, m (default: the chain's length)",
+    )
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    inputs = [args.model, args.trajectory]
+    for opt, path, suffixes in (
+        ("--json", args.json, None),
+        ("--npz", args.npz, None),
+        ("--plot", args.plot, FIGURE_SUFFIXES),
+    ):
+        if path:
+            V.output_path(path, opt, inputs, suffixes)
+    npz = args.npz if not args.npz or args.npz.endswith(".npz") else args.npz + ".npz"
+    V.distinct_outputs({"--json": args.json, "--npz": npz, "--plot": args.plot})
     model = load_model(args.model)
     dof = model.chain.dof
     if args.posture:
-        Q = parse_vector(args.posture, dof, "--posture")[None]
+        Q = A.vector(args.posture, dof, f"--posture (q1..q{dof}, rad)", "angle")[None]
     else:
-        Q = read_columns(args.trajectory, [f"q{i}" for i in range(1, dof + 1)], "trajectory")
+        Q = read_columns(args.trajectory, [f"q{i}" for i in range(1, dof + 1)], "trajectory", "angle")
     rep = stiffness_report(model, Q, args.lscale)
     print(rep.text())
     if args.json:

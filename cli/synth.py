@@ -16,8 +16,8 @@ from pathlib import Path
 
 from ..calib import synth as S
 from ..errors import InputError
-from ..io.tables import parse_vector
 from ..robot.model import load_model
+from . import args as A
 
 HELP = """\
 examples:
@@ -42,16 +42,31 @@ def register(sub) -> None:
     )
     p.add_argument("robot", help="kr270 or a truth model TOML with values")
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--configs", type=int, default=30, help="number of robot configurations")
+    p.add_argument(
+        "--configs", type=A.count("--configs", 1, S.MAX_ROWS), default=30, help="number of robot configurations"
+    )
     p.add_argument("--loads", choices=["random", "gravity"], default="random")
-    p.add_argument("--loads-per-config", type=int, default=3)
-    p.add_argument("--force", type=float, default=2500.0, help="force magnitude (N)")
-    p.add_argument("--moment", type=float, default=300.0, help="moment bound (N m), random loads")
+    p.add_argument(
+        "--loads-per-config", type=A.count("--loads-per-config", 1, 1000), default=3, help="wrenches per configuration"
+    )
+    p.add_argument(
+        "--force", type=A.number("--force", "force", lo=0.0, lo_open=True), default=2500.0, help="force magnitude (N)"
+    )
+    p.add_argument(
+        "--moment", type=A.number("--moment", "moment", lo=0.0), default=300.0, help="moment bound (N m), random loads"
+    )
     p.add_argument("--markers", type=int, default=3, choices=[1, 2, 3, 4], help="points on the tool")
-    p.add_argument("--sigma", type=float, default=2e-5, help="noise std of each coordinate (m)")
-    p.add_argument("--replicates", type=int, default=1, help="repeat each measurement (pure error)")
+    p.add_argument(
+        "--sigma",
+        type=A.number("--sigma", "sigma_position", lo=0.0),
+        default=2e-5,
+        help="noise std of each coordinate (m); 0: noise-free data (then not declared in model.toml)",
+    )
+    p.add_argument(
+        "--replicates", type=A.count("--replicates", 1, 100), default=1, help="repeat each measurement (pure error)"
+    )
     p.add_argument("--no-sigma", action="store_true", help="do not declare sigma_position in model.toml")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=A.count("--seed", 0), default=1, help="seed of the random numbers (>= 0)")
     p.add_argument("--no-compensator", action="store_true", help="kr270: no gravity compensator")
     p.add_argument("--no-links", action="store_true", help="kr270: rigid links")
     p.add_argument("--offset", help="kr270: unknown marker offset r = x,y,z (m, tool frame)")
@@ -68,7 +83,12 @@ MARKERS = [(0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2), (-0.1, -0.1, 0.
 
 
 def run(args) -> int:
-
+    n = args.configs * args.loads_per_config * args.markers * args.replicates
+    if n > S.MAX_ROWS:
+        raise InputError(f"--configs x --loads-per-config x --markers x --replicates = {n} rows; at most {S.MAX_ROWS}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: a file, not a folder")
     kw = dict(
         n_configs=args.configs,
         loads=args.loads,
@@ -81,7 +101,7 @@ def run(args) -> int:
         seed=args.seed,
     )
     if args.robot == "kr270":
-        offset = parse_vector(args.offset, 3, "--offset") if args.offset else None
+        offset = A.vector(args.offset, 3, "--offset (m)", "position") if args.offset else None
         truth = S.kr270_truth(links=not args.no_links, compensator=not args.no_compensator, offset=offset)
         joints = S.KR270_JOINTS
         kw["ranges"] = S.KR270_RANGES
@@ -89,6 +109,8 @@ def run(args) -> int:
         path = Path(args.robot)
         if not path.is_file():
             raise InputError(f"{path}: no such truth model (give kr270 or a TOML with values)")
+        if path.resolve().parent == out.resolve() and path.name in S.OUTPUT_FILES:
+            raise InputError(f"--out {out}: would overwrite the truth model {path} itself; choose another folder")
         m = load_model(path)  # checks the file
         truth = m.effects
         for t in m.terms:
@@ -98,6 +120,5 @@ def run(args) -> int:
         kw["tool_frame"] = m.chain.tool_frame
     fit_effects = [{"kind": "joint", "target": "all"}] if args.fit == "joints" else S.strip_values(truth)
     out = S.write_synth(args.out, joints, truth, fit_effects, declare_sigma=not args.no_sigma, **kw)
-    n = args.configs * args.loads_per_config * args.markers * args.replicates
     print(f"wrote {out}/robot.urdf, model.toml ({args.fit}), truth.toml, measurements.csv ({n} rows)")
     return 0

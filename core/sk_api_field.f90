@@ -13,6 +13,7 @@ subroutine sk_fit_fields(n, m, p, d, p0, method, trim, pooled, t, phi, cov, res,
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors
     use sk_field_fit, only: fit_field
+    use sk_linalg, only: all_finite
     implicit none
     integer(c_int), intent(in) :: n, m, method, pooled
     real(c_double), intent(in) :: p(3, n), d(3, n, m), p0(3), trim
@@ -52,6 +53,8 @@ subroutine sk_fit_fields(n, m, p, d, p0, method, trim, pooled, t, phi, cov, res,
         end if
     end do
     info = sk_ok
+    if (.not. (all_finite(t) .and. all_finite(phi) .and. all_finite(cov) .and. all_finite(sigma) &
+               .and. all_finite([sigma_pooled]))) info = sk_err_overflow
 end subroutine sk_fit_fields
 
 !> Compliance k[6,6] = X W^+ from wrenches w[6,m] and deflections x[6,m]

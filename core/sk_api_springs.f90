@@ -65,3 +65,24 @@ subroutine sk_rotate6(n, rot, c, cr, info)
     end do
     info = sk_ok
 end subroutine sk_rotate6
+
+!> How far each of n 6x6 springs m[6,6,n] (compliance or stiffness) is
+!> from positive semi-definite, unit-free (sk_linalg::psd_defect): dmin(i)
+!> < -tol means spring i has a negative eigenvalue. tol is psd_tol.
+subroutine sk_psd_defect(n, m, dmin, tol)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_linalg, only: psd_defect, psd_tol, all_finite
+    implicit none
+    integer(c_int), intent(in) :: n
+    real(c_double), intent(in) :: m(6, 6, n)
+    real(c_double), intent(out) :: dmin(n), tol
+    integer :: i
+    tol = psd_tol
+    do i = 1, n
+        if (all_finite(m(:, :, i))) then
+            dmin(i) = psd_defect(6, m(:, :, i))
+        else
+            dmin(i) = -huge(1.0_c_double)
+        end if
+    end do
+end subroutine sk_psd_defect

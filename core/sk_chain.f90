@@ -22,7 +22,7 @@
 module sk_chain
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, skew, rot_exp, sym_eig, spd_inverse, all_finite
+    use sk_linalg, only: eye, skew, rot_exp, sym_eig, spd_inverse, all_finite, psd_defect, psd_tol
     use sk_spatial, only: twist_transfer, blockdiag_rot, revolute_twist, spring_at, add_rank1, &
         rotate_blocks, congruence_transfer
     implicit none
@@ -150,6 +150,16 @@ contains
             info = sk_err_nonfinite
             return
         end if
+        ! a negative joint compliance or an indefinite 6x6 spring is no spring:
+        ! it would show as a lost rank or a negative tool compliance instead
+        do s = 1, ns
+            if (stype(s) == 1) then
+                if (any(cj(s, :) < 0.0_dp)) info = sk_err_indefinite
+            else if (psd_defect(6, cs(:, :, s)) < -psd_tol) then
+                info = sk_err_indefinite
+            end if
+            if (info /= sk_ok) return
+        end do
         allocate(rf(3, 3, nj), pf(3, nj))
         do ipost = 1, size(q, 2)
             call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, ipost), rf, pf, rt, pt)
@@ -195,6 +205,7 @@ contains
             kinfo(ipost) = sk_err_singular
         end do
         info = sk_ok
+        if (.not. (all_finite(c) .and. all_finite(k))) info = sk_err_overflow
     end subroutine tool_compliance_batch
 
     !> Observation basis of nm measurement rows (klimchik eqs. 5, 12): for

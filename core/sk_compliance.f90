@@ -127,7 +127,12 @@ contains
         signif = abs(k) > ci
         call inverse(k, kstiff, stiff_info)
         if (stiff_info /= sk_ok) kstiff = 0.0_dp
+        if (.not. all_finite(kstiff)) then
+            kstiff = 0.0_dp
+            stiff_info = sk_err_singular
+        end if
         info = sk_ok
+        if (.not. (all_finite(k) .and. all_finite(kstd))) info = sk_err_overflow
     end subroutine compliance_from_experiments
 
 end module sk_compliance

@@ -25,6 +25,12 @@ module sk_errors
     integer(ip), parameter, public :: sk_err_noconv = 7
     !> too few data left (e.g. after trimming) for the requested estimate
     integer(ip), parameter, public :: sk_err_too_few = 8
+    !> a compliance or stiffness has a negative eigenvalue (or a joint a
+    !> negative compliance): not a physical spring
+    integer(ip), parameter, public :: sk_err_indefinite = 9
+    !> a result is not finite although the input was: the input magnitudes
+    !> are beyond double precision (usually a unit slip)
+    integer(ip), parameter, public :: sk_err_overflow = 10
     !> a file (FEA results, matrices) is missing, unreadable or malformed
     integer(ip), parameter, public :: sk_err_io = 31
     !> out of memory (sparse factorisation)

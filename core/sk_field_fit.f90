@@ -139,7 +139,7 @@ contains
                 r = matmul(rot_exp(delta), r)
                 if (norm2(delta) <= 1.0e-15_dp + 1.0e-14_dp*norm2(rot_log(r))) exit
             end do
-            if (norm2(delta) > 1.0e-8_dp) then
+            if (.not. (norm2(delta) <= 1.0e-8_dp)) then   ! NaN too
                 info = sk_err_noconv
                 return
             end if

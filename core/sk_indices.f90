@@ -64,6 +64,7 @@ contains
         kt = sqrt(sum(lamf)/3.0_dp)
         kr = sqrt(sum(lamn)/3.0_dp)
         info = sk_ok
+        if (.not. (abs(kt) <= huge(1.0_dp) .and. abs(kr) <= huge(1.0_dp))) info = sk_err_overflow
     end subroutine stiffness_indices
 
 end module sk_indices

@@ -10,9 +10,11 @@ module sk_linalg
     use sk_errors
     implicit none
     private
+    !> psd_defect below -psd_tol: the spring is indefinite (not round-off)
+    real(dp), parameter, public :: psd_tol = 1.0e-6_dp
     public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
-    public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small, matmul_tn
+    public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small, matmul_tn, psd_defect
 
     interface all_finite
         module procedure all_finite_1, all_finite_2, all_finite_3
@@ -510,6 +512,35 @@ contains
             v(:, j + 1) = tmpv
         end do
     end subroutine jacobi_eig
+
+    !> How far a small symmetric a[n,n] (a compliance or stiffness) is from
+    !> positive semi-definite, whatever the units of its rows: the smallest
+    !> eigenvalue of D sym(a) D with D = diag(a_ii^-1/2) (zero rows left
+    !> out), at most 0. A negative diagonal element, or a non-zero coupling
+    !> of a row whose diagonal is zero, gives -1. About -1e-16 is round-off;
+    !> the callers accept down to -psd_tol.
+    pure function psd_defect(n, a) result(dmin)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n)
+        real(dp) :: dmin
+        real(dp) :: s(n, n), w(n), v(n, n), d(n)
+        integer :: i, j
+        dmin = -1.0_dp
+        d = 0.0_dp
+        do i = 1, n
+            if (a(i, i) < 0.0_dp) return
+            if (a(i, i) > 0.0_dp) d(i) = 1.0_dp/sqrt(a(i, i))
+        end do
+        do j = 1, n
+            do i = 1, n
+                if (i /= j .and. (d(i) == 0.0_dp .or. d(j) == 0.0_dp) .and. &
+                    (a(i, j) /= 0.0_dp .or. a(j, i) /= 0.0_dp)) return
+                s(i, j) = 0.5_dp*(a(i, j) + a(j, i))*d(i)*d(j)
+            end do
+        end do
+        call jacobi_eig(n, s, w, v)
+        dmin = min(0.0_dp, w(1))
+    end function psd_defect
 
     !> Eigenvalues only (unsorted) of a small symmetric a[n,n]: Householder
     !> tridiagonalisation and the implicit QL iteration (tred2/tqli without

@@ -40,7 +40,7 @@ module sk_springs
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_spatial, only: rotate_blocks, congruence_transfer, revolute_twist
-    use sk_linalg, only: jacobi_eig, sym_eigvals_small, spd_inverse_small
+    use sk_linalg, only: jacobi_eig, sym_eigvals_small, spd_inverse_small, psd_defect, psd_tol, all_finite
     implicit none
     private
     public :: op_spring, op_joint, op_series, op_parallel
@@ -240,8 +240,8 @@ contains
     end function joint_twist
 
     !> Check a postfix program once: leaf and joint indices, joint types,
-    !> non-negative joint compliances, operand counts, one result on the
-    !> stack; info = sk_ok or sk_err_argument.
+    !> operand counts, one result on the stack; info = sk_ok or
+    !> sk_err_argument (a negative joint compliance: sk_err_indefinite).
     pure subroutine check_program(prog, lkind, jtype, jcomp, info)
         integer(ip), intent(in) :: prog(:, :), lkind(:), jtype(:)
         real(dp), intent(in) :: jcomp(:)
@@ -259,7 +259,10 @@ contains
             case (op_joint)
                 if (arg < 1 .or. arg > size(jtype)) return
                 if (jtype(arg) /= joint_revolute .and. jtype(arg) /= joint_prismatic) return
-                if (jcomp(arg) < 0.0_dp) return
+                if (jcomp(arg) < 0.0_dp) then
+                    info = sk_err_indefinite
+                    return
+                end if
                 depth = depth + 1
             case (op_series, op_parallel)
                 if (arg < 1 .or. arg > depth) return
@@ -469,6 +472,14 @@ contains
         end if
         call check_program(prog, lkind, jtype, jcomp, info)
         if (info /= sk_ok) return
+        ! a leaf with a negative eigenvalue is no spring: it would turn into a
+        ! "rigid" or "free" direction below instead of an error
+        do i = 1, ns
+            if (psd_defect(6, lmat(:, :, i)) < -psd_tol) then
+                info = sk_err_indefinite
+                return
+            end if
+        end do
         ! leaves in the scaled space, local axes (posture independent)
         dsc = [(lscale**(-0.5_dp), i = 1, 3), (lscale**0.5_dp, i = 1, 3)]
         allocate(lloc(6, 6, max(ns, 1)))
@@ -513,6 +524,7 @@ contains
                               free(:, :, ip_), nfree(ip_), rigid(:, :, ip_), nrigid(ip_), ratio(ip_))
         end do
         info = sk_ok
+        if (.not. (all_finite(c) .and. all_finite(k) .and. all_finite(ratio))) info = sk_err_overflow
     end subroutine spring_tree_batch
 
 end module sk_springs

@@ -11,19 +11,18 @@ from __future__ import annotations
 
 import hashlib
 import json
-import logging
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
 
+from ..errors import StiffkitWarning
 from ..io.files import atomic_open
 from ..meshing import Mesh
 from .config import LinkJob
 from .solve import FeaSolution, resolve_route, solve_fea
-
-logger = logging.getLogger(__name__)
 
 __all__ = ["CACHE_VERSION", "cache_key", "store_solution", "load_solution", "fea_cached"]
 
@@ -99,8 +98,18 @@ def store_solution(path: Path, sol: FeaSolution, key: str | None = None) -> None
 def _check(sol: FeaSolution) -> None:
     """ValueError unless the arrays of an entry fit together."""
     n = sol.mesh.nodes.shape[0]
-    if sol.mesh.nodes.shape != (n, 3) or sol.U.shape != (6, n, 3):
+    if n < 4 or sol.mesh.nodes.shape != (n, 3) or sol.U.shape != (6, n, 3):
         raise ValueError(f"displacements {sol.U.shape} for nodes {sol.mesh.nodes.shape}")
+    el = sol.mesh.elements
+    if el.ndim != 2 or el.shape[1] not in (4, 10) or el.shape[0] < 1 or el.dtype.kind not in "iu":
+        raise ValueError(f"elements of shape {el.shape} ({el.dtype})")
+    if el.min() < 1 or el.max() > n:
+        raise ValueError(f"element nodes outside 1..{n}")
+    if not (np.all(np.isfinite(sol.mesh.nodes)) and np.all(np.isfinite(sol.amplitudes)) and np.all(sol.amplitudes > 0)):
+        raise ValueError("node coordinates or amplitudes are not finite and positive")
+    for name in ("route", "timing", "stats"):
+        if not isinstance(getattr(sol, name), (str if name == "route" else dict)):
+            raise ValueError(f"metadata {name!r} of the wrong type")
     if sol.amplitudes.shape != (6,) or sol.ref_motion.shape != (6, 6):
         raise ValueError(f"amplitudes {sol.amplitudes.shape}, reference motion {sol.ref_motion.shape}")
     for name, nodes in (("load", sol.load_nodes), ("fixed", sol.fixed_nodes)):
@@ -138,8 +147,12 @@ def load_solution(path: Path, key: str | None = None) -> FeaSolution | None:
             )
         _check(sol)
         return sol
-    except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
-        logger.warning("ignoring unreadable cache entry %s (%s)", path, exc)
+    except Exception as exc:  # noqa: BLE001 - any damage (truncated zip, EOF, bad pickle): a miss
+        why = " ".join(str(exc).split())[:120]
+        warnings.warn(
+            StiffkitWarning(f"ignoring the unreadable cache entry {path} ({type(exc).__name__}: {why}); solving again"),
+            stacklevel=2,
+        )
         return None
 
 
@@ -159,8 +172,13 @@ def fea_cached(
     if own:
         base = cache_dir if cache_dir is not None and cache_dir.exists() else None
         workdir = Path(tempfile.mkdtemp(prefix=f"run-{key}-", dir=base))
-    sol = solve_fea(job, workdir, route, progress)
-    if own:  # on failure the folder stays for inspection
+    try:
+        sol = solve_fea(job, workdir, route, progress)
+    except KeyboardInterrupt:  # Ctrl-C, SIGTERM: no half-run folder left behind
+        if own:
+            shutil.rmtree(workdir, ignore_errors=True)
+        raise
+    if own:  # on failure the folder stays for inspection (the error names its files)
         shutil.rmtree(workdir, ignore_errors=True)
     if entry is not None:
         store_solution(entry, sol, key)

@@ -203,31 +203,11 @@ def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1, progress=None
         proc = subprocess.Popen(
             cmd, cwd=deck.parent, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True
         )
-        rss = 0.0
-        polls = 0
-        seen = 0
-        while True:
-            pid, status, _usage = os.wait4(proc.pid, os.WNOHANG)
-            if pid:
-                rc = os.waitstatus_to_exitcode(status)
-                proc.returncode = rc
-                break
-            if polls % 5 == 0:  # sample ccx's peak memory every ~0.1 s
-                rss = max(rss, peak_rss_mb(proc.pid))
-            if progress is not None and polls % 50 == 0:
-                try:
-                    steps = len(_FACTOR.findall(logf.read_bytes()))
-                except OSError:
-                    steps = 0
-                if steps > seen:
-                    seen = steps
-                    progress(f"ccx: solving step {steps} ({time.perf_counter() - t0:.0f} s elapsed)")
-            polls += 1
-            if time.perf_counter() - t0 > timeout:
-                os.killpg(proc.pid, signal.SIGKILL)
-                proc.wait()
-                raise CcxError(f"ccx on {deck.name} did not finish within {timeout:.0f} s (log: {logf})")
-            time.sleep(0.02)
+        try:
+            rc, rss = _wait(proc, logf, t0, timeout, progress, deck)
+        except BaseException:  # Ctrl-C, SIGTERM, a timeout: ccx and its children go too
+            _kill_group(proc)
+            raise
     log = logf.read_text(errors="replace")
     seconds = time.perf_counter() - t0
     err = _error_text(log)
@@ -236,6 +216,47 @@ def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1, progress=None
         detail = err or " | ".join(x.strip() for x in log.strip().splitlines()[-4:])
         raise CcxError(f"ccx {what} in {deck}: {detail}")
     return CcxRun(seconds=seconds, max_rss_mb=rss, log=log)
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    """SIGKILL ccx's process group (it runs in a session of its own, with
+    stdbuf and any helper it starts) and reap it."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:  # pragma: no cover - SIGKILL is not ignored
+        pass
+
+
+def _wait(proc, logf: Path, t0: float, timeout: float, progress, deck: Path) -> tuple[int, float]:
+    """Wait for ccx, sampling its peak memory and telling ``progress`` of
+    each step; CcxError after ``timeout``. Returns (exit status, peak MB)."""
+    rss = 0.0
+    polls = 0
+    seen = 0
+    while True:
+        pid, status, _usage = os.wait4(proc.pid, os.WNOHANG)
+        if pid:
+            rc = os.waitstatus_to_exitcode(status)
+            proc.returncode = rc
+            return rc, rss
+        if polls % 5 == 0:  # sample ccx's peak memory every ~0.1 s
+            rss = max(rss, peak_rss_mb(proc.pid))
+        if progress is not None and polls % 50 == 0:
+            try:
+                steps = len(_FACTOR.findall(logf.read_bytes()))
+            except OSError:
+                steps = 0
+            if steps > seen:
+                seen = steps
+                progress(f"ccx: solving step {steps} ({time.perf_counter() - t0:.0f} s elapsed)")
+        polls += 1
+        if time.perf_counter() - t0 > timeout:
+            raise CcxError(f"ccx on {deck.name} did not finish within {timeout:.0f} s (log: {logf})")
+        time.sleep(0.02)
 
 
 def ccx_version() -> str:

@@ -9,11 +9,12 @@ key and what was wrong.
 from __future__ import annotations
 
 import copy
-import math
+import difflib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import InputError
+from ..io import validate as V
 from ..io.tables import read_toml
 
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
@@ -92,11 +93,16 @@ class LinkJob:
         return self.size * self.scale
 
     def with_mesh(self, order: int | None = None, size: float | None = None) -> LinkJob:
+        """A copy with another element order or size (checked as [mesh] is)."""
         job = copy.deepcopy(self)
         if order is not None:
+            if order not in (1, 2) or isinstance(order, bool):
+                raise ConfigError(f"{self.source}: mesh order {order!r}: 1 (C3D4) or 2 (C3D10)")
             job.order = int(order)
         if size is not None:
-            job.size = float(size)
+            size = _num(size, f"{self.source}: mesh size", lo=0.0, lo_open=True)
+            check_mesh_size(size, job.geometry, job.units, f"{self.source}: mesh size")
+            job.size = size
         return job
 
     def closed_form_shape(self):
@@ -127,36 +133,75 @@ class LinkJob:
         return L, sec[0], sec[1]
 
 
+#: the keys of each section (a misspelt optional key is an error, not a silent default)
+SECTIONS = {
+    "geometry": ("step", "shape", "size", "length", "outer_diameter", "inner_diameter", "units"),
+    "material": ("E", "nu", "density"),
+    "support": ("plane", "tolerance"),
+    "load": ("plane", "reference_point", "coupling", "amplitudes"),
+    "field": ("region", "size"),
+    "mesh": ("mesher", "order", "size", "refine", "refine_radius", "optimize", "structured", "across_factor"),
+    "fit": ("method", "trim", "confidence", "symmetrize", "pooled"),
+    "solver": ("route", "timeout"),
+    "approximation": ("section", "dims", "length"),
+}
+#: geometry keys of each built-in shape
+SHAPE_KEYS = {
+    "box": ("size",),
+    "tube": ("length", "outer_diameter", "inner_diameter"),
+    "rod": ("length", "outer_diameter"),
+}
+#: a link is 1 mm to 50 m long (beyond: the unit of the geometry is wrong)
+PART_EXTENT_M = (1e-3, 50.0)
+
+
+def _suggest(word, choices) -> str:
+    close = difflib.get_close_matches(str(word), list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
 def _get(tbl: dict, key: str, where: str, path: str, kind=None, default=...):
     if key not in tbl:
         if default is ...:
             raise ConfigError(f"{path}: [{where}] {key} is missing")
         return default
     v = tbl[key]
+    name = f"{path}: [{where}] {key}"
     if kind is float:
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ConfigError(f"{path}: [{where}] {key} = {v!r} must be a finite number")
-        return float(v)
+        return _num(v, name)
     if kind is int:
         if isinstance(v, bool) or not isinstance(v, int):
-            raise ConfigError(f"{path}: [{where}] {key} = {v!r} must be an integer")
+            raise ConfigError(f"{name} = {v!r} must be an integer")
         return v
     if kind is str:
         if not isinstance(v, str):
-            raise ConfigError(f"{path}: [{where}] {key} = {v!r} must be a string")
+            raise ConfigError(f"{name} = {v!r} must be a string")
         return v
     if kind is list:
-        if not isinstance(v, list) or not all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v
-        ):
-            raise ConfigError(f"{path}: [{where}] {key} = {v!r} must be a list of numbers")
-        return [float(x) for x in v]
+        if not isinstance(v, list) or not v:
+            raise ConfigError(f"{name} = {v!r} must be a list of numbers")
+        return [_num(x, f"{name}[{i}]") for i, x in enumerate(v)]
+    if kind is bool:
+        if not isinstance(v, bool):
+            raise ConfigError(f"{name} = {v!r}: true or false")
+        return v
     return v
+
+
+def _num(v, name, q=None, **limits) -> float:
+    """validate.number raising ConfigError (the LINK.toml reader's class)."""
+    try:
+        return V.number(v, name, q, **limits)
+    except InputError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def _choice(v, choices, where, key, path):
     if v not in choices:
-        raise ConfigError(f"{path}: [{where}] {key} = {v!r}: choose one of {', '.join(map(str, choices))}")
+        raise ConfigError(
+            f"{path}: [{where}] {key} = {v!r}{_suggest(v, map(str, choices))}: "
+            f"choose one of {', '.join(map(str, choices))}"
+        )
     return v
 
 
@@ -166,25 +211,74 @@ def _positive(v, where, key, path):
     return v
 
 
+def _check_keys(data: dict, path: str) -> None:
+    for section, keys in SECTIONS.items():
+        if section not in data:
+            continue
+        tbl = data[section]
+        if not isinstance(tbl, dict):
+            raise ConfigError(f"{path}: [{section}] must be a table, got {tbl!r:.40}")
+        unknown = sorted(set(tbl) - set(keys))
+        if unknown:
+            raise ConfigError(
+                f"{path}: [{section}] unknown key(s) {', '.join(unknown)}{_suggest(unknown[0], keys)}; "
+                f"known: {', '.join(keys)}"
+            )
+
+
+def _part_extent(path: str, geometry: dict, units: str, scale: float) -> None:
+    """A built-in part whose size is implausible for its declared unit: a warning."""
+    dims = geometry.get("size") or [geometry.get("length", 0.0), geometry.get("outer_diameter", 0.0)]
+    check_extent(max(dims) * scale, units, path)
+
+
+def check_extent(extent_m: float, units: str, where: str) -> None:
+    """Warn when a part's largest extent (m) is implausible for a link: the
+    geometry's unit is most likely wrong (a STEP in metres declared mm)."""
+    lo, hi = PART_EXTENT_M
+    if extent_m < lo and units != "m":
+        V.warn(
+            f"{where}: the part is {extent_m:.3g} m across ([geometry] units = {units!r}); a link is "
+            f'{lo * 1e3:g} mm to {hi:g} m: is the geometry in metres? set units = "m"',
+            key=("extent", where),
+        )
+    elif extent_m > hi and units != "mm":
+        V.warn(
+            f"{where}: the part is {extent_m:.3g} m across ([geometry] units = {units!r}); a link is "
+            f'{lo * 1e3:g} mm to {hi:g} m: is the geometry in millimetres? set units = "mm"',
+            key=("extent", where),
+        )
+
+
 def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) -> LinkJob:
     """Check a LINK.toml already parsed into a dict."""
     base = base or Path(".")
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: a LINK.toml document is a table of sections")
     for section in ("geometry", "material", "support", "load"):
         if section not in data or not isinstance(data[section], dict):
             raise ConfigError(f"{path}: section [{section}] is missing")
-    known = {"geometry", "material", "support", "load", "field", "mesh", "fit", "solver", "approximation"}
+    known = set(SECTIONS)
     unknown = set(data) - known
     if unknown:
-        raise ConfigError(f"{path}: unknown section(s) {', '.join(sorted(unknown))}; known: {', '.join(sorted(known))}")
+        first = sorted(unknown)[0]
+        raise ConfigError(
+            f"{path}: unknown section(s) {', '.join(sorted(unknown))}{_suggest(first, known)}; "
+            f"known: {', '.join(sorted(known))}"
+        )
+    _check_keys(data, path)
     g = data["geometry"]
     units = _get(g, "units", "geometry", path, str, "mm")
     if units not in UNITS:
-        raise ConfigError(f"{path}: [geometry] units = {units!r}: one of {', '.join(UNITS)}")
+        raise ConfigError(f"{path}: [geometry] units = {units!r}{_suggest(units, UNITS)}: one of {', '.join(UNITS)}")
     scale = UNITS[units]
     geometry: dict = {}
     if "step" in g and "shape" in g:
         raise ConfigError(f"{path}: [geometry] give either step (a CAD file) or shape, not both")
     if "step" in g:
+        extra = sorted(set(g) - {"step", "units"})
+        if extra:
+            raise ConfigError(f"{path}: [geometry] {', '.join(extra)}: a CAD file (step) has no {extra[0]}")
         f = Path(_get(g, "step", "geometry", path, str))
         f = f if f.is_absolute() else (base / f)
         if not f.is_file():
@@ -192,6 +286,12 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         geometry["step"] = str(f.resolve())
     elif "shape" in g:
         shape = _choice(g["shape"], ("box", "tube", "rod"), "geometry", "shape", path)
+        extra = sorted(set(g) - {"shape", "units"} - set(SHAPE_KEYS[shape]))
+        if extra:
+            raise ConfigError(
+                f"{path}: [geometry] {', '.join(extra)}: not a key of shape = {shape!r} "
+                f"(it takes {', '.join(SHAPE_KEYS[shape])})"
+            )
         geometry["shape"] = shape
         if shape == "box":
             size = _get(g, "size", "geometry", path, list)
@@ -211,15 +311,24 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
                         f"(0, outer_diameter = {geometry['outer_diameter']})"
                     )
                 geometry["inner_diameter"] = d
+        for key, v in geometry.items():
+            vals = v if isinstance(v, list) else [v]
+            if key != "shape" and max(vals) * scale > V.QUANTITIES["length"].limit:
+                raise ConfigError(f"{path}: [geometry] {key} = {v!r} {units} is out of range for a link")
+        _part_extent(path, geometry, units, scale)
     else:
         raise ConfigError(f'{path}: [geometry] needs step = "part.step" or shape = "box" | "tube" | "rod"')
 
     m = data["material"]
-    E = _positive(_get(m, "E", "material", path, float), "material", "E", path)
-    nu = _get(m, "nu", "material", path, float)
-    if not -1.0 < nu < 0.5:
-        raise ConfigError(f"{path}: [material] nu = {nu!r} must lie in (-1, 0.5)")
-    density = _positive(_get(m, "density", "material", path, float, 7850.0), "material", "density", path)
+    E = _num(_get(m, "E", "material", path), f"{path}: [material] E", "E", lo=0.0, lo_open=True)
+    nu = _num(_get(m, "nu", "material", path), f"{path}: [material] nu", lo=-1.0, hi=0.5, lo_open=True, hi_open=True)
+    density = _num(
+        _get(m, "density", "material", path, None, 7850.0),
+        f"{path}: [material] density",
+        "density",
+        lo=0.0,
+        lo_open=True,
+    )
 
     sup = _choice(_get(data["support"], "plane", "support", path, str), PLANES, "support", "plane", path)
     ld = data["load"]
@@ -232,32 +341,43 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     ref = _get(ld, "reference_point", "load", path, list)
     if len(ref) != 3:
         raise ConfigError(f"{path}: [load] reference_point = {ref!r}: three coordinates")
+    if max(abs(v) for v in ref) * scale > V.QUANTITIES["position"].limit:
+        raise ConfigError(f"{path}: [load] reference_point = {ref!r} {units} is out of range")
     coupling = _choice(_get(ld, "coupling", "load", path, str, "distributing"), COUPLINGS, "load", "coupling", path)
     amps = ld.get("amplitudes", "auto")
     if amps != "auto":
-        amps = _get(ld, "amplitudes", "load", path, list)
-        if len(amps) != 6 or min(amps) <= 0:
+        if not isinstance(amps, list) or len(amps) != 6:
             raise ConfigError(
                 f'{path}: [load] amplitudes = {amps!r}: "auto" or six positive '
                 "numbers [Fx, Fy, Fz, Mx, My, Mz] in N and N m"
             )
+        names = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+        amps = [
+            _num(a, f"{path}: [load] amplitudes {names[i]}", "force" if i < 3 else "moment", lo=0.0, lo_open=True)
+            for i, a in enumerate(amps)
+        ]
     fl = data.get("field", {})
     region = _choice(_get(fl, "region", "field", path, str, "face"), REGIONS, "field", "region", path)
     rsize = _get(fl, "size", "field", path, float, 0.0)
     if region != "face":
         _positive(rsize, "field", "size", path)
+    elif "size" in fl:
+        raise ConfigError(f'{path}: [field] size is for region = "cube" or "layer", not {region!r}')
     me = data.get("mesh", {})
     mesher = _choice(_get(me, "mesher", "mesh", path, str, "gmsh"), ("gmsh", "tetgen"), "mesh", "mesher", path)
     order = _choice(_get(me, "order", "mesh", path, int, 2), (1, 2), "mesh", "order", path)
     msize = _positive(_get(me, "size", "mesh", path, float), "mesh", "size", path)
+    check_mesh_size(msize, geometry, units, f"{path}: [mesh] size")
     refine = _get(me, "refine", "mesh", path, float, None) if "refine" in me else None
     if refine is not None and not 0 < refine < 1:
         raise ConfigError(f"{path}: [mesh] refine = {refine!r}: a size factor in (0, 1)")
     rr = _get(me, "refine_radius", "mesh", path, float, None) if "refine_radius" in me else None
+    if rr is not None:
+        _positive(rr, "mesh", "refine_radius", path)
+        if refine is None:
+            raise ConfigError(f"{path}: [mesh] refine_radius needs refine (a size factor in (0, 1))")
     optimize = _choice(_get(me, "optimize", "mesh", path, str, "none"), ("none", "netgen"), "mesh", "optimize", path)
-    structured = me.get("structured", False)
-    if not isinstance(structured, bool):
-        raise ConfigError(f"{path}: [mesh] structured = {structured!r}: true or false")
+    structured = _get(me, "structured", "mesh", path, bool, False)
     across = _get(me, "across_factor", "mesh", path, float, 1.0)
     if not 0 < across <= 1:
         raise ConfigError(f"{path}: [mesh] across_factor = {across!r}: a size factor in (0, 1]")
@@ -289,16 +409,16 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     conf = _get(fit, "confidence", "fit", path, float, 0.99)
     if not 0 < conf < 1:
         raise ConfigError(f"{path}: [fit] confidence = {conf!r}: a level in (0, 1)")
-    sym = fit.get("symmetrize", False)
-    if not isinstance(sym, bool):
-        raise ConfigError(f"{path}: [fit] symmetrize = {sym!r}: true or false")
-    pooled = fit.get("pooled", True)
-    if not isinstance(pooled, bool):
-        raise ConfigError(f"{path}: [fit] pooled = {pooled!r}: true or false")
+    sym = _get(fit, "symmetrize", "fit", path, bool, False)
+    pooled = _get(fit, "pooled", "fit", path, bool, True)
     so = data.get("solver", {})
     route = _choice(_get(so, "route", "solver", path, str, "auto"), ROUTES, "solver", "route", path)
-    timeout = _positive(_get(so, "timeout", "solver", path, float, 3600.0), "solver", "timeout", path)
+    timeout = _num(
+        _get(so, "timeout", "solver", path, None, 3600.0), f"{path}: [solver] timeout", "timeout", lo=0.0, lo_open=True
+    )
     tol = _get(data["support"], "tolerance", "support", path, float, None) if "tolerance" in data["support"] else None
+    if tol is not None:
+        _positive(tol, "support", "tolerance", path)
     approx = None
     if "approximation" in data:
         ap = data["approximation"]
@@ -350,8 +470,45 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     )
 
 
+def part_dims(geometry: dict) -> list[float] | None:
+    """The bounding-box sizes (geometry units) of a built-in shape, None for CAD."""
+    if "size" in geometry:
+        return list(geometry["size"])
+    if "length" in geometry:
+        d = geometry["outer_diameter"]
+        return [geometry["length"], d, d]
+    return None
+
+
+def check_mesh_size(size: float, geometry: dict, units: str, name: str, dims=None) -> None:
+    """An element size larger than the whole part is an error; larger than
+    its smallest side (less than one element across) a warning. ``dims``:
+    the part's bounding box (geometry units) when it is not a built-in shape."""
+    dims = dims if dims is not None else part_dims(geometry)
+    if not dims:
+        return
+    wall = None
+    if geometry.get("shape") == "tube":
+        wall = (geometry["outer_diameter"] - geometry["inner_diameter"]) / 2
+    if size > max(dims):
+        raise ConfigError(
+            f"{name} = {size:g} {units} is larger than the whole part ({' x '.join(f'{d:g}' for d in dims)} {units}); "
+            "give an element size a fraction of its smallest side"
+        )
+    small = min(dims + ([wall] if wall else []))
+    if size > small:
+        V.warn(
+            f"{name} = {size:g} {units} is larger than the part's smallest "
+            f"{'wall' if wall and small == wall else 'side'} ({small:g} {units}): less than one element "
+            "across, the compliance will be far off",
+            key=("mesh size", name),
+        )
+
+
 def load_link(path) -> LinkJob:
     """Read and check LINK.toml (see the module docstring)."""
+    if not isinstance(path, (str, Path)):
+        raise ConfigError(f"load_link takes the path of a LINK.toml, got {type(path).__name__}")
     p = Path(path)
     data = read_toml(p, "LINK.toml", error=ConfigError)
     return parse_link(data, str(p), p.resolve().parent)

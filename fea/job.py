@@ -37,11 +37,13 @@ from .outputs import LinkResult
 from .solve import FeaSolution, resolve_route, solve_fea
 
 
-def select_field(job: LinkJob, mesh: Mesh, load_nodes: np.ndarray) -> np.ndarray:
+def select_field(job: LinkJob, mesh: Mesh, load_nodes: np.ndarray, fixed_nodes=None) -> np.ndarray:
     """1-based node numbers of the field around the reference point (s4.4):
     ``face`` the load face; ``cube`` nodes inside a cube of edge
     ``field.size`` centred on the reference point; ``layer`` nodes within
-    ``field.size`` of the load plane."""
+    ``field.size`` of the load plane. A region that reaches the clamped
+    nodes (``fixed_nodes``) is an error: they do not follow the load face,
+    so the rigid-motion fit would mix two bodies."""
     p0 = np.asarray(job.reference_point)
     if job.region == "face":
         sel = np.asarray(load_nodes)
@@ -53,6 +55,14 @@ def select_field(job: LinkJob, mesh: Mesh, load_nodes: np.ndarray) -> np.ndarray
         lo, hi = mesh.bbox()
         value = lo[axis] if job.load_plane.endswith("min") else hi[axis]
         sel = np.nonzero(np.abs(mesh.nodes[:, axis] - value) <= job.region_size * (1 + 1e-9))[0] + 1
+    if fixed_nodes is not None and job.region != "face":
+        clamped = np.intersect1d(sel, fixed_nodes)
+        if clamped.size:
+            raise InputError(
+                f"{job.source}: [field] region = {job.region!r}, size = {job.region_size / job.scale:g} {job.units} "
+                f"takes in {clamped.size} clamped node(s) of the [support] plane {job.support_plane!r}: the field "
+                "must stay near the load face (give a smaller size)"
+            )
     if sel.size < 3:
         raise InputError(
             f"{job.source}: [field] region = {job.region!r}"
@@ -67,7 +77,7 @@ def fit_solution(job: LinkJob, sol: FeaSolution) -> tuple:
     """Fit the field of every load case and build the compliance (core):
     (field nodes, fits, compliance, reference-node compliance, seconds)."""
     t0 = time.perf_counter()
-    field_nodes = select_field(job, sol.mesh, sol.load_nodes)
+    field_nodes = select_field(job, sol.mesh, sol.load_nodes, sol.fixed_nodes)
     pts = sol.mesh.nodes[field_nodes - 1]
     fits = fit_fields(
         pts, sol.U[:, field_nodes - 1], job.reference_point, method=job.method, trim=job.trim, pooled=job.pooled

@@ -30,7 +30,7 @@ from ..errors import InputError
 from ..meshing import Mesh, MeshError, face_connectivity, faces_on_nodes, mesh_part, plane_nodes
 from .amplitudes import auto_amplitudes, beam_estimate
 from .ccx import ccx_version, displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck, write_static_deck
-from .config import LinkJob
+from .config import LinkJob, check_extent, check_mesh_size
 
 __all__ = ["FeaSolution", "resolve_route", "mesh_job", "support_and_load", "solve_fea"]
 
@@ -64,7 +64,7 @@ def mesh_job(job: LinkJob) -> Mesh:
             refine_points=[[v / job.scale for v in job.reference_point]],
             refine_planes=[job.support_plane],
         )
-    return mesh_part(
+    mesh = mesh_part(
         job.geometry,
         job.units,
         job.scale,
@@ -74,8 +74,14 @@ def mesh_job(job: LinkJob) -> Mesh:
         optimize=job.optimize,
         structured=job.structured,
         across_factor=job.across_factor,
+        source=f"{job.source}: [mesh] size",
         **kw,
     )
+    if "step" in job.geometry:  # a CAD part's size is known once it is read
+        extent = mesh.info.get("extent") or list((mesh.bbox()[1] - mesh.bbox()[0]) / job.scale)
+        check_extent(max(extent) * job.scale, job.units, f"{job.source}: [geometry] step")
+        check_mesh_size(job.size, job.geometry, job.units, f"{job.source}: [mesh] size", dims=list(extent))
+    return mesh
 
 
 def support_and_load(job: LinkJob, mesh: Mesh):

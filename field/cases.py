@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..io import validate as V
 from ..io.tables import read_columns
 
 __all__ = ["read_fields", "axis_wrenches", "read_wrenches"]
@@ -14,12 +15,19 @@ __all__ = ["read_fields", "axis_wrenches", "read_wrenches"]
 def read_fields(nodes_path, field_paths) -> tuple[np.ndarray, np.ndarray]:
     """(nodes (n, 3), displacements (m, n, 3)): NODES.csv with header x,y,z and
     one DISP.csv with header ux,uy,uz per case, same nodes in the same order."""
-    nodes = read_columns(nodes_path, ["x", "y", "z"], "node")
+    nodes = read_columns(nodes_path, ["x", "y", "z"], "node", "position")
+    extent = float(np.ptp(nodes, axis=0).max()) if nodes.shape[0] > 1 else 0.0
     disp = []
     for f in field_paths:
-        d = read_columns(f, ["ux", "uy", "uz"], "displacement")
+        d = read_columns(f, ["ux", "uy", "uz"], "displacement", "displacement")
         if d.shape != nodes.shape:
             raise InputError(f"{f}: {d.shape[0]} displacement rows for {nodes.shape[0]} nodes in {nodes_path}")
+        big = float(np.abs(d).max())
+        if extent > 0 and big > 0.1 * extent:
+            V.warn(
+                f"{f}: displacements up to {big:g} m on a field {extent:g} m across: the fit of a small rigid "
+                "motion assumes deflections far below the size of the field (are the files in one unit, SI?)"
+            )
         disp.append(d)
     return nodes, np.array(disp)
 
@@ -34,7 +42,12 @@ def axis_wrenches(loads, n_cases: int) -> np.ndarray:
 
 def read_wrenches(path, n_cases: int) -> np.ndarray:
     """(m, 6) wrenches, one row per case, from a CSV with header fx,fy,fz,mx,my,mz."""
-    w = read_columns(path, ["fx", "fy", "fz", "mx", "my", "mz"], "wrench")
+    w = np.hstack(
+        [
+            read_columns(path, ["fx", "fy", "fz"], "wrench", "force"),
+            read_columns(path, ["mx", "my", "mz"], "wrench", "moment"),
+        ]
+    )
     if w.shape[0] != n_cases:
         raise InputError(f"{path}: {w.shape[0]} wrenches for {n_cases} load cases")
     return w

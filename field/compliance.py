@@ -13,7 +13,8 @@ import numpy as np
 
 from .._core import field as core
 from ..errors import InputError
-from .fit import DOF_NAMES, LOAD_NAMES
+from ..io import validate as V
+from .fit import DOF_NAMES, LOAD_NAMES, FieldFit
 
 __all__ = ["Compliance", "compliance_from_experiments", "normal_quantile"]
 
@@ -77,17 +78,29 @@ def compliance_from_experiments(
     confidence : two-sided level of the intervals used for significance
     symmetrize : return (k + k^T)/2 (asymmetry is reported either way)
     """
-    w = np.asarray(wrenches, dtype=float)
-    if w.ndim != 2 or w.shape[1] != 6:
-        raise InputError(f"wrenches must have shape (m, 6), got {w.shape}")
+    w = V.array(wrenches, "wrenches", (None, 6))
+    V.number(confidence, "confidence", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    if not isinstance(symmetrize, (bool, np.bool_)):
+        raise InputError(f"symmetrize = {symmetrize!r} must be True or False")
     if isinstance(fits, np.ndarray) or covariances is not None:
-        x = np.asarray(fits, dtype=float)
-        cov = np.zeros((x.shape[0], 6, 6)) if covariances is None else np.asarray(covariances, dtype=float)
+        x = V.array(fits, "deflections", (None, 6))
+        cov = np.zeros((x.shape[0], 6, 6)) if covariances is None else V.array(covariances, "covariances")
         sigma = float("nan")
     else:
-        fits = list(fits)
-        x = np.array([f.deflection for f in fits])
-        cov = np.array([f.cov for f in fits])
+        try:
+            fits = list(fits)
+        except TypeError:
+            raise InputError(
+                f"fits must be a list of FieldFit results (or an (m, 6) array), got {fits!r:.60}"
+            ) from None
+        bad = [i for i, f in enumerate(fits) if not isinstance(f, FieldFit)]
+        if bad:
+            raise InputError(
+                f"fits[{bad[0]}] is a {type(fits[bad[0]]).__name__}, not a FieldFit "
+                "(pass fit_field results, or an (m, 6) array of deflections with covariances)"
+            )
+        x = np.array([f.deflection for f in fits]).reshape(-1, 6)
+        cov = np.array([f.cov for f in fits]).reshape(-1, 6, 6)
         sigma = float(np.mean([f.sigma for f in fits])) if fits else float("nan")
     if x.shape != w.shape:
         raise InputError(
@@ -115,4 +128,4 @@ def compliance_from_experiments(
 
 def normal_quantile(level: float) -> float:
     """z such that P(|Z| <= z) = level for a standard normal Z."""
-    return core.normal_quantile(level)
+    return core.normal_quantile(V.number(level, "level", lo=0.0, hi=1.0, lo_open=True, hi_open=True))

@@ -14,6 +14,7 @@ import numpy as np
 
 from .._core import field as core
 from ..errors import InputError
+from ..io import validate as V
 
 __all__ = ["METHODS", "DOF_NAMES", "LOAD_NAMES", "FieldFit", "fit_field", "fit_fields"]
 
@@ -74,24 +75,19 @@ class FieldFit:
 
 
 def _points(points, name="points") -> np.ndarray:
-    a = np.asarray(points, dtype=float)
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise InputError(f"{name} must have shape (n, 3), got {a.shape}")
-    return a
+    """(n, 3) finite floats in any one unit (the fit does not depend on it)."""
+    return V.array(points, name, (None, 3))
 
 
 def _method_code(method: str, trim: float) -> int:
-    try:
-        code = METHODS[method]
-    except KeyError:
-        raise InputError(f"unknown method {method!r}; choose one of lin, svd+, svd-, svd+-, exact") from None
-    if not 0.0 <= trim < 0.5:
-        raise InputError(f"trim must be a fraction in [0, 0.5), got {trim}")
-    return code
+    if not isinstance(method, str) or method not in METHODS:
+        raise InputError(f"unknown method {method!r}; choose one of lin, svd+, svd-, svd+-, exact")
+    V.number(trim, "trim", lo=0.0, hi=0.5, hi_open=True)
+    return METHODS[method]
 
 
 def _reference(reference) -> np.ndarray:
-    ref = np.asarray(reference, dtype=float).reshape(-1)
+    ref = V.array(reference, "reference").reshape(-1)
     if ref.shape != (3,):
         raise InputError(f"reference must be a point (3,), got shape {np.shape(reference)}")
     return ref
@@ -129,8 +125,10 @@ def fit_fields(
     scales every covariance. One core call for all m fields.
     """
     p = _points(points)
-    d = np.asarray(displacements, dtype=float)
-    if d.ndim != 3 or d.shape[1:] != p.shape:
+    if not isinstance(pooled, (bool, np.bool_)):
+        raise InputError(f"pooled = {pooled!r} must be True or False")
+    d = V.array(displacements, "displacements")
+    if d.ndim != 3 or d.shape[1:] != p.shape or d.shape[0] < 1:
         raise InputError(f"displacements must have shape (m, {p.shape[0]}, 3) to match points {p.shape}, got {d.shape}")
     # (n,3) C-order -> (3,n) F-order without copy; (m,n,3) -> (3,n,m)
     return _fit(

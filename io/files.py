@@ -17,6 +17,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..errors import InputError
+from .validate import json_ready
+
 __all__ = [
     "atomic_path",
     "atomic_open",
@@ -24,6 +27,7 @@ __all__ = [
     "atomic_write_text",
     "write_json",
     "save_figure",
+    "FIGURE_SUFFIXES",
     "pyplot",
 ]
 
@@ -34,19 +38,36 @@ def _temporary(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp{path.suffix}")
 
 
+def _named(exc: OSError, path: Path, tmp: Path | None) -> OSError:
+    """The error of a write with the user's path in it, not the temporary's."""
+    if exc.filename is None or (tmp is not None and str(exc.filename) == str(tmp)) or exc.filename2 is not None:
+        new = type(exc)(exc.errno, exc.strerror or str(exc), str(path)) if exc.errno else OSError(str(exc))
+        if not exc.errno:
+            new.filename = str(path)
+        return new
+    return exc
+
+
 @contextmanager
 def atomic_path(path) -> Iterator[Path]:
     """Yield the path of a fresh temporary beside ``path``; when the block
     ends without an error the temporary replaces ``path``, otherwise it is
-    removed. For writers that want a file name (meshio, numpy)."""
+    removed. For writers that want a file name (meshio, numpy). A file
+    error names ``path``, never the temporary."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _temporary(path)
+    tmp = None
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = _temporary(path)
         yield tmp
         os.replace(tmp, path)
+    except OSError as exc:
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
+        raise _named(exc, path, tmp) from None
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
         raise
 
 
@@ -75,15 +96,27 @@ def atomic_write_text(path, text: str) -> Path:
 
 
 def write_json(path, data, **kwargs) -> Path:
-    """``data`` as indented JSON (``json.dumps`` keywords pass through)."""
-    return atomic_write_text(path, json.dumps(data, indent=1, **kwargs))
+    """``data`` as indented JSON (``json.dumps`` keywords pass through).
+    Numpy scalars and arrays become plain numbers and lists; a NaN or Inf
+    anywhere is refused (StiffkitError naming the file and the key): JSON
+    has no such numbers, and a writer maps an undefined value to null."""
+    kwargs.pop("allow_nan", None)
+    text = json.dumps(json_ready(data, str(path)), indent=1, allow_nan=False, **kwargs)
+    return atomic_write_text(path, text)
+
+
+#: figure formats matplotlib's Agg backend writes
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".pgf")
 
 
 def save_figure(fig, path, **kwargs) -> Path:
     """A matplotlib figure saved atomically; the format is the suffix of
     ``path`` (PNG when it has none), as ``Figure.savefig`` would choose."""
     path = Path(path)
-    kwargs.setdefault("format", path.suffix[1:].lower() or "png")
+    suffix = path.suffix.lower()
+    if suffix and suffix not in FIGURE_SUFFIXES and "format" not in kwargs:
+        raise InputError(f"{path}: cannot write a figure as {suffix!r}; use one of {', '.join(FIGURE_SUFFIXES)}")
+    kwargs.setdefault("format", suffix[1:] or "png")
     with atomic_open(path, "wb") as fh:
         fig.savefig(fh, **kwargs)
     return path

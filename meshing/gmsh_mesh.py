@@ -11,14 +11,17 @@ from __future__ import annotations
 
 import logging
 import shutil
+import signal
 import subprocess
 import tempfile
+import threading
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, PlausibilityWarning
 from .mesh import PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
 
 logger = logging.getLogger(__name__)
@@ -26,6 +29,41 @@ logger = logging.getLogger(__name__)
 CAD_SUFFIXES = {".step": "STEP", ".stp": "STEP", ".brep": "BREP", ".brp": "BREP", ".iges": "IGES", ".igs": "IGES"}
 #: geometry unit -> OpenCASCADE target unit of STEP/IGES import
 OCC_UNITS = {"mm": "MM", "m": "M", "cm": "CM", "in": "INCH"}
+
+
+def _python_signals() -> None:
+    """Give SIGINT and SIGTERM back to Python: gmsh's initialisation installs
+    C handlers for them that end the process at once, so a Ctrl-C or a
+    SIGTERM later in the run (while ccx runs) would skip every cleanup."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(sig)
+        if handler is not None:
+            signal.signal(sig, handler)
+
+
+#: tetrahedra a mesh may have (about 6 per cube of the element size): beyond
+#: the warning it takes minutes and gigabytes, beyond the limit more memory
+#: than a workstation has
+TETS_WARN, TETS_LIMIT = 2.0e6, 3.0e7
+
+
+def _check_count(volume: float, size: float, units: str, where) -> None:
+    est = 6.0 * volume / size**3
+    if est > TETS_LIMIT:
+        raise MeshError(
+            f"{where}: element size {size:g} {units} would need about {est:.2g} tetrahedra (the part's volume is "
+            f"{volume:.4g} {units}^3); at most {TETS_LIMIT:.0e}: give a larger size"
+        )
+    if est > TETS_WARN:
+        warnings.warn(
+            PlausibilityWarning(
+                f"{where}: element size {size:g} {units} gives about {est:.2g} tetrahedra: expect a long run and "
+                "several GB of memory (is the size in the geometry's unit?)"
+            ),
+            stacklevel=3,
+        )
 
 
 def _gmsh():
@@ -144,6 +182,7 @@ def mesh_part(
     optimize: str = "none",
     structured: bool = False,
     across_factor: float = 1.0,
+    source: str | None = None,
 ) -> Mesh:
     """Mesh one solid with quadratic (order 2, C3D10) or linear (order 1,
     C3D4) tetrahedra of about ``size`` (geometry units).
@@ -160,6 +199,7 @@ def mesh_part(
     ``structured = True`` (built-in ``box`` only, Gmsh, no refine/optimize):
     a transfinite mesh, hex cells of ``size`` along the longest side and
     ``across_factor * size`` across the section, each split into six tets.
+    ``source`` names the job in the messages about the size (e.g. the LINK.toml).
     """
     if optimize not in ("none", "netgen"):
         raise InputError(f"mesh.optimize = {optimize!r}: none or netgen")
@@ -181,12 +221,25 @@ def mesh_part(
         raise InputError(f"mesh.mesher = {mesher!r}: gmsh or tetgen")
     gmsh = _gmsh()
     t0 = time.perf_counter()
-    gmsh.initialize(readConfigFiles=False)
+    # interruptible=False: gmsh would otherwise reset SIGINT to its default
+    # while it runs, and Ctrl-C would kill Python without any cleanup
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    _python_signals()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setNumber("General.NumThreads", 1)
         gmsh.model.add("link")
         _add_geometry(gmsh, geometry, units)
+        box = np.array(gmsh.model.getBoundingBox(-1, -1))
+        extent = box[3:] - box[:3]  # geometry units (OCC pads by ~1e-7)
+        where = source or geometry.get("step", geometry.get("shape"))
+        if size > extent.max():
+            raise MeshError(
+                f"{where}: element size {size:g} {units} is larger than the "
+                f"whole part ({' x '.join(f'{e:.4g}' for e in extent)} {units}); give a fraction of its smallest side"
+            )
+        volume = sum(gmsh.model.occ.getMass(3, tag) for _dim, tag in gmsh.model.getEntities(3))
+        _check_count(volume, size, units, where)
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
         gmsh.option.setNumber("Mesh.MeshSizeMin", size if not refine else refine * size)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
@@ -223,6 +276,7 @@ def mesh_part(
         gmsh.finalize()
     mesh.size_m = size * scale
     mesh.mesher = mesher
+    mesh.info["extent"] = [float(e) for e in extent]
     if structured:
         mesh.info["structured"] = True
         mesh.info["across_factor"] = across_factor

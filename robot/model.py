@@ -17,8 +17,9 @@ import numpy as np
 from .._core import calib as core
 from .._core.springs import rotate6
 from ..errors import InputError
-from ..io.linkjson import read_link_compliance
-from ..io.tables import matrix6, read_toml
+from ..io import validate as V
+from ..io.linkjson import check_spring_matrix, read_link_compliance
+from ..io.tables import read_toml
 from .indices import stiffness_indices_where
 from .urdf import Chain, load_chain
 
@@ -187,6 +188,16 @@ class Model:
                 tau = self.chain.joint_torques(Q, wrench)
             c.setdefault(t.joint, np.zeros(Q.shape[0]))
             c[t.joint] = c[t.joint] + t.value[0] * load_factor(t.kind, tau[:, t.joint], t.geometry.get("tau0"))
+        for j, cj in c.items():
+            bad = ~(cj >= 0)
+            if bad.any():
+                i = int(np.argmax(bad))
+                name = self.chain.joint_names[j]
+                kinds = sorted({t.source or t.kind for t in terms if t.joint == j})
+                raise InputError(
+                    f"{self.path or 'model'}: the compliance of joint {name!r} ({' + '.join(kinds)}) is {cj[i]:.4g} "
+                    f"rad/(N m) at posture {i + 1}: a joint compliance must be >= 0 (a negative one is no spring)"
+                )
         return c
 
     def six_values(self, terms=None) -> dict[tuple[int, int], np.ndarray]:
@@ -241,15 +252,13 @@ class Model:
         joint_deadzone; see joint_compliances); without it the compliance at
         zero load.
         """
-        Q = np.atleast_2d(np.asarray(Q, dtype=float))
-        if Q.ndim != 2 or Q.shape[1] != self.chain.dof:
+        Q = np.atleast_2d(V.array(Q, "postures", None, "angle"))
+        if Q.ndim != 2 or Q.shape[1] != self.chain.dof or Q.shape[0] < 1:
             raise InputError(f"postures must have shape (N, {self.chain.dof}), got {np.shape(Q)}")
-        if not np.all(np.isfinite(Q)):
-            raise InputError("postures contain NaN or Inf")
         if wrench is not None:
-            wrench = np.atleast_2d(np.asarray(wrench, dtype=float))
-            if wrench.shape != (Q.shape[0], 6) or not np.all(np.isfinite(wrench)):
-                raise InputError(f"wrench must be a finite array of shape ({Q.shape[0]}, 6), got {np.shape(wrench)}")
+            wrench = np.atleast_2d(V.array(wrench, "wrench", None, "force"))
+            if wrench.shape != (Q.shape[0], 6):
+                raise InputError(f"wrench must be an array of shape ({Q.shape[0]}, 6), got {np.shape(wrench)}")
         jc = self.joint_compliances(Q, wrench=wrench)
         six = self.six_values()
         springs = [(SPRING_JOINT, j + 1) for j in sorted(jc)] + list(six)
@@ -283,8 +292,10 @@ class Model:
         made unit-invariant with the length ``lscale`` (m; default the chain's
         characteristic length). Returns (Indices, ok): NaN where the stiffness
         does not exist (ok False)."""
+        if lscale is not None:
+            lscale = V.number(lscale, "lscale", "length", lo=0.0, lo_open=True)
         _, K, _, ok = self.stiffness(Q)
-        lscale = self.chain.characteristic_length if lscale is None else float(lscale)
+        lscale = self.chain.characteristic_length if lscale is None else lscale
         return stiffness_indices_where(K, ok, lscale), ok
 
 
@@ -348,27 +359,22 @@ def _where(path, i, table) -> str:
     )
 
 
-def _matrix6(v, where) -> np.ndarray:
-    C = matrix6(v, f"{where}: value", " or a JSON file name")
-    if np.abs(C - C.T).max() > 1e-9 * max(np.abs(C).max(), 1e-300):
-        raise InputError(f"{where}: value must be symmetric (max |C - C^T| = {np.abs(C - C.T).max():.3g})")
-    return 0.5 * (C + C.T)
-
-
 def _six_value(table, base_dir, where) -> np.ndarray:
     """The known 6x6 compliance of a link/base/tool effect: ``value`` as 6
     rows of 6 numbers or the name of a ``stiffkit link`` JSON result, in the
-    spring frame's axes, or in axes turned by ``rpy`` from them."""
+    spring frame's axes, or in axes turned by ``rpy`` from them. Symmetric
+    (a written matrix to 1 %, a link JSON to its FEA noise; symmetrised) and
+    positive semi-definite."""
     v = table["value"]
     if isinstance(v, str):
         f = (base_dir / v) if not Path(v).is_absolute() else Path(v)
-        C = _matrix6(read_link_compliance(f, where), f"{where}: {f}")
+        C = read_link_compliance(f, where)
     else:
-        C = _matrix6(v, where)
+        if not isinstance(v, list):
+            raise InputError(f"{where}: value must be 6 rows of 6 numbers or a JSON file name, got {v!r}")
+        C = check_spring_matrix(v, f"{where}: value", error=1e-2)
     if "rpy" in table:
-        rpy = table["rpy"]
-        if not (isinstance(rpy, list) and len(rpy) == 3):
-            raise InputError(f"{where}: rpy must be [r, p, y]")
+        rpy = V.array(table["rpy"], f"{where}: rpy", (3,), "angle")
         C = rotate6(rpy_matrix(rpy), C)
     return C
 
@@ -386,16 +392,17 @@ def _default_axis(chain: Chain, link: str) -> int:
     return int(np.argmax(np.abs(seg)))
 
 
-def _number(table, key, where, positive=False) -> float:
+def _number(table, key, where, q=None, **limits) -> float:
     if key not in table:
         raise InputError(f"{where}: missing {key!r}")
-    try:
-        v = float(table[key])
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: {key} = {table[key]!r} is not a number") from None
-    if not math.isfinite(v) or (positive and v <= 0):
-        raise InputError(f"{where}: {key} = {v} must be {'positive and ' if positive else ''}finite")
-    return v
+    return V.number(table[key], f"{where}: {key}", q, **limits)
+
+
+def _suggest(word: str, choices) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(str(word), list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 #: keys an [[effect]] table may carry, per kind (a typo is an error, not a silent default)
@@ -414,22 +421,26 @@ KEYS = {
 
 def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path(".")) -> list[Term]:
     """Terms of one [[effect]] table (raises InputError naming the table)."""
+    if not isinstance(table, dict):
+        raise InputError(f"{path}: [[effect]] #{i + 1} must be a table (kind = ..., target = ...), got {table!r:.60}")
     where = _where(path, i, table)
     kind = table.get("kind")
-    if kind not in KINDS:
-        raise InputError(f"{where}: unknown kind {kind!r}; choose one of {', '.join(KINDS)}")
+    if not isinstance(kind, str) or kind not in KINDS:
+        raise InputError(f"{where}: unknown kind {kind!r}{_suggest(kind, KINDS)}; choose one of {', '.join(KINDS)}")
     unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
     if unknown:
         raise InputError(
-            f"{where}: unknown key(s) {', '.join(unknown)} for kind {kind!r} "
-            f"(allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)"
+            f"{where}: unknown key(s) {', '.join(unknown)} for kind {kind!r}"
+            f"{_suggest(unknown[0], KEYS[kind])} (allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)"
         )
     target = table.get("target", "all" if kind == "joint" else "")
+    if not isinstance(target, str):
+        raise InputError(f"{where}: target = {target!r} must be a name (a string)")
     terms = []
     if kind in JOINT_KINDS:
         if kind == "joint" and target == "all":
             joints = chain.actuated
-            if "value" in table and not isinstance(table["value"], (int, float)):
+            if "value" in table and (isinstance(table["value"], bool) or not isinstance(table["value"], (int, float))):
                 raise InputError(f"{where}: with target = 'all' the value must be one number")
         else:
             if not target:
@@ -455,29 +466,31 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
             if kind == "joint":
                 t.names = [f"{jn}.c"]
                 if "value" in table:
-                    t.value = np.array([_number(table, "value", where)])
+                    t.value = np.array([_number(table, "value", where, "joint_compliance", lo=0.0)])
             elif kind == "joint_profile":
                 t.names = [f"{jn}.c{m}" for m in range(5)]
                 if "value" in table:
-                    v = np.asarray(table["value"], dtype=float)
-                    if v.shape != (5,) or not np.all(np.isfinite(v)):
+                    if not isinstance(table["value"], list) or len(table["value"]) != 5:
                         raise InputError(f"{where}: value must be [c0, c1, c2, c3, c4]")
-                    t.value = v
+                    t.value = V.array(table["value"], f"{where}: value", (5,), "matrix6")
             elif kind in LOAD_NONLINEAR:
                 t.names = [f"{jn}.cubic" if kind == "joint_cubic" else f"{jn}.backlash"]
                 if "value" in table:
                     t.value = np.array([_number(table, "value", where)])
                 if kind == "joint_deadzone" and "tau0" in table:
-                    t.geometry = {"tau0": _number(table, "tau0", where, positive=True)}
+                    t.geometry = {"tau0": _number(table, "tau0", where, "moment", lo=0.0, lo_open=True)}
                 elif kind == "joint_deadzone" and "value" in table:
                     raise InputError(f"{where}: a joint_deadzone with a value needs its tau0 (N m) too")
             else:
                 t.names = [f"{jn}.k_s"]
                 t.geometry = {
-                    key: _number(table, key, where, positive=key in ("a", "b")) for key in ("a", "b", "beta", "s0")
+                    "a": _number(table, "a", where, "length", lo=0.0, lo_open=True),
+                    "b": _number(table, "b", where, "length", lo=0.0, lo_open=True),
+                    "beta": _number(table, "beta", where, "angle"),
+                    "s0": _number(table, "s0", where, "length", lo=0.0),
                 }
                 if "k_s" in table:
-                    t.value = np.array([_number(table, "k_s", where)])
+                    t.value = np.array([_number(table, "k_s", where, "spring_stiffness", lo=0.0)])
             terms.append(t)
     elif kind in ("link", "base", "tool"):
         if kind == "link":
@@ -492,8 +505,11 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
         else:
             spring, name = (SPRING_TOOL, 0), "tool"
         template = table.get("template", "full")
-        if template not in TEMPLATES:
-            raise InputError(f"{where}: unknown template {template!r}; choose one of {', '.join(TEMPLATES)}")
+        if not isinstance(template, str) or template not in TEMPLATES:
+            raise InputError(
+                f"{where}: unknown template {template!r}{_suggest(template, TEMPLATES)}; "
+                f"choose one of {', '.join(TEMPLATES)}"
+            )
         if "axis" in table:
             if table["axis"] not in ("x", "y", "z"):
                 raise InputError(f"{where}: axis must be 'x', 'y' or 'z'")
@@ -519,15 +535,31 @@ def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path
             source=kind,
         )
         if "r" in table:
-            v = np.asarray(table["r"], dtype=float)
-            if v.shape != (3,) or not np.all(np.isfinite(v)):
+            if not isinstance(table["r"], list) or len(table["r"]) != 3:
                 raise InputError(f"{where}: r must be [x, y, z] (m)")
-            t.value = v
+            t.value = V.array(table["r"], f"{where}: r", (3,), "position")
         terms.append(t)
     return terms
 
 
 def check_terms(terms: list[Term], where: str) -> None:
+    seen: dict = {}
+    for t in terms:
+        key = (t.kind, t.spring if t.kind == "six" else t.target)
+        if t.kind == "point_offset":
+            continue
+        if key in seen:
+            u = seen[key]
+            same = (
+                f"the same spring as #{u.effect + 1} ({u.source} {u.target!r})"
+                if t.kind == "six"
+                else (f"duplicates #{u.effect + 1}")
+            )
+            raise InputError(
+                f"{where}: [[effect]] #{t.effect + 1} ({t.source or t.kind} on {t.target!r}) is {same}: "
+                "one effect per spring (its parameters would be counted twice)"
+            )
+        seen[key] = t
     comp = [t for t in terms if t.kind == "gravity_compensator"]
     for t in comp:
         if not any(u.kind == "joint" and u.joint == t.joint for u in terms):
@@ -545,21 +577,37 @@ def load_model(path) -> Model:
     Returns a :class:`Model`; ``model.tool_compliance(Q)`` evaluates a model
     whose effects all carry values.
     """
+    if not isinstance(path, (str, Path)):
+        raise InputError(f"load_model takes the path of a model TOML, got {type(path).__name__}")
     path = Path(path)
     doc = read_toml(path, "model")
+    _known(doc, TOP_KEYS, f"{path}: unknown section(s)")
     robot = doc.get("robot")
     if not isinstance(robot, dict) or "urdf" not in robot:
         raise InputError(f'{path}: missing [robot] table with urdf = "robot.urdf"')
+    _known(robot, ROBOT_KEYS, f"{path}: [robot] unknown key(s)")
+    for key in ROBOT_KEYS:
+        if key in robot and (not isinstance(robot[key], str) or not robot[key].strip()):
+            raise InputError(f"{path}: [robot] {key} = {robot[key]!r} must be a name (a non-empty string)")
     base_dir = path.parent
     urdf = Path(robot["urdf"])
     urdf = urdf if urdf.is_absolute() else base_dir / urdf
     chain = load_chain(urdf, robot.get("base_link", "base_link"), robot.get("tool_frame", "tool0"))
     meas = doc.get("measurements", {})
+    if not isinstance(meas, dict):
+        raise InputError(f"{path}: [measurements] must be a table")
+    _known(meas, MEAS_KEYS, f"{path}: [measurements] unknown key(s)")
+    if meas.get("kind", "deflection") != "deflection":
+        raise InputError(
+            f"{path}: [measurements] kind = {meas['kind']!r}: this model reader takes deflections under known "
+            'loads (kind = "deflection", docs/calibration.md sections 2-5)'
+        )
     sig_p = meas.get("sigma_position")
     sig_r = meas.get("sigma_rotation")
-    for key, v in (("sigma_position", sig_p), ("sigma_rotation", sig_r)):
-        if v is not None and not (isinstance(v, (int, float)) and v > 0 and math.isfinite(v)):
-            raise InputError(f"{path}: [measurements] {key} = {v!r} must be a positive number (m or rad)")
+    if sig_p is not None:
+        sig_p = V.number(sig_p, f"{path}: [measurements] sigma_position", "sigma_position", lo=0.0, lo_open=True)
+    if sig_r is not None:
+        sig_r = V.number(sig_r, f"{path}: [measurements] sigma_rotation", "sigma_rotation", lo=0.0, lo_open=True)
     effects = doc.get("effect", [])
     if not isinstance(effects, list):
         raise InputError(f"{path}: 'effect' must be an array of tables [[effect]]")
@@ -576,6 +624,18 @@ def load_model(path) -> Model:
         sigma_rotation=None if sig_r is None else float(sig_r),
         robot_table=robot,
     )
+
+
+#: the sections and keys a deflection model file may carry (a typo is an error, not a silent default)
+TOP_KEYS = ("robot", "measurements", "effect")
+ROBOT_KEYS = ("urdf", "base_link", "tool_frame")
+MEAS_KEYS = ("sigma_position", "sigma_rotation", "kind")
+
+
+def _known(table: dict, known, what: str) -> None:
+    unknown = sorted(set(table) - set(known))
+    if unknown:
+        raise InputError(f"{what} {', '.join(unknown)}{_suggest(unknown[0], known)}; known: {', '.join(known)}")
 
 
 def model_from_tables(

@@ -14,12 +14,15 @@ Motion(axis, q)``; a mimic joint turns by ``multiplier * q_leader + offset``.
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
+from ..io import validate as V
+from ..io.tables import read_text
 
 MOVING = ("revolute", "continuous", "prismatic")
 SUPPORTED = MOVING + ("fixed",)
@@ -122,20 +125,77 @@ class Tree:
         return j.name, mult, off
 
 
-def _origin(j: object) -> np.ndarray:
+def _origin(j: object, path="URDF") -> np.ndarray:
     T = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise InputError(f"joint {j.name!r} has a malformed origin")
+        raise InputError(f"{path}: joint {j.name!r} has a malformed origin")
     return T
 
 
+#: numeric attributes checked before the library reads them: (element, attribute, count)
+_NUMERIC = (("origin", "xyz", 3), ("origin", "rpy", 3), ("axis", "xyz", 3))
+
+
+def _owner(el, parents) -> str:
+    """'joint NAME' or 'link NAME' of an element, for messages."""
+    p = parents.get(el)
+    while p is not None and p.tag not in ("joint", "link"):
+        p = parents.get(p)
+    return f"{p.tag} {p.get('name')!r}" if p is not None else "the robot"
+
+
+def check_urdf_text(text: str, path) -> None:
+    """What the URDF library would accept silently or explain badly: XML
+    that is not well formed (a truncated file), a root other than <robot>,
+    joints or links without a name, numeric attributes that are not finite
+    numbers of the right count; and a joint origin implausibly far for
+    metres (a URDF in mm) gives a warning."""
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        line, col = exc.position
+        raise InputError(
+            f"{path}, line {line}: cannot parse the URDF: not well-formed XML ({str(exc).split(':')[0]}, "
+            f"column {col}); is the file complete?"
+        ) from None
+    if root.tag != "robot":
+        raise InputError(f"{path}: the root element is <{root.tag}>, a URDF's is <robot>")
+    parents = {c: p for p in root.iter() for c in p}
+    for tag in ("joint", "link"):
+        for el in root.iter(tag):
+            if parents.get(el) is root and not (el.get("name") or "").strip():
+                raise InputError(f"{path}: a <{tag}> without a name")
+    far = 0.0
+    for tag, attr, n in _NUMERIC:
+        for el in root.iter(tag):
+            if attr not in el.attrib:
+                continue
+            raw = el.get(attr)
+            try:
+                vals = [float(x) for x in raw.split()]
+            except ValueError:
+                vals = None
+            if vals is None or len(vals) != n or not all(math.isfinite(v) for v in vals):
+                raise InputError(f'{path}: {_owner(el, parents)}: <{tag} {attr}="{raw}"> must be {n} finite number(s)')
+            if tag == "origin" and attr == "xyz":
+                far = max(far, max(abs(v) for v in vals))
+    if far > V.QUANTITIES["position"].plausible[1]:
+        V.warn(
+            f"{path}: a joint origin {far:g} m from its parent frame is implausible for a robot in metres; "
+            "a URDF is in m (is it in mm? multiply by 0.001)",
+            key=("urdf", str(path)),
+        )
+
+
 def parse_urdf(path: str | Path) -> object:
-    """The yourdfpy model of ``path`` (no meshes, no scene graph)."""
+    """The yourdfpy model of ``path`` (no meshes, no scene graph), after the
+    checks of :func:`check_urdf_text`."""
     import yourdfpy  # heavy (trimesh): imported when a URDF is read
 
+    if not isinstance(path, (str, Path)):
+        raise InputError(f"a URDF is given by its file name, got {type(path).__name__}")
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such URDF file")
+    check_urdf_text(read_text(path, "URDF"), path)
     try:
         return yourdfpy.URDF.load(
             str(path),
@@ -210,7 +270,7 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: object | Non
             raise InputError(
                 f"{path}: joint {j.name!r} is {j.type!r}; supported joint types are {', '.join(SUPPORTED)}"
             )
-        T = _origin(j)
+        T = _origin(j, path)
         if j.type in MOVING:
             ax = np.asarray(j.axis if j.axis is not None else [1.0, 0.0, 0.0], dtype=float)
             n = float(np.linalg.norm(ax))

@@ -33,8 +33,8 @@ import numpy as np
 
 from .._core import springs as core
 from ..errors import InputError
-from ..io.linkjson import read_link_compliance
-from ..io.tables import matrix6
+from ..io import validate as V
+from ..io.linkjson import check_spring_matrix, read_link_compliance
 
 __all__ = [
     "Spring",
@@ -60,7 +60,7 @@ load_link_compliance = read_link_compliance
 
 
 def _as_pose(a, shape, name) -> np.ndarray:
-    a = np.asarray(a, dtype=float)
+    a = V.array(a, name)
     if a.shape != shape and a.shape[1:] != shape:
         raise InputError(f"{name} must have shape {shape} or (N,) + {shape}, got {a.shape}")
     return a
@@ -77,10 +77,9 @@ class Spring:
     name: str = ""
 
     def __post_init__(self):
-        m = matrix6(self.matrix, f"spring {self.name!r}")
         if self.kind not in ("compliance", "stiffness"):
             raise InputError(f"spring {self.name!r}: kind must be 'compliance' or 'stiffness'")
-        self.matrix = m
+        self.matrix = check_spring_matrix(self.matrix, f"spring {self.name!r}: {self.kind}", error=1e-2)
         self.pos = _as_pose(np.zeros(3) if self.pos is None else self.pos, (3,), "pos")
         self.rot = _as_pose(np.eye(3) if self.rot is None else self.rot, (3, 3), "rot")
         err = np.abs(np.swapaxes(self.rot, -1, -2) @ self.rot - np.eye(3)).max() if self.rot.size else 0.0
@@ -108,12 +107,13 @@ class Joint:
     name: str = ""
 
     def __post_init__(self):
-        if self.type not in _JOINT_TYPES:
-            raise InputError(f"joint {self.name!r}: type must be revolute or prismatic")
-        self.axis = _as_pose(self.axis, (3,), "axis")
-        self.point = _as_pose(np.zeros(3) if self.point is None else self.point, (3,), "point")
-        if not (self.compliance >= 0.0):
-            raise InputError(f"joint {self.name!r}: compliance must be >= 0, got {self.compliance}")
+        if not isinstance(self.type, str) or self.type not in _JOINT_TYPES:
+            raise InputError(f"joint {self.name!r}: type = {self.type!r} must be revolute or prismatic")
+        self.axis = _as_pose(self.axis, (3,), f"joint {self.name!r}: axis")
+        self.point = _as_pose(np.zeros(3) if self.point is None else self.point, (3,), f"joint {self.name!r}: point")
+        self.compliance = V.number(self.compliance, f"joint {self.name!r}: compliance", lo=0.0)
+        if not isinstance(self.passive, (bool, np.bool_)):
+            raise InputError(f"joint {self.name!r}: passive = {self.passive!r} must be True or False")
 
 
 @dataclass
@@ -268,10 +268,17 @@ def evaluate(
     """
     prog = _Program()
     prog.add(tree)
-    tool = np.asarray(tool, dtype=float)
+    tool = V.array(tool, "tool")
+    if tool.shape[-1:] != (3,) or tool.ndim > 2:
+        raise InputError(f"tool must have shape (3,) or (N, 3), got {tool.shape}")
+    if tool_rot is not None:
+        tool_rot = _as_pose(tool_rot, (3, 3), "tool_rot")
+    rcond = V.number(rcond, "rcond", lo=0.0, hi=1.0, hi_open=True)
     n = _npostures(prog, tool)
     if lscale is None:
         lscale = _default_lscale(prog, tool)
+    else:
+        lscale = V.number(lscale, "lscale", lo=0.0, lo_open=True)
     ns, nj = len(prog.springs), len(prog.joints)
     lmat = np.zeros((6, 6, max(ns, 1)), order="F")
     lkind = np.zeros(max(ns, 1), dtype=np.int32)

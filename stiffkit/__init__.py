@@ -11,7 +11,15 @@ contract are callable from Python with the same names (``fit``,
 """
 
 from .calib import compare, diagnose, fit
-from .errors import ConvergenceError, DegenerateError, InputError, SingularError, StiffkitError
+from .errors import (
+    ConvergenceError,
+    DegenerateError,
+    InputError,
+    PlausibilityWarning,
+    SingularError,
+    StiffkitError,
+    StiffkitWarning,
+)
 from .field import (
     METHODS,
     Compliance,
@@ -33,6 +41,8 @@ __all__ = [
     "DegenerateError",
     "SingularError",
     "ConvergenceError",
+    "StiffkitWarning",
+    "PlausibilityWarning",
     "METHODS",
     "FieldFit",
     "Compliance",

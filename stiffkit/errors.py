@@ -8,7 +8,15 @@ integer ``info`` codes map onto these classes in ``stiffkit._core.errors``.
 
 from __future__ import annotations
 
-__all__ = ["StiffkitError", "InputError", "DegenerateError", "SingularError", "ConvergenceError"]
+__all__ = [
+    "StiffkitError",
+    "InputError",
+    "DegenerateError",
+    "SingularError",
+    "ConvergenceError",
+    "StiffkitWarning",
+    "PlausibilityWarning",
+]
 
 
 class StiffkitError(Exception):
@@ -29,3 +37,14 @@ class SingularError(StiffkitError, ArithmeticError):
 
 class ConvergenceError(StiffkitError, RuntimeError):
     """An iteration of the core did not converge."""
+
+
+class StiffkitWarning(UserWarning):
+    """Base class of the warnings stiffkit emits on purpose (the command line
+    prints each as one line ``stiffkit COMMAND: warning: ...``)."""
+
+
+class PlausibilityWarning(StiffkitWarning):
+    """A value is valid but implausible for its unit (e.g. a length of
+    1000 m, a joint angle of 90 rad): most likely a unit slip. The message
+    names the value, the likely unit and the fix."""

@@ -16,12 +16,43 @@ from stiffkit.springs import load_link_compliance
 from stiffkit.springs.tree_json import load_tree
 
 
+def _beam() -> np.ndarray:
+    import stiffkit as sk
+
+    return sk.cantilever_compliance(0.3, 7e10, 0.33, sk.section_properties("tube", [0.03, 0.026], 0.33))
+
+
 def test_reader_returns_the_compliance(tmp_path):
-    c = np.arange(36.0).reshape(6, 6)
+    c = _beam()
     f = tmp_path / "l.json"
     f.write_text(json.dumps({"compliance": c.tolist(), "sigma_m": 1e-8}))
     np.testing.assert_array_equal(read_link_compliance(f), c)
     assert load_link_compliance is read_link_compliance  # the springs name is the same reader
+
+
+def test_reader_symmetrises_fea_noise_and_refuses_what_is_no_spring(tmp_path):
+    c = _beam()
+    std = 1e-3 * np.abs(c).max() * np.ones((6, 6))
+    noisy = c.copy()
+    noisy[1, 5] *= 1 + 1e-6  # within the noise of its elements: silent
+    f = tmp_path / "l.json"
+    f.write_text(json.dumps({"compliance": noisy.tolist(), "compliance_std": std.tolist()}))
+    got = read_link_compliance(f)
+    np.testing.assert_allclose(got, got.T)
+    skew = c.copy()
+    skew[1, 5] *= 1.02  # 2 % beyond a noise of zero: symmetrised with a warning
+    f.write_text(json.dumps({"compliance": skew.tolist(), "compliance_std": np.zeros((6, 6)).tolist()}))
+    with pytest.warns(UserWarning, match="asymmetry"):
+        read_link_compliance(f)
+    skew[1, 5] *= 2  # not a compliance
+    f.write_text(json.dumps({"compliance": skew.tolist()}))
+    with pytest.raises(InputError, match="not symmetric"):
+        read_link_compliance(f)
+    bad = c.copy()
+    bad[0, 0] = -bad[0, 0]
+    f.write_text(json.dumps({"compliance": bad.tolist()}))
+    with pytest.raises(InputError, match="negative eigenvalue"):
+        read_link_compliance(f)
 
 
 @pytest.mark.parametrize(

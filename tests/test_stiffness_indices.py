@@ -83,6 +83,7 @@ def test_indices_equal_closed_form_of_the_model_stiffness(tmp_path):
     assert idx2.kappa_t[0] == pytest.approx(kt, rel=1e-9) and idx2.kappa_r[0] == pytest.approx(kr, rel=1e-9)
 
 
+@pytest.mark.filterwarnings("ignore::stiffkit.errors.PlausibilityWarning")  # a URDF in mm, on purpose
 def test_same_robot_in_mm_gives_the_same_indices(tmp_path):
     m_si = stiffkit.load_model(write_robot(tmp_path / "si", values_truth()))
     m_mm = stiffkit.load_model(write_robot(tmp_path / "mm", values_truth(), unit=1e3))

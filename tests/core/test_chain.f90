@@ -58,6 +58,23 @@ contains
         ch(6, 6) = c1 + c2
         call expect(maxval(abs(c(:, :, 1) - ch)) < 1e-15_dp, 'planar: compliance equals the hand-derived one')
         call expect(rank(1) == 2 .and. kinfo(1) == sk_err_singular, 'planar: rank 2 (two joints), no stiffness')
+        ! a negative joint compliance or an indefinite 6x6 spring is refused
+        cj(:, 1) = [c1, -c2]
+        call tool_compliance_batch(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, &
+            cs, cj, q, c, k, rank, kinfo, info)
+        call expect(info == sk_err_indefinite, 'planar: negative joint compliance refused')
+        cj(:, 1) = [c1, c2]
+        stype = [1, 3]
+        cs(:, :, 2) = eye(6)
+        cs(1, 1, 2) = -1
+        call tool_compliance_batch(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, &
+            cs, cj, q, c, k, rank, kinfo, info)
+        call expect(info == sk_err_indefinite, 'planar: indefinite base spring refused')
+        cs(1, 1, 2) = huge(1.0_dp)
+        cs(2, 2, 2) = huge(1.0_dp)
+        call tool_compliance_batch(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, &
+            cs, cj, q, c, k, rank, kinfo, info)
+        call expect(info == sk_err_overflow, 'planar: an overflowed compliance is reported')
     end subroutine test_planar_two_link
 
     !> A 3R spatial chain with a joint spring, a link spring and a tool

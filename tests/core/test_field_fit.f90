@@ -105,6 +105,15 @@ contains
         call fit_field(p, d, [0.0_dp, 0.0_dp, 0.0_dp], method_lin, 0.0_dp, t, phi, cov, res, used, &
                        ssr, nused, niter, info)
         call expect(info == sk_err_nonfinite, 'Inf -> nonfinite')
+        ! displacements whose squares overflow: the exact fit reports no
+        ! convergence instead of returning NaN
+        do i = 1, 5
+            p(:, i) = [real(i, dp), real(mod(i*i, 5), dp), real(mod(i*3, 7), dp)]
+        end do
+        d = 1.0e200_dp*p(:, [2, 3, 4, 5, 1])
+        call fit_field(p, d, [0.0_dp, 0.0_dp, 0.0_dp], method_exact, 0.0_dp, t, phi, cov, res, used, &
+                       ssr, nused, niter, info)
+        call expect(info == sk_err_noconv, 'exact fit of overflowing displacements -> no convergence')
     end subroutine test_degenerate
 
     subroutine test_quantile()

@@ -7,7 +7,7 @@ program test_springs
     use sk_linalg, only: eye, skew
     use sk_spatial, only: twist_transfer, compliance_move
     use sk_springs
-    use sk_linalg, only: jacobi_eig, sym_eigvals_small
+    use sk_linalg, only: jacobi_eig, sym_eigvals_small, psd_defect
     use sk_indices, only: stiffness_indices
     implicit none (type, external)
 
@@ -16,6 +16,7 @@ program test_springs
     call test_switch_rank()
     call test_tree_series_parallel()
     call test_indices()
+    call test_psd_defect()
     call finish('springs core')
 
 contains
@@ -103,7 +104,39 @@ contains
         call spring_tree_batch(prog, lkind, lmat, lrot, lpos, jt, jc, jp, ja, jpt, tp, tr, 1.0_dp, &
                                1.0e-9_dp, c, k, fr, nfree, rg, nrigid, ratio, info)
         call expect(info == sk_err_argument, 'malformed program rejected')
+        ! an indefinite leaf is no spring: refused, not turned into a free direction
+        prog(:, 3) = [op_series, 2]
+        lmat(1, 2, 2) = 10*sqrt(lmat(1, 1, 2)*lmat(2, 2, 2))
+        lmat(2, 1, 2) = lmat(1, 2, 2)
+        call spring_tree_batch(prog, lkind, lmat, lrot, lpos, jt, jc, jp, ja, jpt, tp, tr, 1.0_dp, &
+                               1.0e-9_dp, c, k, fr, nfree, rg, nrigid, ratio, info)
+        call expect(info == sk_err_indefinite, 'indefinite leaf rejected')
+        lmat(:, :, 2) = 3*c0
+        prog = reshape([op_spring, 1, op_joint, 1, op_series, 2], [2, 3])
+        jc = -1.0e-6_dp
+        call spring_tree_batch(prog, lkind, lmat, lrot, lpos, jt, jc, jp, ja, jpt, tp, tr, 1.0_dp, &
+                               1.0e-9_dp, c, k, fr, nfree, rg, nrigid, ratio, info)
+        call expect(info == sk_err_indefinite, 'negative joint compliance rejected')
     end subroutine test_tree_series_parallel
+
+    !> psd_defect: 0 for PSD matrices whatever the units of their rows,
+    !> negative for indefinite ones, -1 for a negative diagonal.
+    subroutine test_psd_defect()
+        real(dp) :: a(6, 6), d(6)
+        d = [1.0e-9_dp, 1.0e-8_dp, 1.0e-8_dp, 1.0e-4_dp, 1.0e-2_dp, 1.0e2_dp]
+        a = diag(d)
+        a(2, 6) = 0.8_dp*sqrt(d(2)*d(6)); a(6, 2) = a(2, 6)
+        call expect(psd_defect(6, a) == 0.0_dp, 'psd: graded beam-like matrix')
+        a(2, 6) = 1.2_dp*sqrt(d(2)*d(6)); a(6, 2) = a(2, 6)
+        call expect(abs(psd_defect(6, a) + 0.2_dp) < 1e-12_dp, 'psd: coupling beyond the diagonal')
+        a = diag(d)
+        a(3, 3) = -d(3)
+        call expect(psd_defect(6, a) == -1.0_dp, 'psd: negative diagonal')
+        a = 0
+        a(1, 2) = 1; a(2, 1) = 1
+        call expect(psd_defect(6, a) == -1.0_dp, 'psd: coupling of zero rows')
+        call expect(psd_defect(6, eye(6)*0.0_dp) == 0.0_dp, 'psd: zero matrix (rigid)')
+    end subroutine test_psd_defect
 
     subroutine test_indices()
         real(dp) :: k(6, 6), kt, kr, lf(3), ln(3), l
