@@ -81,7 +81,7 @@ def test_non_number_and_short_row(kr, tmp_path):
         ('kind = "link"\ntarget = "link_2"\nvalue = [[1.0, 2.0], [2.0, 1.0]]', r"must be a 6x6 matrix"),
         ('kind = "link"\ntarget = "link_2"\ntemplat = "beam"', r"unknown key\(s\) templat for kind 'link'"),
         ('kind = "joint_deadzone"\ntarget = "joint_a4"\nvalue = 1e-4', r"joint_deadzone with a value needs its tau0"),
-        ('kind = "joint_deadzone"\ntarget = "joint_a4"\ntau0 = -2.0', r"tau0 = -2.0 must be positive"),
+        ('kind = "joint_deadzone"\ntarget = "joint_a4"\ntau0 = -2.0', r"tau0 = -2 N m must be positive"),
         ('kind = "joint_cubic"\ntarget = "all"', r"unknown joint 'all'"),
     ],
 )
