@@ -1,6 +1,7 @@
 !> Small dense linear algebra shared by the core: cross-product matrices,
 !> rotations (exponential and logarithm maps of SO(3)), and thin checked
-!> wrappers around LAPACK (dgesv, dgesvd, dsyev, dpotrf/dpotri).
+!> wrappers around LAPACK (dgesv, dgesvd, dsyev, dpotrf/dpotri, dgeqrf,
+!> dgels).
 !>
 !> Wrappers copy their inputs, check sizes and return an `info` from
 !> sk_errors (never the raw LAPACK code).
@@ -12,6 +13,7 @@ module sk_linalg
     public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
     public :: eye, jacobi_eig, sym_eigvals_small, inv3
+    public :: solve_inplace, qr_triangle, lstsq
 
     interface all_finite
         module procedure all_finite_1, all_finite_2, all_finite_3
@@ -54,6 +56,21 @@ module sk_linalg
             real(dp), intent(inout) :: a(lda, *)
             integer, intent(out) :: info
         end subroutine dpotri
+        subroutine dgeqrf(m, n, a, lda, tau, work, lwork, info)
+            import :: dp
+            integer, intent(in) :: m, n, lda, lwork
+            real(dp), intent(inout) :: a(lda, *)
+            real(dp), intent(out) :: tau(*), work(*)
+            integer, intent(out) :: info
+        end subroutine dgeqrf
+        subroutine dgels(trans, m, n, nrhs, a, lda, b, ldb, work, lwork, info)
+            import :: dp
+            character, intent(in) :: trans
+            integer, intent(in) :: m, n, nrhs, lda, ldb, lwork
+            real(dp), intent(inout) :: a(lda, *), b(ldb, *)
+            real(dp), intent(out) :: work(*)
+            integer, intent(out) :: info
+        end subroutine dgels
     end interface
 
 contains
@@ -230,6 +247,107 @@ contains
             info = sk_ok
         end if
     end subroutine inverse
+
+    !> Solve a x = b in place: on return b[n,nrhs] holds x and a[n,n] its LU
+    !> factors (dgesv; for hot loops where the copies of `inverse` cost more
+    !> than the solve). info = sk_err_singular if a is exactly singular.
+    subroutine solve_inplace(a, b, info)
+        real(dp), intent(inout) :: a(:, :), b(:, :)
+        integer(ip), intent(out) :: info
+        integer :: ipiv(size(a, 1)), n, linfo
+        n = size(a, 1)
+        if (size(a, 2) /= n .or. size(b, 1) /= n) then
+            info = sk_err_size
+            return
+        end if
+        if (n == 0 .or. size(b, 2) == 0) then
+            info = sk_ok
+            return
+        end if
+        call dgesv(n, size(b, 2), a, n, ipiv, b, n, linfo)
+        if (linfo > 0) then
+            info = sk_err_singular
+        else if (linfo < 0) then
+            info = sk_err_lapack
+        else
+            info = sk_ok
+        end if
+    end subroutine solve_inplace
+
+    !> Triangular factor of the QR decomposition a = Q R of a[m,n], m >= n
+    !> (dgeqrf): r[n,n] upper triangular (zero below the diagonal). Q is not
+    !> formed: append the right-hand side as a last column of a to get Q^T b.
+    subroutine qr_triangle(a, r, info)
+        real(dp), intent(in) :: a(:, :)
+        real(dp), intent(out) :: r(:, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: w(:, :), tau(:), work(:)
+        real(dp) :: q(1)
+        integer :: m, n, lwork, linfo, j
+        m = size(a, 1)
+        n = size(a, 2)
+        r = 0.0_dp
+        if (m < n .or. any(shape(r) /= [n, n])) then
+            info = sk_err_size
+            return
+        end if
+        if (n == 0) then
+            info = sk_ok
+            return
+        end if
+        w = a
+        allocate(tau(n))
+        call dgeqrf(m, n, w, m, tau, q, -1, linfo)
+        lwork = max(1, int(q(1)))
+        allocate(work(lwork))
+        call dgeqrf(m, n, w, m, tau, work, lwork, linfo)
+        if (linfo /= 0) then
+            info = sk_err_lapack
+            return
+        end if
+        do j = 1, n
+            r(1:j, j) = w(1:j, j)
+        end do
+        info = sk_ok
+    end subroutine qr_triangle
+
+    !> Least squares min |a x - b| for a[m,n] of full column rank, m >= n,
+    !> by QR (dgels); x[n]. info = sk_err_singular when a triangular factor
+    !> has an exactly zero diagonal element (a rank-deficient a).
+    subroutine lstsq(a, b, x, info)
+        real(dp), intent(in) :: a(:, :), b(:)
+        real(dp), intent(out) :: x(:)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: w(:, :), rhs(:, :), work(:)
+        real(dp) :: q(1)
+        integer :: m, n, lwork, linfo
+        m = size(a, 1)
+        n = size(a, 2)
+        x = 0.0_dp
+        if (m < n .or. size(b) /= m .or. size(x) /= n) then
+            info = sk_err_size
+            return
+        end if
+        if (n == 0) then
+            info = sk_ok
+            return
+        end if
+        w = a
+        allocate(rhs(m, 1))
+        rhs(:, 1) = b
+        call dgels('N', m, n, 1, w, m, rhs, m, q, -1, linfo)
+        lwork = max(1, int(q(1)))
+        allocate(work(lwork))
+        call dgels('N', m, n, 1, w, m, rhs, m, work, lwork, linfo)
+        if (linfo > 0) then
+            info = sk_err_singular
+        else if (linfo < 0) then
+            info = sk_err_lapack
+        else
+            x = rhs(1:n, 1)
+            info = sk_ok
+        end if
+    end subroutine lstsq
 
     !> Thin SVD a = u diag(s) vt of a[m,n], k = min(m,n): u[m,k], s[k], vt[k,n].
     subroutine svd(a, u, s, vt, info)
