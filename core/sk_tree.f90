@@ -1,0 +1,1122 @@
+!> Kinematic trees of virtual joints ("screws"): forward kinematics (the
+!> one implementation of the core; sk_chain's serial chains use it),
+!> generalised gravity forces, the elastostatic equilibrium under the
+!> robot's own weight and payloads, and analytic total derivatives of
+!> marker points and frames through that equilibrium. The calibration on
+!> absolute (tracker) data and the compensation built on them are in
+!> sk_tree_solve; the entry points f2py wraps in sk_api_tree.
+!>
+!> Virtual-joint modelling in the style of Klimchik et al. (VJM, eqs. 1-3):
+!> every elastic effect is a virtual joint whose deflection is driven by
+!> its generalised force; here the forces are the robot's weight, so the
+!> deflected pose is a static equilibrium instead of eq. 3's linear map.
+!> Units are SI throughout (m, rad, kg, N, N m, m/s^2).
+!>
+!> Tree. nv virtual joints v = 1..nv in topological order: parent(v) < v,
+!> 0 = the root (base_link) frame. Joint v has a fixed transform from its
+!> parent's frame after the parent's motion to its own frame before
+!> motion, rot[3,3,v] and pos[3,v], a type (0 fixed, 1 revolute, 2
+!> prismatic) and a unit axis[3,v] in its own frame:
+!>   T_v(after) = T_parent(v)(after) * T(pos_v, rot_v) * Motion(axis_v, val_v)
+!> (the URDF convention T_parent * T(origin) * Rot(axis, q)). "Frame v" is
+!> the frame after the motion unless said otherwise.
+!>
+!> Values. val_v = qcoef_v q(qcol_v) + qconst_v          (qcol 0: no joint)
+!>                 + sum_k gcoef_k theta(gpar_k)  over the geometric
+!>                   entries k of joint v (sparse (gvj, gpar, gcoef) list)
+!>                 + delta_e  for the elastic coordinate e on joint v.
+!> A <mimic> follower takes its leader's column with multiplier and offset;
+!> a joint offset of the leader is a geometric entry of both.
+!>
+!> Elastic blocks k = 1..nk (ktype): 1 linear 1-dof, delta = c w;
+!> 2 cubic, delta = c w + c3 w^3; 3 dead zone, delta = c w + b tanh(w/w0)
+!> (w0 = kw0(k) fixed); 4 linear 6-dof spring, delta(6) = C w(6), C
+!> symmetric from 21 parameters, upper triangle row by row (sym_index).
+!> A block's coordinates ride on kvj(1:n,k) (n = 1 or 6); its parameters
+!> are theta(kpar(j,k)) in the order above (kpar = 0: the value 0, e.g.
+!> the zeros of a beam template). Elastic coordinates are numbered block
+!> after block. Each virtual joint carries at most one, never a fixed one.
+!>
+!> Gravity. nb bodies: mass bmass(b) at the centre bcom(:,b) (frame
+!> bvj(b); 0 = base, no effect) in gravity grav (base axes), and payload
+!> wrenches (f, m) at a frame origin, base axes. The generalised force of
+!> virtual joint s is w_s = sum over loads i beyond s of F_i . dc_i/dval_s
+!> (+ m_i . u_s for payload moments), i.e. minus the derivative of the
+!> potential: revolute (unit axis u through o)  w = u . ((c - o) x F),
+!> prismatic w = u . F. They are evaluated from per-subtree aggregates
+!> accumulated leaf to root: total force F_v, first moment
+!> S_v = sum c_i F_i^T and payload moment M_v, so that
+!>   w_s = u_s . (vee(S_s) + M_s - o_s x F_s),  vee(S) = sum c_i x F_i.
+!>
+!> Equilibrium. delta = law(w(delta)) by fixed-point iteration (VJM
+!> deflection eq. 3 evaluated at the deflected pose), stopped when the
+!> update moves no point by more than etol: sum_e |d delta_e| * L
+!> (revolute; L = lscale, a bound on the lever arms) or |d delta_e|
+!> (prismatic). For linear laws this is the stationary point of
+!> 1/2 delta^T C^-1 delta + potential of the weights. eqit = 0: rigid
+!> (delta = 0); 1: first order (w at delta = 0, the points at the
+!> deflected pose); >= 2: full equilibrium with at most eqit iterations.
+!>
+!> Derivatives. With the generalised-force derivatives G = dw/dval
+!> (G(s,a) from the aggregates of the distal one's subtree, p the proximal
+!> of the two, d the distal; zero unless one is an ancestor of the other):
+!>   p, d revolute:  u_p^T S_d u_d - (u_p.o_d)(F_d.u_d) - (u_p.u_d)(tr S_d - F_d.o_d)
+!>                   (+ M_d . (u_p x u_d) when the derivative is of w_d)
+!>   p revolute, d prismatic:  F_d . (u_p x u_d);   p prismatic: 0,
+!> i.e. F . d2c/dval_p dval_d with d2c = u_p x (u_d x (c - o_d)), and
+!> D = dlaw/dw (block diagonal), the sensitivity of the deflections to a
+!> driver xi (a parameter or a joint coordinate) solves
+!>   (I - D G_ee) Z = D G_e,xi + dlaw/dparams
+!> (first order: I instead of I - D G_ee, everything at delta = 0), and
+!> dx/dxi = dx/dxi|direct + dx/ddelta Z.
+!>
+!> Markers and tracker. Marker j rides on frame mvj(j) at the point
+!> theta(mpar(:,j)) of that frame. The tracker pose is
+!>   T_tracker = Trans(t) * rref * Rx(a1) Ry(a2) Rz(a3),
+!> t = theta(tpar(1:3)), (a1, a2, a3) = theta(tpar(4:6)), rref a reference
+!> rotation (the fit re-centres it, so it never meets gimbal lock); a
+!> predicted measurement is y = T_tracker * T_frame * p (klimchik's
+!> observation equation, eq. 6, with the geometric and elastic model in
+!> place of eq. 4's linear map).
+module sk_tree
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_linalg, only: eye, cross, rot_exp, all_finite, solve_inplace
+    use sk_spatial, only: sym_index, nsym
+    implicit none
+    private
+    public :: frame_step, tree_frames
+    public :: tree_model, tree_state, tree_problem
+    public :: model_setup, problem_setup, state_init, solve_posture
+    public :: elastic_sensitivity, tracker_pose, point_jacobian, frame_jacobian
+    public :: poses_batch, evaluate, frame_jacobian_batch
+    public :: is_rotation, group_by, q_drivers
+
+    integer, parameter, public :: vj_fixed = 0, vj_revolute = 1, vj_prismatic = 2
+    integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
+
+    !> A validated tree model (everything but theta and the postures).
+    type :: tree_model
+        integer :: nv = 0, ndof = 0, npar = 0, ne = 0, nk = 0, nb = 0, nm = 0
+        integer, allocatable :: parent(:), vtype(:), qcol(:)
+        real(dp), allocatable :: rot(:, :, :), pos(:, :), axis(:, :), qcoef(:), qconst(:)
+        !> geometric entries of joint v: gstart(v) .. gstart(v+1)-1 of gpar, gcoef
+        integer, allocatable :: gstart(:), gpar(:)
+        real(dp), allocatable :: gcoef(:)
+        !> blocks: type, parameter indices [21,nk], first coordinate, dimension
+        integer, allocatable :: ktype(:), kpar(:, :), kfirst(:), kdim(:)
+        real(dp), allocatable :: kw0(:)
+        !> elastic coordinate -> joint; joint -> elastic coordinate (0: none)
+        integer, allocatable :: evj(:), vel(:)
+        integer, allocatable :: bvj(:)
+        real(dp), allocatable :: bmass(:), bcom(:, :)
+        real(dp) :: grav(3) = 0.0_dp
+        !> preorder position and subtree size of joints 0..nv (ancestor tests)
+        integer, allocatable :: pre(:), sub(:)
+        integer :: tpar(6) = 0
+        real(dp) :: rref(3, 3) = 0.0_dp
+        integer, allocatable :: mvj(:), mpar(:, :)
+        !> bound on lever arms (m) for the equilibrium's stopping test
+        real(dp) :: lscale = 1.0_dp
+    end type tree_model
+
+    !> One posture: values, frames, loads, deflections.
+    type :: tree_state
+        real(dp), allocatable :: val(:)                       !< values without deflection [nv]
+        real(dp), allocatable :: rb(:, :, :), pb(:, :)        !< frames before motion
+        real(dp), allocatable :: ra(:, :, :), pa(:, :)        !< frames after motion
+        !> load state (where w and G are taken): axes, origins, aggregates, forces
+        real(dp), allocatable :: lu(:, :), lo(:, :), f(:, :), s(:, :, :), mp(:, :), wv(:)
+        real(dp), allocatable :: delta(:), par(:, :)          !< deflections [ne], law parameters [21,nk]
+        integer :: nit = 0, eqit = 0
+        logical :: conv = .true.
+    end type tree_state
+
+    !> A model with its data: postures, payloads and observations grouped
+    !> by posture, and the free parameters.
+    type :: tree_problem
+        type(tree_model) :: m
+        integer :: np = 0, nobs = 0, nfree = 0, nz = 0, nent = 0
+        real(dp), allocatable :: q(:, :)
+        integer, allocatable :: lstart(:), lidx(:), lvj(:)
+        real(dp), allocatable :: lw(:, :)
+        integer, allocatable :: ostart(:), oidx(:), omark(:)
+        real(dp), allocatable :: oxyz(:, :), osw(:)           !< sqrt of the row weights
+        integer, allocatable :: free(:), colof(:)             !< free list; theta index -> column
+        !> columns whose parameters move joints or laws (deflection drivers):
+        !> zcol(1:nz) their Jacobian columns; entries (vj, Z column, coef)
+        integer, allocatable :: zcol(:), ent_vj(:), ent_col(:), lawcol(:, :)
+        real(dp), allocatable :: ent_coef(:)
+    end type tree_problem
+
+contains
+
+    ! ---------------------------------------------------------------- kinematics
+
+    !> One virtual joint: from its parent's frame (rp, pp; after motion) to
+    !> its own frame before (rb, pb) and after (ra, pa) its motion by val.
+    pure subroutine frame_step(rp, pp, rot, pos, vtype, axis, val, rb, pb, ra, pa)
+        real(dp), intent(in) :: rp(3, 3), pp(3), rot(3, 3), pos(3), axis(3), val
+        integer, intent(in) :: vtype
+        real(dp), intent(out) :: rb(3, 3), pb(3), ra(3, 3), pa(3)
+        pb = pp + matmul(rp, pos)
+        rb = matmul(rp, rot)
+        select case (vtype)
+        case (vj_revolute)
+            ra = matmul(rb, rot_exp(axis*val))
+            pa = pb
+        case (vj_prismatic)
+            ra = rb
+            pa = pb + matmul(rb, axis)*val
+        case default
+            ra = rb
+            pa = pb
+        end select
+    end subroutine frame_step
+
+    !> Forward kinematics of a tree (parent(v) < v, 0 = base): frames of
+    !> every virtual joint before (rb[3,3,nv], pb[3,nv]) and after (ra, pa)
+    !> its motion by val[nv], base axes/coordinates.
+    pure subroutine tree_frames(parent, vtype, rot, pos, axis, val, rb, pb, ra, pa)
+        integer, intent(in) :: parent(:), vtype(:)
+        real(dp), intent(in) :: rot(:, :, :), pos(:, :), axis(:, :), val(:)
+        real(dp), intent(out) :: rb(:, :, :), pb(:, :), ra(:, :, :), pa(:, :)
+        real(dp), parameter :: id(3, 3) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, &
+            0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+        real(dp), parameter :: zero(3) = 0.0_dp
+        integer :: v, p
+        do v = 1, size(parent)
+            p = parent(v)
+            if (p == 0) then
+                call frame_step(id, zero, rot(:, :, v), pos(:, v), vtype(v), axis(:, v), val(v), &
+                    rb(:, :, v), pb(:, v), ra(:, :, v), pa(:, v))
+            else
+                call frame_step(ra(:, :, p), pa(:, p), rot(:, :, v), pos(:, v), vtype(v), axis(:, v), &
+                    val(v), rb(:, :, v), pb(:, v), ra(:, :, v), pa(:, v))
+            end if
+        end do
+    end subroutine tree_frames
+
+    ! ---------------------------------------------------------------- set-up
+
+    !> Check a tree description and build the model (see the module header
+    !> for every argument); ndof, npar: lengths of q and theta; ne: the
+    !> number of elastic coordinates (1 per block of type 1-3, 6 per type
+    !> 4). info: sk_err_size (ne or array sizes), sk_err_nonfinite,
+    !> sk_err_argument (parent order, type, non-unit axis, non-orthonormal
+    !> rotation, index out of range, two coordinates on one joint, ...).
+    subroutine model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, &
+            ktype, kvj, kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        type(tree_model), intent(out) :: m
+        integer(ip), intent(in) :: vparent(:), vtype(:), qcol(:), gvj(:), gpar(:), ktype(:), kvj(:, :), &
+            kpar(:, :), bvj(:), tpar(:), mvj(:), mpar(:, :), ndof, npar, ne
+        real(dp), intent(in) :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), gcoef(:), &
+            kw0(:), bmass(:), bcom(:, :), grav(:), rref(:, :)
+        integer(ip), intent(out) :: info
+        integer :: nv, ng, nk, nb, nm, v, k, j, e, n, p
+        integer, allocatable :: nxt(:)
+        real(dp), allocatable :: reach(:)
+        nv = size(vparent)
+        ng = size(gvj)
+        nk = size(ktype)
+        nb = size(bvj)
+        nm = size(mvj)
+        info = sk_err_size
+        if (size(vtype) /= nv .or. any(shape(vaxis) /= [3, nv]) .or. any(shape(vrot) /= [3, 3, nv]) &
+            .or. any(shape(vpos) /= [3, nv]) .or. size(qcol) /= nv .or. size(qcoef) /= nv &
+            .or. size(qconst) /= nv .or. size(gpar) /= ng .or. size(gcoef) /= ng &
+            .or. any(shape(kvj) /= [6, nk]) .or. any(shape(kpar) /= [nsym, nk]) .or. size(kw0) /= nk &
+            .or. size(bmass) /= nb .or. any(shape(bcom) /= [3, nb]) .or. size(grav) /= 3 &
+            .or. size(tpar) /= 6 .or. any(shape(rref) /= [3, 3]) .or. any(shape(mpar) /= [3, nm]) &
+            .or. ndof < 0 .or. npar < 0) return
+        n = 0
+        do k = 1, nk
+            n = n + merge(6, 1, ktype(k) == law_spring6)
+        end do
+        if (n /= ne) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(vaxis) .and. all_finite(vrot) .and. all_finite(vpos) .and. all_finite(qcoef) &
+            .and. all_finite(qconst) .and. all_finite(gcoef) .and. all_finite(kw0) .and. all_finite(bmass) &
+            .and. all_finite(bcom) .and. all_finite(grav) .and. all_finite(rref))) return
+        info = sk_err_argument
+        do v = 1, nv
+            if (vparent(v) < 0 .or. vparent(v) >= v) return
+            if (vtype(v) < vj_fixed .or. vtype(v) > vj_prismatic) return
+            if (vtype(v) /= vj_fixed .and. abs(norm2(vaxis(:, v)) - 1.0_dp) > 1.0e-9_dp) return
+            if (.not. is_rotation(vrot(:, :, v))) return
+            if (qcol(v) < 0 .or. qcol(v) > ndof) return
+        end do
+        if (.not. is_rotation(rref)) return
+        do k = 1, ng
+            if (gvj(k) < 1 .or. gvj(k) > nv .or. gpar(k) < 1 .or. gpar(k) > npar) return
+            if (vtype(gvj(k)) == vj_fixed) return
+        end do
+        if (any(tpar < 1) .or. any(tpar > npar)) return
+        if (any(mvj < 0) .or. any(mvj > nv) .or. any(mpar < 1) .or. any(mpar > npar)) return
+        if (any(bvj < 0) .or. any(bvj > nv) .or. any(bmass < 0.0_dp)) return
+        if (any(kpar < 0) .or. any(kpar > npar)) return
+
+        m%nv = nv
+        m%ndof = ndof
+        m%npar = npar
+        m%ne = ne
+        m%nk = nk
+        m%nb = nb
+        m%nm = nm
+        m%parent = vparent
+        m%vtype = vtype
+        m%qcol = qcol
+        m%rot = vrot
+        m%pos = vpos
+        m%axis = vaxis
+        m%qcoef = qcoef
+        m%qconst = qconst
+        ! elastic blocks and coordinates
+        allocate(m%ktype(nk), m%kpar(nsym, nk), m%kfirst(nk), m%kdim(nk), m%kw0(nk), m%evj(ne), m%vel(nv))
+        m%ktype = ktype
+        m%kpar = kpar
+        m%kw0 = kw0
+        m%vel = 0
+        e = 0
+        do k = 1, nk
+            if (ktype(k) < law_linear .or. ktype(k) > law_spring6) return
+            if (ktype(k) == law_deadzone .and. .not. kw0(k) > 0.0_dp) return
+            m%kfirst(k) = e + 1
+            m%kdim(k) = merge(6, 1, ktype(k) == law_spring6)
+            do j = 1, m%kdim(k)
+                v = kvj(j, k)
+                if (v < 1 .or. v > nv) return
+                if (vtype(v) == vj_fixed .or. m%vel(v) /= 0) return
+                e = e + 1
+                m%evj(e) = v
+                m%vel(v) = e
+            end do
+        end do
+        ! geometric entries grouped by joint (counting sort)
+        allocate(m%gstart(nv + 1), m%gpar(ng), m%gcoef(ng), nxt(nv + 1))
+        m%gstart = 0
+        do k = 1, ng
+            m%gstart(gvj(k) + 1) = m%gstart(gvj(k) + 1) + 1
+        end do
+        m%gstart(1) = 1
+        do v = 1, nv
+            m%gstart(v + 1) = m%gstart(v + 1) + m%gstart(v)
+        end do
+        nxt = m%gstart
+        do k = 1, ng
+            v = gvj(k)
+            m%gpar(nxt(v)) = gpar(k)
+            m%gcoef(nxt(v)) = gcoef(k)
+            nxt(v) = nxt(v) + 1
+        end do
+        ! preorder positions and subtree sizes
+        deallocate(nxt)
+        allocate(m%pre(0:nv), m%sub(0:nv), nxt(0:nv), reach(0:nv))
+        m%sub = 1
+        do v = nv, 1, -1
+            m%sub(vparent(v)) = m%sub(vparent(v)) + m%sub(v)
+        end do
+        m%pre(0) = 0
+        nxt(0) = 1
+        reach(0) = 0.0_dp
+        do v = 1, nv
+            p = vparent(v)
+            m%pre(v) = nxt(p)
+            nxt(p) = nxt(p) + m%sub(v)
+            nxt(v) = m%pre(v) + 1
+            reach(v) = reach(p) + norm2(vpos(:, v))
+        end do
+        m%bvj = bvj
+        m%bmass = bmass
+        m%bcom = bcom
+        m%grav = grav
+        m%tpar = tpar
+        m%rref = rref
+        m%mvj = mvj
+        m%mpar = mpar
+        m%lscale = maxval(reach)
+        if (nb > 0) m%lscale = m%lscale + maxval(norm2(bcom, dim=1))
+        m%lscale = max(m%lscale, 1.0e-3_dp)
+        info = sk_ok
+    end subroutine model_setup
+
+    pure logical function is_rotation(r)
+        real(dp), intent(in) :: r(3, 3)
+        is_rotation = maxval(abs(matmul(transpose(r), r) - eye(3))) < 1.0e-9_dp &
+            .and. r(1,1)*(r(2,2)*r(3,3) - r(2,3)*r(3,2)) - r(1,2)*(r(2,1)*r(3,3) - r(2,3)*r(3,1)) &
+            + r(1,3)*(r(2,1)*r(3,2) - r(2,2)*r(3,1)) > 0.0_dp
+    end function is_rotation
+
+    !> a is an ancestor of b or b itself (0 is everyone's ancestor).
+    pure logical function ancestor(m, a, b)
+        type(tree_model), intent(in) :: m
+        integer, intent(in) :: a, b
+        ancestor = m%pre(a) <= m%pre(b) .and. m%pre(b) < m%pre(a) + m%sub(a)
+    end function ancestor
+
+    !> Group items by their key (1..nkey; payloads or observations by
+    !> posture): item idx(start(k):start(k+1)-1) have key k.
+    !> info = sk_err_argument for a key out of range.
+    subroutine group_by(key, nkey, start, idx, info)
+        integer(ip), intent(in) :: key(:)
+        integer, intent(in) :: nkey
+        integer, allocatable, intent(out) :: start(:), idx(:)
+        integer(ip), intent(out) :: info
+        integer :: i, nxt(nkey + 1)
+        allocate(start(nkey + 1), idx(size(key)))
+        info = sk_err_argument
+        if (any(key < 1) .or. any(key > nkey)) return
+        start = 0
+        do i = 1, size(key)
+            start(key(i) + 1) = start(key(i) + 1) + 1
+        end do
+        start(1) = 1
+        do i = 1, nkey
+            start(i + 1) = start(i + 1) + start(i)
+        end do
+        nxt = start
+        do i = 1, size(key)
+            idx(nxt(key(i))) = i
+            nxt(key(i)) = nxt(key(i)) + 1
+        end do
+        info = sk_ok
+    end subroutine group_by
+
+    !> A problem: the model m (model_setup), postures q[ndof,np], payloads
+    !> (lpost posture, lvj frame, lw[6] = (f, m) at the frame origin, base
+    !> axes), observations (opost posture, omark marker, oxyz[3] measured in
+    !> the tracker frame, owt weight >= 0) and the free parameters
+    !> free[nfree] (indices into theta, distinct).
+    subroutine problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
+        type(tree_problem), intent(out) :: pr
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: q(:, :), lw(:, :), oxyz(:, :), owt(:)
+        integer(ip), intent(in) :: lpost(:), lvj(:), opost(:), omark(:), free(:)
+        integer(ip), intent(out) :: info
+        integer :: np, nl, no, i, k, c, v, nz, j
+        integer, allocatable :: zof(:)
+        np = size(q, 2)
+        nl = size(lpost)
+        no = size(opost)
+        info = sk_err_size
+        if (size(q, 1) /= m%ndof .or. size(lvj) /= nl .or. any(shape(lw) /= [6, nl]) &
+            .or. size(omark) /= no .or. any(shape(oxyz) /= [3, no]) .or. size(owt) /= no) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(q) .and. all_finite(lw) .and. all_finite(oxyz) .and. all_finite(owt))) return
+        info = sk_err_argument
+        if (any(lvj < 0) .or. any(lvj > m%nv) .or. any(omark < 1) .or. any(omark > m%nm)) return
+        if (any(owt < 0.0_dp)) return
+        if (any(free < 1) .or. any(free > m%npar)) return
+        call group_by(lpost, np, pr%lstart, pr%lidx, info)
+        if (info /= sk_ok) return
+        call group_by(opost, np, pr%ostart, pr%oidx, info)
+        if (info /= sk_ok) return
+        pr%m = m
+        pr%np = np
+        pr%nobs = no
+        pr%nfree = size(free)
+        pr%q = q
+        pr%lvj = lvj
+        pr%lw = lw
+        pr%omark = omark
+        pr%oxyz = oxyz
+        pr%osw = sqrt(owt)
+        pr%free = free
+        allocate(pr%colof(m%npar), zof(pr%nfree))
+        pr%colof = 0
+        info = sk_err_argument
+        do c = 1, pr%nfree
+            if (pr%colof(free(c)) /= 0) return
+            pr%colof(free(c)) = c
+        end do
+        ! deflection drivers: free geometric and law parameters
+        zof = 0
+        nz = 0
+        pr%nent = 0
+        do v = 1, m%nv
+            do k = m%gstart(v), m%gstart(v + 1) - 1
+                c = pr%colof(m%gpar(k))
+                if (c == 0) cycle
+                pr%nent = pr%nent + 1
+                if (zof(c) == 0) then
+                    nz = nz + 1
+                    zof(c) = nz
+                end if
+            end do
+        end do
+        do k = 1, m%nk
+            do j = 1, nsym
+                if (m%kpar(j, k) == 0) cycle
+                c = pr%colof(m%kpar(j, k))
+                if (c == 0) cycle
+                if (zof(c) == 0) then
+                    nz = nz + 1
+                    zof(c) = nz
+                end if
+            end do
+        end do
+        pr%nz = nz
+        allocate(pr%zcol(nz), pr%ent_vj(pr%nent), pr%ent_col(pr%nent), pr%ent_coef(pr%nent), &
+            pr%lawcol(nsym, m%nk))
+        do c = 1, pr%nfree
+            if (zof(c) > 0) pr%zcol(zof(c)) = c
+        end do
+        i = 0
+        do v = 1, m%nv
+            do k = m%gstart(v), m%gstart(v + 1) - 1
+                c = pr%colof(m%gpar(k))
+                if (c == 0) cycle
+                i = i + 1
+                pr%ent_vj(i) = v
+                pr%ent_col(i) = zof(c)
+                pr%ent_coef(i) = m%gcoef(k)
+            end do
+        end do
+        pr%lawcol = 0
+        do k = 1, m%nk
+            do j = 1, nsym
+                if (m%kpar(j, k) == 0) cycle
+                c = pr%colof(m%kpar(j, k))
+                if (c > 0) pr%lawcol(j, k) = zof(c)
+            end do
+        end do
+        info = sk_ok
+    end subroutine problem_setup
+
+    !> Allocate the work arrays of one posture.
+    subroutine state_init(m, st)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(out) :: st
+        integer :: nv
+        nv = m%nv
+        allocate(st%val(nv), st%rb(3, 3, nv), st%pb(3, nv), st%ra(3, 3, nv), st%pa(3, nv), &
+            st%lu(3, nv), st%lo(3, nv), st%f(3, nv), st%s(3, 3, nv), st%mp(3, nv), st%wv(nv), &
+            st%delta(m%ne), st%par(nsym, m%nk))
+        st%delta = 0.0_dp
+        st%wv = 0.0_dp
+    end subroutine state_init
+
+    ! ---------------------------------------------------------------- gravity
+
+    !> Loads of the current frames: per-subtree aggregates (force, first
+    !> moment, payload moment), the axes and origins of the joints, and the
+    !> generalised force wv of every joint. Payloads lvj(lsel(:)), lw(:, lsel(:)).
+    pure subroutine load_state(m, st, lsel, lvj, lw)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(inout) :: st
+        integer, intent(in) :: lsel(:)
+        integer(ip), intent(in) :: lvj(:)
+        real(dp), intent(in) :: lw(:, :)
+        real(dp) :: c(3), fb(3), u(3), mv(3)
+        integer :: b, v, p, i, l, a
+        st%f = 0.0_dp
+        st%s = 0.0_dp
+        st%mp = 0.0_dp
+        do b = 1, m%nb
+            v = m%bvj(b)
+            if (v == 0) cycle
+            c = st%pa(:, v) + matmul(st%ra(:, :, v), m%bcom(:, b))
+            fb = m%bmass(b)*m%grav
+            st%f(:, v) = st%f(:, v) + fb
+            do a = 1, 3
+                st%s(:, a, v) = st%s(:, a, v) + c*fb(a)
+            end do
+        end do
+        do i = 1, size(lsel)
+            l = lsel(i)
+            v = lvj(l)
+            if (v == 0) cycle
+            st%f(:, v) = st%f(:, v) + lw(1:3, l)
+            do a = 1, 3
+                st%s(:, a, v) = st%s(:, a, v) + st%pa(:, v)*lw(a, l)
+            end do
+            st%mp(:, v) = st%mp(:, v) + lw(4:6, l)
+        end do
+        do v = m%nv, 1, -1
+            p = m%parent(v)
+            if (p == 0) cycle
+            st%f(:, p) = st%f(:, p) + st%f(:, v)
+            st%s(:, :, p) = st%s(:, :, p) + st%s(:, :, v)
+            st%mp(:, p) = st%mp(:, p) + st%mp(:, v)
+        end do
+        do v = 1, m%nv
+            u = matmul(st%rb(:, :, v), m%axis(:, v))
+            st%lu(:, v) = u
+            st%lo(:, v) = st%pb(:, v)
+            select case (m%vtype(v))
+            case (vj_revolute)
+                mv = [st%s(2, 3, v) - st%s(3, 2, v), st%s(3, 1, v) - st%s(1, 3, v), &
+                    st%s(1, 2, v) - st%s(2, 1, v)] + st%mp(:, v) - cross(st%pb(:, v), st%f(:, v))
+                st%wv(v) = dot_product(u, mv)
+            case (vj_prismatic)
+                st%wv(v) = dot_product(u, st%f(:, v))
+            case default
+                st%wv(v) = 0.0_dp
+            end select
+        end do
+    end subroutine load_state
+
+    !> G(s, a) = dw_s/dval_a at the load state (module header).
+    pure function gpair(m, st, s, a) result(g)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(in) :: st
+        integer, intent(in) :: s, a
+        real(dp) :: g, up(3), ud(3), od(3), fd(3)
+        integer :: p, d
+        g = 0.0_dp
+        if (ancestor(m, a, s)) then
+            p = a
+            d = s
+        else if (ancestor(m, s, a)) then
+            p = s
+            d = a
+        else
+            return
+        end if
+        if (m%vtype(p) /= vj_revolute) return
+        up = st%lu(:, p)
+        ud = st%lu(:, d)
+        fd = st%f(:, d)
+        if (m%vtype(d) == vj_revolute) then
+            od = st%lo(:, d)
+            g = dot_product(up, matmul(st%s(:, :, d), ud)) - dot_product(up, od)*dot_product(fd, ud) &
+                - dot_product(up, ud)*(st%s(1, 1, d) + st%s(2, 2, d) + st%s(3, 3, d) - dot_product(fd, od))
+            if (p == a .and. p /= d) g = g + dot_product(st%mp(:, d), cross(up, ud))
+        else
+            g = dot_product(fd, cross(up, ud))
+        end if
+    end function gpair
+
+    ! ---------------------------------------------------------------- laws
+
+    !> The symmetric 6x6 compliance of 21 parameters (sym_index order).
+    pure function sym6(par) result(c)
+        real(dp), intent(in) :: par(nsym)
+        real(dp) :: c(6, 6)
+        integer :: k, i, j
+        do k = 1, nsym
+            call sym_index(k, i, j)
+            c(i, j) = par(k)
+            c(j, i) = par(k)
+        end do
+    end function sym6
+
+    !> Deflection d(1:n) of a block for its generalised forces w(1:n).
+    pure subroutine law_delta(ktype, par, w0, w, d)
+        integer, intent(in) :: ktype
+        real(dp), intent(in) :: par(nsym), w0, w(:)
+        real(dp), intent(out) :: d(:)
+        select case (ktype)
+        case (law_linear)
+            d(1) = par(1)*w(1)
+        case (law_cubic)
+            d(1) = par(1)*w(1) + par(2)*w(1)**3
+        case (law_deadzone)
+            d(1) = par(1)*w(1) + par(2)*tanh(w(1)/w0)
+        case default
+            d(1:6) = matmul(sym6(par), w(1:6))
+        end select
+    end subroutine law_delta
+
+    !> Derivatives of a block's law: dmat[n,n] = d delta/dw, dpar[n,21] =
+    !> d delta/d(parameter slot).
+    pure subroutine law_derivs(ktype, par, w0, w, dmat, dpar)
+        integer, intent(in) :: ktype
+        real(dp), intent(in) :: par(nsym), w0, w(:)
+        real(dp), intent(out) :: dmat(:, :), dpar(:, :)
+        real(dp) :: t
+        integer :: k, i, j
+        dpar = 0.0_dp
+        select case (ktype)
+        case (law_linear)
+            dmat(1, 1) = par(1)
+            dpar(1, 1) = w(1)
+        case (law_cubic)
+            dmat(1, 1) = par(1) + 3.0_dp*par(2)*w(1)**2
+            dpar(1, 1) = w(1)
+            dpar(1, 2) = w(1)**3
+        case (law_deadzone)
+            t = tanh(w(1)/w0)
+            dmat(1, 1) = par(1) + par(2)*(1.0_dp - t*t)/w0
+            dpar(1, 1) = w(1)
+            dpar(1, 2) = t
+        case default
+            dmat(1:6, 1:6) = sym6(par)
+            do k = 1, nsym
+                call sym_index(k, i, j)
+                dpar(i, k) = w(j)
+                if (i /= j) dpar(j, k) = w(i)
+            end do
+        end select
+    end subroutine law_derivs
+
+    ! ---------------------------------------------------------------- equilibrium
+
+    !> Frames at the values st%val plus the deflections st%delta.
+    pure subroutine deflected_frames(m, st)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(inout) :: st
+        real(dp) :: vt(m%nv)
+        integer :: e
+        vt = st%val
+        do e = 1, m%ne
+            vt(m%evj(e)) = vt(m%evj(e)) + st%delta(e)
+        end do
+        call tree_frames(m%parent, m%vtype, m%rot, m%pos, m%axis, vt, st%rb, st%pb, st%ra, st%pa)
+    end subroutine deflected_frames
+
+    !> Deflections dn[ne] that the laws give for the current forces st%wv.
+    pure subroutine apply_laws(m, st, dn)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(in) :: st
+        real(dp), intent(out) :: dn(:)
+        integer :: k, e0, n
+        do k = 1, m%nk
+            e0 = m%kfirst(k)
+            n = m%kdim(k)
+            call law_delta(m%ktype(k), st%par(:, k), m%kw0(k), st%wv(m%evj(e0:e0 + n - 1)), dn(e0:e0 + n - 1))
+        end do
+    end subroutine apply_laws
+
+    !> Solve one posture q[ndof]: values, frames, loads and deflections
+    !> (module header; eqit 0 rigid, 1 first order, >= 2 iterated to etol
+    !> metres). Payloads lvj(lsel(:)), lw(:, lsel(:)). warm: start the
+    !> iteration from st%delta. On return st%conv says whether the
+    !> iteration met etol within eqit steps (st%nit frame evaluations); the
+    !> state is consistent (frames at st%delta) either way.
+    subroutine solve_posture(m, theta, q, lsel, lvj, lw, eqit, etol, warm, st)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), q(:), lw(:, :), etol
+        integer, intent(in) :: lsel(:)
+        integer(ip), intent(in) :: lvj(:), eqit
+        logical, intent(in) :: warm
+        type(tree_state), intent(inout) :: st
+        real(dp) :: dn(m%ne), ch
+        integer :: v, k, j, it
+        do v = 1, m%nv
+            st%val(v) = m%qconst(v)
+            if (m%qcol(v) > 0) st%val(v) = st%val(v) + m%qcoef(v)*q(m%qcol(v))
+            do k = m%gstart(v), m%gstart(v + 1) - 1
+                st%val(v) = st%val(v) + m%gcoef(k)*theta(m%gpar(k))
+            end do
+        end do
+        do k = 1, m%nk
+            do j = 1, nsym
+                st%par(j, k) = 0.0_dp
+                if (m%kpar(j, k) > 0) st%par(j, k) = theta(m%kpar(j, k))
+            end do
+        end do
+        st%eqit = eqit
+        st%conv = .true.
+        st%nit = 1
+        if (.not. warm .or. eqit <= 1) st%delta = 0.0_dp
+        if (eqit <= 0 .or. m%ne == 0) then
+            st%delta = 0.0_dp
+            call deflected_frames(m, st)
+            call load_state(m, st, lsel, lvj, lw)
+            return
+        end if
+        if (eqit == 1) then
+            call deflected_frames(m, st)
+            call load_state(m, st, lsel, lvj, lw)
+            call apply_laws(m, st, st%delta)
+            call deflected_frames(m, st)
+            return
+        end if
+        do it = 1, eqit
+            call deflected_frames(m, st)
+            call load_state(m, st, lsel, lvj, lw)
+            call apply_laws(m, st, dn)
+            st%nit = it
+            ch = 0.0_dp
+            do k = 1, m%ne
+                ch = ch + abs(dn(k) - st%delta(k))*merge(m%lscale, 1.0_dp, m%vtype(m%evj(k)) == vj_revolute)
+            end do
+            st%conv = ch <= etol
+            if (st%conv .or. it == eqit .or. .not. ch < huge(1.0_dp)) exit
+            st%delta = dn
+        end do
+    end subroutine solve_posture
+
+    !> Sensitivity z[ne,ncol] of the deflections to ncol drivers at a solved
+    !> posture: driver entries k = 1..size(ent_vj) say that driver
+    !> ent_col(k) moves joint ent_vj(k) by ent_coef(k) per unit; lawcol
+    !> [21,nk] names the driver of each law-parameter slot (0: none).
+    !> Solves (I - D G_ee) z = D G_e,drivers + dlaw/dparams (first order:
+    !> z = the right-hand side; rigid: z = 0). info = sk_err_singular when
+    !> I - D G_ee is singular (an unstable equilibrium).
+    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(in) :: st
+        integer, intent(in) :: ent_vj(:), ent_col(:), lawcol(:, :)
+        real(dp), intent(in) :: ent_coef(:)
+        real(dp), intent(out) :: z(:, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: graw(:, :), gee(:, :), amat(:, :)
+        real(dp) :: dmat(6, 6), dpar(6, nsym)
+        integer :: ne, ncol, e, k, n, e0, j, a
+        ne = m%ne
+        ncol = size(z, 2)
+        z = 0.0_dp
+        info = sk_ok
+        if (ne == 0 .or. st%eqit <= 0 .or. ncol == 0) return
+        allocate(graw(ne, ncol))
+        graw = 0.0_dp
+        do k = 1, size(ent_vj)
+            a = ent_vj(k)
+            do e = 1, ne
+                graw(e, ent_col(k)) = graw(e, ent_col(k)) + ent_coef(k)*gpair(m, st, m%evj(e), a)
+            end do
+        end do
+        if (st%eqit >= 2) then
+            allocate(gee(ne, ne), amat(ne, ne))
+            do j = 1, ne
+                do e = 1, ne
+                    gee(e, j) = gpair(m, st, m%evj(e), m%evj(j))
+                end do
+            end do
+        end if
+        do k = 1, m%nk
+            e0 = m%kfirst(k)
+            n = m%kdim(k)
+            call law_derivs(m%ktype(k), st%par(:, k), m%kw0(k), st%wv(m%evj(e0:e0 + n - 1)), &
+                dmat(1:n, 1:n), dpar(1:n, :))
+            z(e0:e0 + n - 1, :) = matmul(dmat(1:n, 1:n), graw(e0:e0 + n - 1, :))
+            do j = 1, nsym
+                if (lawcol(j, k) > 0) z(e0:e0 + n - 1, lawcol(j, k)) = z(e0:e0 + n - 1, lawcol(j, k)) + dpar(1:n, j)
+            end do
+            if (st%eqit >= 2) amat(e0:e0 + n - 1, :) = -matmul(dmat(1:n, 1:n), gee(e0:e0 + n - 1, :))
+        end do
+        if (st%eqit >= 2) then
+            do e = 1, ne
+                amat(e, e) = amat(e, e) + 1.0_dp
+            end do
+            call solve_inplace(amat, z, info)
+        end if
+    end subroutine elastic_sensitivity
+
+    ! ---------------------------------------------------------------- observations
+
+    !> Tracker rotation rt[3,3], translation tt[3] and the axes tw[3,3] (in
+    !> the tracker frame) of its three screw angles.
+    pure subroutine tracker_pose(m, theta, rt, tt, tw)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:)
+        real(dp), intent(out) :: rt(3, 3), tt(3), tw(3, 3)
+        real(dp) :: r(3, 3)
+        integer :: k
+        tt = theta(m%tpar(1:3))
+        r = m%rref
+        do k = 1, 3
+            tw(:, k) = r(:, k)
+            r = matmul(r, axis_rot(k, theta(m%tpar(3 + k))))
+        end do
+        rt = r
+    end subroutine tracker_pose
+
+    !> Rotation by angle a about coordinate axis k.
+    pure function axis_rot(k, a) result(r)
+        integer, intent(in) :: k
+        real(dp), intent(in) :: a
+        real(dp) :: r(3, 3), c, s
+        integer :: i, j
+        c = cos(a)
+        s = sin(a)
+        i = mod(k, 3) + 1
+        j = mod(k + 1, 3) + 1
+        r = eye(3)
+        r(i, i) = c
+        r(j, j) = c
+        r(j, i) = s
+        r(i, j) = -s
+    end function axis_rot
+
+    !> Predicted tracker-frame point y[3] of marker mk at a solved posture
+    !> and its Jacobian jrow[3,nfree] w.r.t. the free parameters (columns
+    !> colof(theta index)); z[ne,nz] the deflection sensitivity of the
+    !> nz driver columns zcol.
+    pure subroutine point_jacobian(m, st, theta, rt, tt, tw, mk, colof, zcol, z, y, jrow)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(in) :: st
+        real(dp), intent(in) :: theta(:), rt(3, 3), tt(3), tw(3, 3), z(:, :)
+        integer, intent(in) :: mk, colof(:), zcol(:)
+        real(dp), intent(out) :: y(3), jrow(:, :)
+        real(dp) :: x(3), pm(3), rx(3), jx(3), jy(3), rtf(3, 3), jye(3, m%ne)
+        integer :: f, a, k, c, nep, ep(m%ne), j, i
+        f = m%mvj(mk)
+        pm = theta(m%mpar(:, mk))
+        if (f > 0) then
+            x = st%pa(:, f) + matmul(st%ra(:, :, f), pm)
+            rtf = matmul(rt, st%ra(:, :, f))
+        else
+            x = pm
+            rtf = rt
+        end if
+        rx = matmul(rt, x)
+        y = rx + tt
+        jrow = 0.0_dp
+        do k = 1, 3
+            c = colof(m%tpar(k))
+            if (c > 0) jrow(k, c) = jrow(k, c) + 1.0_dp
+            c = colof(m%tpar(3 + k))
+            if (c > 0) jrow(:, c) = jrow(:, c) + cross(tw(:, k), rx)
+            c = colof(m%mpar(k, mk))
+            if (c > 0) jrow(:, c) = jrow(:, c) + rtf(:, k)
+        end do
+        nep = 0
+        a = f
+        do while (a > 0)
+            if (m%vtype(a) /= vj_fixed) then
+                jx = matmul(st%rb(:, :, a), m%axis(:, a))
+                if (m%vtype(a) == vj_revolute) jx = cross(jx, x - st%pb(:, a))
+                jy = matmul(rt, jx)
+                do k = m%gstart(a), m%gstart(a + 1) - 1
+                    c = colof(m%gpar(k))
+                    if (c > 0) jrow(:, c) = jrow(:, c) + m%gcoef(k)*jy
+                end do
+                if (m%vel(a) > 0) then
+                    nep = nep + 1
+                    ep(nep) = m%vel(a)
+                    jye(:, nep) = jy
+                end if
+            end if
+            a = m%parent(a)
+        end do
+        if (nep == 0) return
+        do j = 1, size(zcol)
+            c = zcol(j)
+            do i = 1, nep
+                jrow(:, c) = jrow(:, c) + jye(:, i)*z(ep(i), j)
+            end do
+        end do
+    end subroutine point_jacobian
+
+    !> Pose of frame f (rf[3,3], pf[3], base) at a solved posture and its
+    !> Jacobian jq[6,ndof] w.r.t. the joint coordinates q: twist (velocity
+    !> of the frame origin, angular velocity), base axes; zq[ne,ndof] the
+    !> deflection sensitivity to q.
+    pure subroutine frame_jacobian(m, st, f, zq, rf, pf, jq)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(in) :: st
+        integer, intent(in) :: f
+        real(dp), intent(in) :: zq(:, :)
+        real(dp), intent(out) :: rf(3, 3), pf(3), jq(:, :)
+        real(dp) :: u(3), tw(6)
+        integer :: a, e, j
+        jq = 0.0_dp
+        if (f == 0) then
+            rf = eye(3)
+            pf = 0.0_dp
+            return
+        end if
+        rf = st%ra(:, :, f)
+        pf = st%pa(:, f)
+        a = f
+        do while (a > 0)
+            if (m%vtype(a) /= vj_fixed) then
+                u = matmul(st%rb(:, :, a), m%axis(:, a))
+                if (m%vtype(a) == vj_revolute) then
+                    tw(1:3) = cross(u, pf - st%pb(:, a))
+                    tw(4:6) = u
+                else
+                    tw(1:3) = u
+                    tw(4:6) = 0.0_dp
+                end if
+                if (m%qcol(a) > 0) jq(:, m%qcol(a)) = jq(:, m%qcol(a)) + m%qcoef(a)*tw
+                e = m%vel(a)
+                if (e > 0) then
+                    do j = 1, size(jq, 2)
+                        jq(:, j) = jq(:, j) + tw*zq(e, j)
+                    end do
+                end if
+            end if
+            a = m%parent(a)
+        end do
+    end subroutine frame_jacobian
+
+    !> Driver entries of the joint coordinates: joint v moves with q(qcol(v)).
+    pure subroutine q_drivers(m, ent_vj, ent_col, ent_coef, n)
+        type(tree_model), intent(in) :: m
+        integer, intent(out) :: ent_vj(:), ent_col(:), n
+        real(dp), intent(out) :: ent_coef(:)
+        integer :: v
+        n = 0
+        do v = 1, m%nv
+            if (m%qcol(v) == 0 .or. m%vtype(v) == vj_fixed) cycle
+            n = n + 1
+            ent_vj(n) = v
+            ent_col(n) = m%qcol(v)
+            ent_coef(n) = m%qcoef(v)
+        end do
+    end subroutine q_drivers
+
+    ! ---------------------------------------------------------------- batches
+
+    !> Poses and loads at np postures q[ndof,np] (payloads lpost, lvj, lw):
+    !> frames after motion ra[3,3,nv,np], pa[3,nv,np]; generalised forces
+    !> of every joint wv[nv,np] and of every joint coordinate
+    !> tauq[ndof,np] = sum_v qcoef_v wv_v over the joints on column q_j (the
+    !> gravity torque of an actuated joint, its mimic followers included),
+    !> both at the load state (delta = 0 for eqit <= 1); deflections
+    !> delta[ne,np]; iterations nit[np]; eqinfo[np] = sk_err_noconv where
+    !> the equilibrium missed etol (then info = sk_err_noconv too, with
+    !> every output filled).
+    subroutine poses_batch(m, theta, q, lpost, lvj, lw, eqit, etol, ra, pa, wv, tauq, delta, nit, eqinfo, info)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), q(:, :), lw(:, :), etol
+        integer(ip), intent(in) :: lpost(:), lvj(:), eqit
+        real(dp), intent(out) :: ra(:, :, :, :), pa(:, :, :), wv(:, :), tauq(:, :), delta(:, :)
+        integer(ip), intent(out) :: nit(:), eqinfo(:), info
+        type(tree_state) :: st
+        integer, allocatable :: lstart(:), lidx(:)
+        integer :: ipost, np, v
+        np = size(q, 2)
+        ra = 0.0_dp
+        pa = 0.0_dp
+        wv = 0.0_dp
+        tauq = 0.0_dp
+        delta = 0.0_dp
+        nit = 0
+        eqinfo = sk_ok
+        info = sk_err_size
+        if (size(theta) /= m%npar .or. size(q, 1) /= m%ndof .or. size(lvj) /= size(lpost) &
+            .or. any(shape(lw) /= [6, size(lpost)]) .or. any(shape(ra) /= [3, 3, m%nv, np]) &
+            .or. any(shape(pa) /= [3, m%nv, np]) .or. any(shape(wv) /= [m%nv, np]) &
+            .or. any(shape(tauq) /= [m%ndof, np]) .or. any(shape(delta) /= [m%ne, np]) &
+            .or. size(nit) /= np .or. size(eqinfo) /= np) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(theta) .and. all_finite(q) .and. all_finite(lw) .and. etol == etol)) return
+        info = sk_err_argument
+        if (any(lvj < 0) .or. any(lvj > m%nv)) return
+        call group_by(lpost, np, lstart, lidx, info)
+        if (info /= sk_ok) return
+        call state_init(m, st)
+        do ipost = 1, np
+            call solve_posture(m, theta, q(:, ipost), lidx(lstart(ipost):lstart(ipost + 1) - 1), lvj, lw, &
+                eqit, etol, .false., st)
+            ra(:, :, :, ipost) = st%ra
+            pa(:, :, ipost) = st%pa
+            wv(:, ipost) = st%wv
+            do v = 1, m%nv
+                if (m%qcol(v) > 0) tauq(m%qcol(v), ipost) = tauq(m%qcol(v), ipost) + m%qcoef(v)*st%wv(v)
+            end do
+            delta(:, ipost) = st%delta
+            nit(ipost) = st%nit
+            if (.not. st%conv) eqinfo(ipost) = sk_err_noconv
+        end do
+        info = merge(sk_ok, sk_err_noconv, all(eqinfo == sk_ok))
+    end subroutine poses_batch
+
+    !> Predicted points pred[3,nobs] (tracker frame), weighted residuals
+    !> res[3*nobs] = sqrt(w_i) (pred_i - measured_i) (rows 3i-2..3i) and,
+    !> when want_jac, their Jacobian jac[3*nobs,nfree] w.r.t. theta(free)
+    !> (total derivatives through the equilibrium); deflections
+    !> delta[ne,np], iterations nit[np], eqinfo[np] as in poses_batch.
+    !> info: sk_ok, sk_err_noconv (some posture missed etol; outputs
+    !> filled), sk_err_singular (an unstable equilibrium), size/NaN codes.
+    subroutine evaluate(pr, theta, eqit, etol, want_jac, pred, res, jac, delta, nit, eqinfo, info)
+        type(tree_problem), intent(in) :: pr
+        real(dp), intent(in) :: theta(:), etol
+        integer(ip), intent(in) :: eqit
+        logical, intent(in) :: want_jac
+        real(dp), intent(out) :: pred(:, :), res(:), jac(:, :), delta(:, :)
+        integer(ip), intent(out) :: nit(:), eqinfo(:), info
+        type(tree_state) :: st
+        real(dp) :: rt(3, 3), tt(3), tw(3, 3), y(3)
+        real(dp), allocatable :: z(:, :), jrow(:, :)
+        integer :: ipost, k, i, r0
+        integer(ip) :: sinfo
+        pred = 0.0_dp
+        res = 0.0_dp
+        jac = 0.0_dp
+        delta = 0.0_dp
+        nit = 0
+        eqinfo = sk_ok
+        info = sk_err_size
+        if (size(theta) /= pr%m%npar .or. any(shape(pred) /= [3, pr%nobs]) .or. size(res) /= 3*pr%nobs &
+            .or. any(shape(delta) /= [pr%m%ne, pr%np]) .or. size(nit) /= pr%np .or. size(eqinfo) /= pr%np) return
+        if (want_jac .and. any(shape(jac) /= [3*pr%nobs, pr%nfree])) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(theta) .and. etol == etol)) return
+        call state_init(pr%m, st)
+        call tracker_pose(pr%m, theta, rt, tt, tw)
+        allocate(z(pr%m%ne, pr%nz), jrow(3, pr%nfree))
+        z = 0.0_dp
+        info = sk_ok
+        do ipost = 1, pr%np
+            call solve_posture(pr%m, theta, pr%q(:, ipost), pr%lidx(pr%lstart(ipost):pr%lstart(ipost + 1) - 1), &
+                pr%lvj, pr%lw, eqit, etol, .false., st)
+            delta(:, ipost) = st%delta
+            nit(ipost) = st%nit
+            if (.not. st%conv) eqinfo(ipost) = sk_err_noconv
+            if (pr%ostart(ipost + 1) == pr%ostart(ipost)) cycle
+            if (want_jac) then
+                call elastic_sensitivity(pr%m, st, pr%ent_vj, pr%ent_col, pr%ent_coef, pr%lawcol, z, sinfo)
+                if (sinfo /= sk_ok) then
+                    info = sinfo
+                    return
+                end if
+            end if
+            do k = pr%ostart(ipost), pr%ostart(ipost + 1) - 1
+                i = pr%oidx(k)
+                call point_jacobian(pr%m, st, theta, rt, tt, tw, pr%omark(i), pr%colof, pr%zcol, z, y, jrow)
+                pred(:, i) = y
+                r0 = 3*(i - 1)
+                res(r0 + 1:r0 + 3) = pr%osw(i)*(y - pr%oxyz(:, i))
+                if (want_jac) jac(r0 + 1:r0 + 3, :) = pr%osw(i)*jrow
+            end do
+        end do
+        if (any(eqinfo /= sk_ok)) info = sk_err_noconv
+    end subroutine evaluate
+
+    !> Pose of frame frame(i) (rf[3,3,n], pf[3,n], base) at postures
+    !> q[ndof,n] at equilibrium, and its Jacobian jq[6,ndof,n] w.r.t. q
+    !> (total, through the equilibrium); payloads lpost (1..n), lvj, lw.
+    !> nit, eqinfo, info as in poses_batch.
+    subroutine frame_jacobian_batch(m, theta, frame, q, lpost, lvj, lw, eqit, etol, rf, pf, jq, delta, &
+            nit, eqinfo, info)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), q(:, :), lw(:, :), etol
+        integer(ip), intent(in) :: frame(:), lpost(:), lvj(:), eqit
+        real(dp), intent(out) :: rf(:, :, :), pf(:, :), jq(:, :, :), delta(:, :)
+        integer(ip), intent(out) :: nit(:), eqinfo(:), info
+        type(tree_state) :: st
+        integer, allocatable :: lstart(:), lidx(:)
+        integer :: ent_vj(m%nv), ent_col(m%nv), nent, ipost, n
+        real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof)
+        integer :: lawcol(nsym, m%nk)
+        n = size(q, 2)
+        rf = 0.0_dp
+        pf = 0.0_dp
+        jq = 0.0_dp
+        delta = 0.0_dp
+        nit = 0
+        eqinfo = sk_ok
+        info = sk_err_size
+        if (size(theta) /= m%npar .or. size(q, 1) /= m%ndof .or. size(frame) /= n .or. size(lvj) /= size(lpost) &
+            .or. any(shape(lw) /= [6, size(lpost)]) .or. any(shape(rf) /= [3, 3, n]) &
+            .or. any(shape(pf) /= [3, n]) .or. any(shape(jq) /= [6, m%ndof, n]) &
+            .or. any(shape(delta) /= [m%ne, n]) .or. size(nit) /= n .or. size(eqinfo) /= n) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(theta) .and. all_finite(q) .and. all_finite(lw) .and. etol == etol)) return
+        info = sk_err_argument
+        if (any(frame < 0) .or. any(frame > m%nv) .or. any(lvj < 0) .or. any(lvj > m%nv)) return
+        call group_by(lpost, n, lstart, lidx, info)
+        if (info /= sk_ok) return
+        call q_drivers(m, ent_vj, ent_col, ent_coef, nent)
+        lawcol = 0
+        call state_init(m, st)
+        do ipost = 1, n
+            call solve_posture(m, theta, q(:, ipost), lidx(lstart(ipost):lstart(ipost + 1) - 1), lvj, lw, &
+                eqit, etol, .false., st)
+            call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, zq, info)
+            if (info /= sk_ok) return
+            call frame_jacobian(m, st, frame(ipost), zq, rf(:, :, ipost), pf(:, ipost), jq(:, :, ipost))
+            delta(:, ipost) = st%delta
+            nit(ipost) = st%nit
+            if (.not. st%conv) eqinfo(ipost) = sk_err_noconv
+        end do
+        info = merge(sk_ok, sk_err_noconv, all(eqinfo == sk_ok))
+    end subroutine frame_jacobian_batch
+
+end module sk_tree
