@@ -1,0 +1,296 @@
+!> Solvers on the tree model of sk_tree: calibration on absolute (tracker)
+!> measurements by Levenberg-Marquardt, and compensation (the joint command
+!> that makes the identified model reach a target pose) by Newton.
+!>
+!> Calibration minimises cost = 1/2 sum_i w_i |y_i(theta) - y_i^meas|^2
+!> (klimchik eq. 7 with eta^T eta = diag(w); y the observation equation of
+!> sk_tree) over the free parameters; the others stay at theta0. Each step
+!> solves the damped problem as an augmented least-squares problem,
+!>   min | [J; sqrt(lambda) D] dx + [r; 0] |,
+!> with D the Marquardt scaling (running maximum of the column norms of
+!> J), from the triangular factor of the QR decomposition of [J r], so the
+!> normal equations (and the squared condition number) are never formed.
+!> lambda follows Nielsen's rule (down by max(1/3, 1 - (2 rho - 1)^3) on
+!> success, up by 2, 4, 8, ... on failure). Row weights let the caller wrap
+!> iteratively reweighted least squares (Huber, Cauchy) around it.
+!>
+!> Compensation: for each row, Newton on q' with the total Jacobian of the
+!> frame (through the equilibrium) so that the frame's position, and its
+!> orientation when asked, equal the target: the step is the damped
+!> pseudo-inverse solution plus the projection of (q - q') on the Jacobian's
+!> null space, so a redundant chain converges to the nearest solution
+!> (least-norm change of q). Rotation rows are scaled by the model's lever
+!> bound so that metres and radians weigh alike.
+module sk_tree_solve
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_linalg, only: rot_log, all_finite, qr_triangle, lstsq, svd
+    use sk_spatial, only: nsym
+    use sk_tree
+    implicit none
+    private
+
+    !> joint-space tolerance (rad or m) of the least-norm condition of a
+    !> redundant chain: the null-space component of q_cmd - q'
+    real(dp), parameter :: qtol = 1.0e-10_dp
+    public :: tree_lm, compensate_batch
+
+    !> reasons the fit stopped (tree_lm reason)
+    integer, parameter, public :: lm_ftol = 1, lm_xtol = 2, lm_gtol = 3, lm_zero = 4, lm_maxit = 5, &
+        lm_lambda = 6
+
+contains
+
+    !> Levenberg-Marquardt fit of theta(free) on problem pr from theta0
+    !> (module header). eqit, etol: equilibrium (sk_tree); maxit: most
+    !> iterations (Jacobian evaluations); stop when the actual and predicted
+    !> relative cost reductions are below ftol (reason 1), the scaled step
+    !> |D dx| is below xtol (|D x| + xtol) (2), every column of J is within
+    !> gtol of orthogonal to the residual (3), or the cost is zero (4).
+    !> Outputs: theta[npar], hist[maxit+1] the cost after each accepted step
+    !> (hist(1) at theta0; nhist entries), niter iterations, reason, and
+    !> jac[3*nobs,nfree], res[3*nobs] at the returned theta (as evaluate).
+    !> info: sk_ok on reasons 1-4; sk_err_noconv on reason 5 (maxit) and 6
+    !> (lambda above 1e16: no decrease found), theta then the best found;
+    !> an evaluate error at theta0 is returned as it is.
+    subroutine tree_lm(pr, theta0, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, &
+            jac, res, info)
+        type(tree_problem), intent(in) :: pr
+        real(dp), intent(in) :: theta0(:), etol, ftol, xtol, gtol
+        integer(ip), intent(in) :: eqit, maxit
+        real(dp), intent(out) :: theta(:), hist(:), jac(:, :), res(:)
+        integer(ip), intent(out) :: nhist, niter, reason, info
+        real(dp), allocatable :: pred(:, :), delta(:, :), aug(:, :), rr(:, :), stack(:, :), rhs(:), &
+            dx(:), thetat(:), jact(:, :), rest(:), dsc(:), c(:)
+        integer(ip), allocatable :: nit(:), eqinfo(:)
+        real(dp) :: cost, costt, predred, rho, lam, nu, rnorm, gmax, cn, dnorm, xnorm
+        integer(ip) :: tinfo
+        integer :: n, mrow, j, it
+        logical :: accepted
+        n = pr%nfree
+        mrow = 3*pr%nobs
+        theta = 0.0_dp
+        hist = 0.0_dp
+        nhist = 0
+        niter = 0
+        reason = 0
+        jac = 0.0_dp
+        res = 0.0_dp
+        info = sk_err_size
+        if (size(theta0) /= pr%m%npar .or. size(theta) /= pr%m%npar .or. size(hist) < maxit + 1 &
+            .or. any(shape(jac) /= [mrow, n]) .or. size(res) /= mrow .or. mrow < n) return
+        info = sk_err_argument
+        if (maxit < 0 .or. .not. (ftol >= 0.0_dp .and. xtol >= 0.0_dp .and. gtol >= 0.0_dp)) return
+        allocate(pred(3, pr%nobs), delta(pr%m%ne, pr%np), nit(pr%np), eqinfo(pr%np), aug(mrow, n + 1), &
+            rr(n + 1, n + 1), stack(2*n, n), rhs(2*n), dx(n), thetat(pr%m%npar), jact(mrow, n), rest(mrow), &
+            dsc(n), c(n))
+        theta = theta0
+        call evaluate(pr, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
+        if (info /= sk_ok) return
+        cost = 0.5_dp*sum(res**2)
+        nhist = 1
+        hist(1) = cost
+        do j = 1, n
+            dsc(j) = norm2(jac(:, j))
+        end do
+        where (.not. dsc > 0.0_dp) dsc = 1.0_dp
+        lam = 1.0e-3_dp
+        nu = 2.0_dp
+        reason = lm_maxit
+        if (cost == 0.0_dp) reason = lm_zero
+        if (n == 0) reason = lm_ftol
+        do it = 1, maxit
+            if (reason /= lm_maxit) exit
+            ! orthogonality of the residual to every column
+            rnorm = norm2(res)
+            gmax = 0.0_dp
+            do j = 1, n
+                cn = norm2(jac(:, j))
+                if (cn > 0.0_dp) gmax = max(gmax, abs(dot_product(jac(:, j), res))/(cn*rnorm))
+            end do
+            if (gmax <= gtol) then
+                reason = lm_gtol
+                exit
+            end if
+            niter = it
+            aug(:, 1:n) = jac
+            aug(:, n + 1) = res
+            call qr_triangle(aug, rr, tinfo)
+            if (tinfo /= sk_ok) then
+                info = tinfo
+                return
+            end if
+            c = rr(1:n, n + 1)
+            accepted = .false.
+            do
+                stack = 0.0_dp
+                stack(1:n, :) = rr(1:n, 1:n)
+                do j = 1, n
+                    stack(n + j, j) = sqrt(lam)*dsc(j)
+                end do
+                rhs = 0.0_dp
+                rhs(1:n) = -c
+                call lstsq(stack, rhs, dx, tinfo)
+                if (tinfo /= sk_ok) then
+                    info = tinfo
+                    return
+                end if
+                predred = 0.5_dp*(sum(c**2) - sum((c + matmul(rr(1:n, 1:n), dx))**2))
+                thetat = theta
+                thetat(pr%free) = thetat(pr%free) + dx
+                call evaluate(pr, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo)
+                costt = huge(1.0_dp)
+                if (tinfo == sk_ok) costt = 0.5_dp*sum(rest**2)
+                dnorm = norm2(dsc*dx)
+                xnorm = norm2(dsc*theta(pr%free))
+                if (costt < cost) then
+                    rho = (cost - costt)/max(predred, tiny(1.0_dp))
+                    accepted = .true.
+                    lam = lam*max(1.0_dp/3.0_dp, 1.0_dp - (2.0_dp*rho - 1.0_dp)**3)
+                    nu = 2.0_dp
+                    if (cost - costt <= ftol*cost .and. predred <= ftol*cost) reason = lm_ftol
+                    if (dnorm <= xtol*(xnorm + xtol)) reason = lm_xtol
+                    theta = thetat
+                    res = rest
+                    jac = jact
+                    cost = costt
+                    nhist = nhist + 1
+                    hist(nhist) = cost
+                    if (cost == 0.0_dp) reason = lm_zero
+                    do j = 1, n
+                        dsc(j) = max(dsc(j), norm2(jac(:, j)))
+                    end do
+                    exit
+                end if
+                ! no decrease: at the round-off floor, or damp harder
+                if (predred <= ftol*cost) then
+                    reason = lm_ftol
+                    exit
+                end if
+                if (dnorm <= xtol*(xnorm + xtol)) then
+                    reason = lm_xtol
+                    exit
+                end if
+                lam = lam*nu
+                nu = 2.0_dp*nu
+                if (lam > 1.0e16_dp) then
+                    reason = lm_lambda
+                    exit
+                end if
+            end do
+            if (.not. accepted .and. reason == lm_maxit) exit
+        end do
+        info = merge(sk_err_noconv, sk_ok, reason == lm_maxit .or. reason == lm_lambda)
+    end subroutine tree_lm
+
+    !> Compensation of n rows: for row i, the joint command qout(:,i) that
+    !> puts frame(i) of the identified model (theta, equilibrium with the
+    !> row's payloads lpost = i, lvj, lw) at the target pose rtarget(:,:,i),
+    !> ptarget(:,i) (base). full6 = 1: position and orientation, 0: position
+    !> only. Newton from qcmd(:,i) (module header); stops when the position
+    !> error is below ptol (m) and, for full6, the rotation error below rtol
+    !> (rad), or after maxit steps. Outputs: qout[ndof,n], the remaining
+    !> errors resp[n] (m) and resr[n] (rad, rotation vector of
+    !> R_target R^T), Newton steps nit[n], rinfo[n] = sk_ok or
+    !> sk_err_noconv (tolerances or the equilibrium not met). info: input
+    !> errors only (size, NaN, out-of-range frame or rotation).
+    subroutine compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, &
+            maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol
+        integer(ip), intent(in) :: frame(:), lpost(:), lvj(:), full6, eqit, maxit
+        real(dp), intent(out) :: qout(:, :), resp(:), resr(:)
+        integer(ip), intent(out) :: nit(:), rinfo(:), info
+        type(tree_state) :: st
+        integer, allocatable :: lstart(:), lidx(:)
+        integer :: ent_vj(m%nv), ent_col(m%nv), nent, i, n, nd, nr, it, k, f
+        integer :: lawcol(nsym, m%nk)
+        real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof), jq(6, m%ndof), rf(3, 3), pf(3), ep(3), er(3), b(6)
+        real(dp), allocatable :: a(:, :), u(:, :), s(:), vt(:, :), q(:), dq(:), coef(:)
+        logical, allocatable :: keep(:)
+        real(dp) :: mu
+        logical :: done
+        integer(ip) :: sinfo
+        n = size(qcmd, 2)
+        nd = m%ndof
+        qout = 0.0_dp
+        resp = 0.0_dp
+        resr = 0.0_dp
+        nit = 0
+        rinfo = sk_ok
+        info = sk_err_size
+        if (size(theta) /= m%npar .or. size(qcmd, 1) /= nd .or. size(frame) /= n &
+            .or. any(shape(rtarget) /= [3, 3, n]) .or. any(shape(ptarget) /= [3, n]) &
+            .or. size(lvj) /= size(lpost) .or. any(shape(lw) /= [6, size(lpost)]) &
+            .or. any(shape(qout) /= [nd, n]) .or. size(resp) /= n .or. size(resr) /= n &
+            .or. size(nit) /= n .or. size(rinfo) /= n) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(theta) .and. all_finite(qcmd) .and. all_finite(rtarget) .and. all_finite(ptarget) &
+            .and. all_finite(lw) .and. etol == etol .and. ptol == ptol .and. rtol == rtol)) return
+        info = sk_err_argument
+        if (any(frame < 0) .or. any(frame > m%nv) .or. any(lvj < 0) .or. any(lvj > m%nv) .or. maxit < 0 &
+            .or. full6 < 0 .or. full6 > 1) return
+        do i = 1, n
+            if (.not. is_rotation(rtarget(:, :, i))) return
+        end do
+        call group_by(lpost, n, lstart, lidx, info)
+        if (info /= sk_ok) return
+        call q_drivers(m, ent_vj, ent_col, ent_coef, nent)
+        lawcol = 0
+        nr = merge(6, 3, full6 == 1)
+        k = min(nr, nd)
+        allocate(a(nr, nd), u(nr, k), s(k), vt(k, nd), q(nd), dq(nd), coef(k), keep(k))
+        call state_init(m, st)
+        do i = 1, n
+            f = frame(i)
+            q = qcmd(:, i)
+            done = .false.
+            do it = 0, maxit
+                call solve_posture(m, theta, q, lidx(lstart(i):lstart(i + 1) - 1), lvj, lw, eqit, etol, it > 0, st)
+                if (f > 0) then
+                    rf = st%ra(:, :, f)
+                    pf = st%pa(:, f)
+                else
+                    rf = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+                    pf = 0.0_dp
+                end if
+                ep = ptarget(:, i) - pf
+                er = rot_log(matmul(rtarget(:, :, i), transpose(rf)))
+                resp(i) = norm2(ep)
+                resr(i) = norm2(er)
+                nit(i) = it
+                done = st%conv .and. resp(i) <= ptol .and. (full6 == 0 .or. resr(i) <= rtol)
+                if ((done .and. nd <= nr) .or. it == maxit .or. k == 0) exit
+                call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, zq, sinfo)
+                if (sinfo /= sk_ok) exit
+                call frame_jacobian(m, st, f, zq, rf, pf, jq)
+                a(1:3, :) = jq(1:3, :)
+                b(1:3) = ep
+                if (nr == 6) then
+                    a(4:6, :) = m%lscale*jq(4:6, :)
+                    b(4:6) = m%lscale*er
+                end if
+                call svd(a, u, s, vt, sinfo)
+                if (sinfo /= sk_ok) exit
+                ! the pull towards the command within the null space of the
+                ! rows kept: (I - V V^T)(qcmd - q)
+                keep = s > 1.0e-13_dp*s(1)
+                coef = 0.0_dp
+                where (keep) coef = matmul(vt, qcmd(:, i) - q)
+                dq = (qcmd(:, i) - q) - matmul(transpose(vt), coef)
+                ! a redundant chain stops when the change of q is least-norm too
+                if (done .and. norm2(dq) <= qtol) exit
+                ! damped pseudo-inverse step
+                mu = 1.0e-10_dp*s(1)
+                coef = 0.0_dp
+                where (keep) coef = s/(s*s + mu*mu)*matmul(transpose(u), b(1:nr))
+                dq = dq + matmul(transpose(vt), coef)
+                q = q + dq
+            end do
+            qout(:, i) = q
+            rinfo(i) = merge(sk_ok, sk_err_noconv, done)
+        end do
+        info = sk_ok
+    end subroutine compensate_batch
+
+end module sk_tree_solve
