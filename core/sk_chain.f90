@@ -68,7 +68,7 @@ contains
             r = eye(3)
             p = 0.0_dp
         end if
-        call frame_step(r, p, trot, tpos, vj_fixed, tpos, 0.0_dp, rt, pt, ta, tp)
+        call frame_step(r, p, trot, tpos, vj_fixed, tpos, 0.0_dp, trot, rt, pt, ta, tp)
     end subroutine chain_frames
 
     !> Jacobian j[6,n] (n = spring_ndof) of the tool twist with respect to

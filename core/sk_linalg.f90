@@ -249,12 +249,15 @@ contains
     end subroutine inverse
 
     !> Solve a x = b in place: on return b[n,nrhs] holds x and a[n,n] its LU
-    !> factors (dgesv; for hot loops where the copies of `inverse` cost more
-    !> than the solve). info = sk_err_singular if a is exactly singular.
+    !> factors (for hot loops where the copies of `inverse` cost more than
+    !> the solve). Up to n = 40, Gaussian elimination with partial pivoting
+    !> in place (the call overhead of dgesv dominates there), above, dgesv.
+    !> info = sk_err_singular if a is exactly singular.
     subroutine solve_inplace(a, b, info)
-        real(dp), intent(inout) :: a(:, :), b(:, :)
+        real(dp), intent(inout), contiguous :: a(:, :), b(:, :)
         integer(ip), intent(out) :: info
-        integer :: ipiv(size(a, 1)), n, linfo
+        integer :: ipiv(size(a, 1)), n, linfo, k, p, j, i
+        real(dp) :: t
         n = size(a, 1)
         if (size(a, 2) /= n .or. size(b, 1) /= n) then
             info = sk_err_size
@@ -264,14 +267,57 @@ contains
             info = sk_ok
             return
         end if
-        call dgesv(n, size(b, 2), a, n, ipiv, b, n, linfo)
-        if (linfo > 0) then
-            info = sk_err_singular
-        else if (linfo < 0) then
-            info = sk_err_lapack
-        else
-            info = sk_ok
+        if (n > 40) then
+            call dgesv(n, size(b, 2), a, n, ipiv, b, n, linfo)
+            if (linfo > 0) then
+                info = sk_err_singular
+            else if (linfo < 0) then
+                info = sk_err_lapack
+            else
+                info = sk_ok
+            end if
+            return
         end if
+        info = sk_err_singular
+        do k = 1, n
+            p = k - 1 + maxloc(abs(a(k:n, k)), dim=1)
+            if (a(p, k) == 0.0_dp) return
+            if (p /= k) then
+                do j = 1, n
+                    t = a(k, j)
+                    a(k, j) = a(p, j)
+                    a(p, j) = t
+                end do
+                do j = 1, size(b, 2)
+                    t = b(k, j)
+                    b(k, j) = b(p, j)
+                    b(p, j) = t
+                end do
+            end if
+            t = 1.0_dp/a(k, k)
+            do i = k + 1, n
+                a(i, k) = a(i, k)*t
+            end do
+            do j = k + 1, n
+                do i = k + 1, n
+                    a(i, j) = a(i, j) - a(i, k)*a(k, j)
+                end do
+            end do
+            do j = 1, size(b, 2)
+                do i = k + 1, n
+                    b(i, j) = b(i, j) - a(i, k)*b(k, j)
+                end do
+            end do
+        end do
+        do j = 1, size(b, 2)
+            do k = n, 1, -1
+                b(k, j) = b(k, j)/a(k, k)
+                do i = 1, k - 1
+                    b(i, j) = b(i, j) - a(i, k)*b(k, j)
+                end do
+            end do
+        end do
+        info = sk_ok
     end subroutine solve_inplace
 
     !> Triangular factor of the QR decomposition a = Q R of a[m,n], m >= n

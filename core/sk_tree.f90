@@ -90,7 +90,8 @@ module sk_tree
     public :: model_setup, problem_setup, state_init, solve_posture
     public :: elastic_sensitivity, tracker_pose, point_jacobian, frame_jacobian
     public :: poses_batch, evaluate, frame_jacobian_batch
-    public :: is_rotation, group_by, q_drivers
+    public :: is_rotation, group_by, q_drivers, posture_values, deflected_frames, load_state, apply_laws
+    public :: deflection_change, model_fold
 
     integer, parameter, public :: vj_fixed = 0, vj_revolute = 1, vj_prismatic = 2
     integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
@@ -113,6 +114,10 @@ module sk_tree
         real(dp) :: grav(3) = 0.0_dp
         !> preorder position and subtree size of joints 0..nv (ancestor tests)
         integer, allocatable :: pre(:), sub(:)
+        !> relation of elastic coordinates e (row, its force) and j (column,
+        !> its value) for G: 1 j's joint is proximal to or is e's, 2 e's is
+        !> strictly proximal to j's, 0 unrelated or the proximal one prismatic
+        integer, allocatable :: erel(:, :)
         integer :: tpar(6) = 0
         real(dp) :: rref(3, 3) = 0.0_dp
         integer, allocatable :: mvj(:), mpar(:, :)
@@ -128,6 +133,14 @@ module sk_tree
         !> load state (where w and G are taken): axes, origins, aggregates, forces
         real(dp), allocatable :: lu(:, :), lo(:, :), f(:, :), s(:, :, :), mp(:, :), wv(:)
         real(dp), allocatable :: delta(:), par(:, :)          !< deflections [ne], law parameters [21,nk]
+        !> per-joint coefficients of G (gprox): gh[3,nv], and ghm[3,nv] with
+        !> the payload moments
+        real(dp), allocatable :: gh(:, :), ghm(:, :)
+        !> motion cache of tree_frames; work arrays of elastic_sensitivity
+        real(dp), allocatable :: cval(:), cmot(:, :, :), gee(:, :), amat(:, :), rhs(:, :)
+        logical, allocatable :: cok(:)
+        !> joints whose generalised force and G coefficients are wanted
+        logical, allocatable :: need(:)
         integer :: nit = 0, eqit = 0
         logical :: conv = .true.
     end type tree_state
@@ -154,16 +167,17 @@ contains
     ! ---------------------------------------------------------------- kinematics
 
     !> One virtual joint: from its parent's frame (rp, pp; after motion) to
-    !> its own frame before (rb, pb) and after (ra, pa) its motion by val.
-    pure subroutine frame_step(rp, pp, rot, pos, vtype, axis, val, rb, pb, ra, pa)
-        real(dp), intent(in) :: rp(3, 3), pp(3), rot(3, 3), pos(3), axis(3), val
+    !> its own frame before (rb, pb) and after (ra, pa) its motion by val;
+    !> mot = rot_exp(axis*val) for a revolute joint (unused otherwise).
+    pure subroutine frame_step(rp, pp, rot, pos, vtype, axis, val, mot, rb, pb, ra, pa)
+        real(dp), intent(in) :: rp(3, 3), pp(3), rot(3, 3), pos(3), axis(3), val, mot(3, 3)
         integer, intent(in) :: vtype
         real(dp), intent(out) :: rb(3, 3), pb(3), ra(3, 3), pa(3)
         pb = pp + matmul(rp, pos)
         rb = matmul(rp, rot)
         select case (vtype)
         case (vj_revolute)
-            ra = matmul(rb, rot_exp(axis*val))
+            ra = matmul(rb, mot)
             pa = pb
         case (vj_prismatic)
             ra = rb
@@ -176,23 +190,44 @@ contains
 
     !> Forward kinematics of a tree (parent(v) < v, 0 = base): frames of
     !> every virtual joint before (rb[3,3,nv], pb[3,nv]) and after (ra, pa)
-    !> its motion by val[nv], base axes/coordinates.
-    pure subroutine tree_frames(parent, vtype, rot, pos, axis, val, rb, pb, ra, pa)
+    !> its motion by val[nv], base axes/coordinates. Optional cache of the
+    !> revolute motions (all three or none): cmot(:,:,v) = rot_exp(axis*cval(v))
+    !> where cok(v); a joint whose value did not change since the last call
+    !> (a frame error, a joint of an arm that did not move) reuses it.
+    pure subroutine tree_frames(parent, vtype, rot, pos, axis, val, rb, pb, ra, pa, cval, cmot, cok)
         integer, intent(in) :: parent(:), vtype(:)
         real(dp), intent(in) :: rot(:, :, :), pos(:, :), axis(:, :), val(:)
         real(dp), intent(out) :: rb(:, :, :), pb(:, :), ra(:, :, :), pa(:, :)
+        real(dp), intent(inout), optional :: cval(:), cmot(:, :, :)
+        logical, intent(inout), optional :: cok(:)
         real(dp), parameter :: id(3, 3) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, &
             0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
         real(dp), parameter :: zero(3) = 0.0_dp
+        real(dp) :: mot(3, 3)
         integer :: v, p
         do v = 1, size(parent)
+            mot = id
+            if (vtype(v) == vj_revolute) then
+                if (present(cok)) then
+                    if (cok(v) .and. cval(v) == val(v)) then
+                        mot = cmot(:, :, v)
+                    else
+                        mot = rot_exp(axis(:, v)*val(v))
+                        cmot(:, :, v) = mot
+                        cval(v) = val(v)
+                        cok(v) = .true.
+                    end if
+                else
+                    mot = rot_exp(axis(:, v)*val(v))
+                end if
+            end if
             p = parent(v)
             if (p == 0) then
-                call frame_step(id, zero, rot(:, :, v), pos(:, v), vtype(v), axis(:, v), val(v), &
+                call frame_step(id, zero, rot(:, :, v), pos(:, v), vtype(v), axis(:, v), val(v), mot, &
                     rb(:, :, v), pb(:, v), ra(:, :, v), pa(:, v))
             else
                 call frame_step(ra(:, :, p), pa(:, p), rot(:, :, v), pos(:, v), vtype(v), axis(:, v), &
-                    val(v), rb(:, :, v), pb(:, v), ra(:, :, v), pa(:, v))
+                    val(v), mot, rb(:, :, v), pb(:, v), ra(:, :, v), pa(:, v))
             end if
         end do
     end subroutine tree_frames
@@ -326,6 +361,17 @@ contains
             nxt(v) = m%pre(v) + 1
             reach(v) = reach(p) + norm2(vpos(:, v))
         end do
+        allocate(m%erel(ne, ne))
+        m%erel = 0
+        do j = 1, ne
+            do e = 1, ne
+                if (ancestor(m, m%evj(j), m%evj(e))) then
+                    if (vtype(m%evj(j)) == vj_revolute) m%erel(e, j) = 1
+                else if (ancestor(m, m%evj(e), m%evj(j))) then
+                    if (vtype(m%evj(e)) == vj_revolute) m%erel(e, j) = 2
+                end if
+            end do
+        end do
         m%bvj = bvj
         m%bmass = bmass
         m%bcom = bcom
@@ -339,6 +385,117 @@ contains
         m%lscale = max(m%lscale, 1.0e-3_dp)
         info = sk_ok
     end subroutine model_setup
+
+    !> The model with every joint of constant value folded away: a joint
+    !> with no joint coordinate and no elastic coordinate (fixed, or moved
+    !> by parameters only, e.g. a frame error, at theta) and not keep(v)
+    !> disappears, its transform (with its motion) merged into its
+    !> children's origins and its bodies moved to the nearest kept ancestor.
+    !> Poses, forces and derivatives w.r.t. q of the kept joints are those
+    !> of m (to rounding), at a fraction of the cost when frame errors are
+    !> known (compensation). newidx(v): the kept joint's index in mf (0:
+    !> folded, or the base). Markers are dropped (mf%nm = 0).
+    subroutine model_fold(m, theta, keep, mf, newidx, info)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:)
+        logical, intent(in) :: keep(:)
+        type(tree_model), intent(out) :: mf
+        integer, intent(out) :: newidx(0:)
+        integer(ip), intent(out) :: info
+        logical :: kept(m%nv), direct
+        real(dp) :: racc(3, 3, 0:m%nv), pacc(3, 0:m%nv), rb(3, 3), pb(3), val, mot(3, 3)
+        integer :: anc(0:m%nv), v, p, n, b, k, j, ng
+        integer(ip), allocatable :: vparent(:), vtype(:), qcol(:), gvj(:), gpar(:), kvj(:, :), bvj(:), none(:), &
+            nomp(:, :)
+        real(dp), allocatable :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), gcoef(:), bcom(:, :)
+        kept = keep .or. m%qcol > 0 .or. m%vel > 0
+        n = count(kept)
+        allocate(vparent(n), vtype(n), qcol(n), vaxis(3, n), vrot(3, 3, n), vpos(3, n), qcoef(n), qconst(n))
+        newidx = 0
+        anc(0) = 0
+        racc(:, :, 0) = eye(3)
+        pacc(:, 0) = 0.0_dp
+        n = 0
+        do v = 1, m%nv
+            p = m%parent(v)
+            ! transform from the nearest kept ancestor (after motion) to v before motion
+            direct = p == 0
+            if (.not. direct) direct = kept(p)
+            if (direct) then
+                anc(v) = p
+                rb = m%rot(:, :, v)
+                pb = m%pos(:, v)
+            else
+                anc(v) = anc(p)
+                rb = matmul(racc(:, :, p), m%rot(:, :, v))
+                pb = pacc(:, p) + matmul(racc(:, :, p), m%pos(:, v))
+            end if
+            if (kept(v)) then
+                n = n + 1
+                newidx(v) = n
+                vparent(n) = newidx(anc(v))
+                vtype(n) = m%vtype(v)
+                vaxis(:, n) = m%axis(:, v)
+                vrot(:, :, n) = rb
+                vpos(:, n) = pb
+                qcol(n) = m%qcol(v)
+                qcoef(n) = m%qcoef(v)
+                qconst(n) = m%qconst(v)
+                racc(:, :, v) = eye(3)
+                pacc(:, v) = 0.0_dp
+            else
+                val = m%qconst(v)
+                do k = m%gstart(v), m%gstart(v + 1) - 1
+                    val = val + m%gcoef(k)*theta(m%gpar(k))
+                end do
+                mot = eye(3)
+                if (m%vtype(v) == vj_revolute) mot = rot_exp(m%axis(:, v)*val)
+                racc(:, :, v) = matmul(rb, mot)
+                pacc(:, v) = pb
+                if (m%vtype(v) == vj_prismatic) pacc(:, v) = pb + matmul(rb, m%axis(:, v))*val
+            end if
+        end do
+        ! geometric entries of kept joints (joint offsets)
+        ng = 0
+        do v = 1, m%nv
+            if (kept(v)) ng = ng + m%gstart(v + 1) - m%gstart(v)
+        end do
+        allocate(gvj(ng), gpar(ng), gcoef(ng))
+        ng = 0
+        do v = 1, m%nv
+            if (.not. kept(v)) cycle
+            do k = m%gstart(v), m%gstart(v + 1) - 1
+                ng = ng + 1
+                gvj(ng) = newidx(v)
+                gpar(ng) = m%gpar(k)
+                gcoef(ng) = m%gcoef(k)
+            end do
+        end do
+        allocate(kvj(6, m%nk))
+        kvj = 0
+        do k = 1, m%nk
+            do j = 1, m%kdim(k)
+                kvj(j, k) = newidx(m%evj(m%kfirst(k) + j - 1))
+            end do
+        end do
+        allocate(bvj(m%nb), bcom(3, m%nb), none(0), nomp(3, 0))
+        do b = 1, m%nb
+            v = m%bvj(b)
+            bcom(:, b) = m%bcom(:, b)
+            bvj(b) = 0
+            if (v == 0) cycle
+            if (kept(v)) then
+                bvj(b) = newidx(v)
+            else
+                bvj(b) = newidx(anc(v))
+                bcom(:, b) = pacc(:, v) + matmul(racc(:, :, v), m%bcom(:, b))
+            end if
+        end do
+        call model_setup(mf, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, &
+            m%ktype, kvj, m%kpar, m%kw0, bvj, m%bmass, bcom, m%grav, m%tpar, m%rref, none, nomp, &
+            int(m%ndof, ip), int(m%npar, ip), int(m%ne, ip), info)
+        mf%lscale = m%lscale
+    end subroutine model_fold
 
     pure logical function is_rotation(r)
         real(dp), intent(in) :: r(3, 3)
@@ -483,24 +640,36 @@ contains
         info = sk_ok
     end subroutine problem_setup
 
-    !> Allocate the work arrays of one posture.
-    subroutine state_init(m, st)
+    !> Allocate the work arrays of one posture. need[nv] (default: all):
+    !> the joints whose generalised force and G coefficients load_state
+    !> computes (the elastic ones always), i.e. the drivers of the
+    !> sensitivities the caller will ask for.
+    subroutine state_init(m, st, need)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(out) :: st
+        logical, intent(in), optional :: need(:)
         integer :: nv
         nv = m%nv
         allocate(st%val(nv), st%rb(3, 3, nv), st%pb(3, nv), st%ra(3, 3, nv), st%pa(3, nv), &
             st%lu(3, nv), st%lo(3, nv), st%f(3, nv), st%s(3, 3, nv), st%mp(3, nv), st%wv(nv), &
-            st%delta(m%ne), st%par(nsym, m%nk))
+            st%delta(m%ne), st%par(nsym, m%nk), st%gh(3, nv), st%ghm(3, nv), &
+            st%cval(nv), st%cmot(3, 3, nv), st%cok(nv), st%gee(m%ne, m%ne), st%amat(m%ne, m%ne), st%need(nv))
         st%delta = 0.0_dp
         st%wv = 0.0_dp
+        st%gh = 0.0_dp
+        st%ghm = 0.0_dp
+        st%cok = .false.
+        st%cval = 0.0_dp
+        st%need = .true.
+        if (present(need)) st%need = need .or. m%vel > 0
     end subroutine state_init
 
     ! ---------------------------------------------------------------- gravity
 
     !> Loads of the current frames: per-subtree aggregates (force, first
-    !> moment, payload moment), the axes and origins of the joints, and the
-    !> generalised force wv of every joint. Payloads lvj(lsel(:)), lw(:, lsel(:)).
+    !> moment, payload moment), and for the joints st%need: axes, origins,
+    !> generalised forces wv and the coefficients of G (gpair). Payloads
+    !> lvj(lsel(:)), lw(:, lsel(:)).
     pure subroutine load_state(m, st, lsel, lvj, lw)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(inout) :: st
@@ -540,6 +709,7 @@ contains
             st%mp(:, p) = st%mp(:, p) + st%mp(:, v)
         end do
         do v = 1, m%nv
+            if (.not. st%need(v)) cycle
             u = matmul(st%rb(:, :, v), m%axis(:, v))
             st%lu(:, v) = u
             st%lo(:, v) = st%pb(:, v)
@@ -548,44 +718,50 @@ contains
                 mv = [st%s(2, 3, v) - st%s(3, 2, v), st%s(3, 1, v) - st%s(1, 3, v), &
                     st%s(1, 2, v) - st%s(2, 1, v)] + st%mp(:, v) - cross(st%pb(:, v), st%f(:, v))
                 st%wv(v) = dot_product(u, mv)
+                st%gh(:, v) = matmul(st%s(:, :, v), u) - st%pb(:, v)*dot_product(st%f(:, v), u) &
+                    - u*(st%s(1, 1, v) + st%s(2, 2, v) + st%s(3, 3, v) - dot_product(st%f(:, v), st%pb(:, v)))
+                st%ghm(:, v) = st%gh(:, v) + cross(u, st%mp(:, v))
             case (vj_prismatic)
                 st%wv(v) = dot_product(u, st%f(:, v))
+                st%gh(:, v) = cross(u, st%f(:, v))
+                st%ghm(:, v) = st%gh(:, v)
             case default
                 st%wv(v) = 0.0_dp
             end select
         end do
     end subroutine load_state
 
-    !> G(s, a) = dw_s/dval_a at the load state (module header).
+    !> G(s, a) = dw_s/dval_a at the load state (module header), from the
+    !> coefficients of the distal joint d (load_state) and the axis of the
+    !> proximal one p (gprox).
     pure function gpair(m, st, s, a) result(g)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(in) :: st
         integer, intent(in) :: s, a
-        real(dp) :: g, up(3), ud(3), od(3), fd(3)
-        integer :: p, d
+        real(dp) :: g
         g = 0.0_dp
         if (ancestor(m, a, s)) then
-            p = a
-            d = s
+            if (m%vtype(a) == vj_revolute) g = gprox(st, a, s, a /= s)
         else if (ancestor(m, s, a)) then
-            p = s
-            d = a
-        else
-            return
-        end if
-        if (m%vtype(p) /= vj_revolute) return
-        up = st%lu(:, p)
-        ud = st%lu(:, d)
-        fd = st%f(:, d)
-        if (m%vtype(d) == vj_revolute) then
-            od = st%lo(:, d)
-            g = dot_product(up, matmul(st%s(:, :, d), ud)) - dot_product(up, od)*dot_product(fd, ud) &
-                - dot_product(up, ud)*(st%s(1, 1, d) + st%s(2, 2, d) + st%s(3, 3, d) - dot_product(fd, od))
-            if (p == a .and. p /= d) g = g + dot_product(st%mp(:, d), cross(up, ud))
-        else
-            g = dot_product(fd, cross(up, ud))
+            if (m%vtype(s) == vj_revolute) g = gprox(st, s, a, .false.)
         end if
     end function gpair
+
+    !> G of a revolute proximal joint p and a distal d: G = u_p . h_d with
+    !>   h_d = S_d u_d - o_d (F_d . u_d) - u_d (tr S_d - F_d . o_d)
+    !> (u_p^T S_d u_d - (u_p . o_d)(F_d . u_d) - (u_p . u_d)(tr S_d - F_d . o_d)),
+    !> plus u_p . (u_d x M_d), the payload moments, when the force is d's
+    !> and p /= d (moment); a prismatic d has h_d = u_d x F_d.
+    pure real(dp) function gprox(st, p, d, moment) result(g)
+        type(tree_state), intent(in) :: st
+        integer, intent(in) :: p, d
+        logical, intent(in) :: moment
+        if (moment) then
+            g = st%lu(1, p)*st%ghm(1, d) + st%lu(2, p)*st%ghm(2, d) + st%lu(3, p)*st%ghm(3, d)
+        else
+            g = st%lu(1, p)*st%gh(1, d) + st%lu(2, p)*st%gh(2, d) + st%lu(3, p)*st%gh(3, d)
+        end if
+    end function gprox
 
     ! ---------------------------------------------------------------- laws
 
@@ -618,15 +794,27 @@ contains
         end select
     end subroutine law_delta
 
-    !> Derivatives of a block's law: dmat[n,n] = d delta/dw, dpar[n,21] =
-    !> d delta/d(parameter slot).
+    !> Number of parameter slots of a law type (1, 2, 2, 21).
+    pure integer function law_nslot(ktype)
+        integer, intent(in) :: ktype
+        select case (ktype)
+        case (law_linear)
+            law_nslot = 1
+        case (law_cubic, law_deadzone)
+            law_nslot = 2
+        case default
+            law_nslot = nsym
+        end select
+    end function law_nslot
+
+    !> Derivatives of a block's law: dmat[n,n] = d delta/dw, dpar[n,:] =
+    !> d delta/d(parameter slot), slots 1..law_nslot(ktype) set.
     pure subroutine law_derivs(ktype, par, w0, w, dmat, dpar)
         integer, intent(in) :: ktype
         real(dp), intent(in) :: par(nsym), w0, w(:)
         real(dp), intent(out) :: dmat(:, :), dpar(:, :)
         real(dp) :: t
         integer :: k, i, j
-        dpar = 0.0_dp
         select case (ktype)
         case (law_linear)
             dmat(1, 1) = par(1)
@@ -642,6 +830,7 @@ contains
             dpar(1, 2) = t
         case default
             dmat(1:6, 1:6) = sym6(par)
+            dpar(1:6, 1:nsym) = 0.0_dp
             do k = 1, nsym
                 call sym_index(k, i, j)
                 dpar(i, k) = w(j)
@@ -662,7 +851,8 @@ contains
         do e = 1, m%ne
             vt(m%evj(e)) = vt(m%evj(e)) + st%delta(e)
         end do
-        call tree_frames(m%parent, m%vtype, m%rot, m%pos, m%axis, vt, st%rb, st%pb, st%ra, st%pa)
+        call tree_frames(m%parent, m%vtype, m%rot, m%pos, m%axis, vt, st%rb, st%pb, st%ra, st%pa, &
+            st%cval, st%cmot, st%cok)
     end subroutine deflected_frames
 
     !> Deflections dn[ne] that the laws give for the current forces st%wv.
@@ -670,13 +860,51 @@ contains
         type(tree_model), intent(in) :: m
         type(tree_state), intent(in) :: st
         real(dp), intent(out) :: dn(:)
-        integer :: k, e0, n
+        real(dp) :: w(6)
+        integer :: k, e0, n, i
         do k = 1, m%nk
             e0 = m%kfirst(k)
             n = m%kdim(k)
-            call law_delta(m%ktype(k), st%par(:, k), m%kw0(k), st%wv(m%evj(e0:e0 + n - 1)), dn(e0:e0 + n - 1))
+            do i = 1, n
+                w(i) = st%wv(m%evj(e0 + i - 1))
+            end do
+            call law_delta(m%ktype(k), st%par(:, k), m%kw0(k), w(1:n), dn(e0:e0 + n - 1))
         end do
     end subroutine apply_laws
+
+    !> Values of the joints without deflection and the law parameters at
+    !> posture q[ndof] (the start of every posture).
+    pure subroutine posture_values(m, theta, q, st)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), q(:)
+        type(tree_state), intent(inout) :: st
+        integer :: v, k, j
+        do v = 1, m%nv
+            st%val(v) = m%qconst(v)
+            if (m%qcol(v) > 0) st%val(v) = st%val(v) + m%qcoef(v)*q(m%qcol(v))
+            do k = m%gstart(v), m%gstart(v + 1) - 1
+                st%val(v) = st%val(v) + m%gcoef(k)*theta(m%gpar(k))
+            end do
+        end do
+        do k = 1, m%nk
+            do j = 1, nsym
+                st%par(j, k) = 0.0_dp
+                if (m%kpar(j, k) > 0) st%par(j, k) = theta(m%kpar(j, k))
+            end do
+        end do
+    end subroutine posture_values
+
+    !> How far a change dd[ne] of the deflections moves a point, at most
+    !> (first order): sum |dd_e| * lscale (revolute) or |dd_e| (prismatic).
+    pure real(dp) function deflection_change(m, dd) result(ch)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: dd(:)
+        integer :: e
+        ch = 0.0_dp
+        do e = 1, m%ne
+            ch = ch + abs(dd(e))*merge(m%lscale, 1.0_dp, m%vtype(m%evj(e)) == vj_revolute)
+        end do
+    end function deflection_change
 
     !> Solve one posture q[ndof]: values, frames, loads and deflections
     !> (module header; eqit 0 rigid, 1 first order, >= 2 iterated to etol
@@ -692,20 +920,8 @@ contains
         logical, intent(in) :: warm
         type(tree_state), intent(inout) :: st
         real(dp) :: dn(m%ne), ch
-        integer :: v, k, j, it
-        do v = 1, m%nv
-            st%val(v) = m%qconst(v)
-            if (m%qcol(v) > 0) st%val(v) = st%val(v) + m%qcoef(v)*q(m%qcol(v))
-            do k = m%gstart(v), m%gstart(v + 1) - 1
-                st%val(v) = st%val(v) + m%gcoef(k)*theta(m%gpar(k))
-            end do
-        end do
-        do k = 1, m%nk
-            do j = 1, nsym
-                st%par(j, k) = 0.0_dp
-                if (m%kpar(j, k) > 0) st%par(j, k) = theta(m%kpar(j, k))
-            end do
-        end do
+        integer :: it
+        call posture_values(m, theta, q, st)
         st%eqit = eqit
         st%conv = .true.
         st%nit = 1
@@ -728,10 +944,7 @@ contains
             call load_state(m, st, lsel, lvj, lw)
             call apply_laws(m, st, dn)
             st%nit = it
-            ch = 0.0_dp
-            do k = 1, m%ne
-                ch = ch + abs(dn(k) - st%delta(k))*merge(m%lscale, 1.0_dp, m%vtype(m%evj(k)) == vj_revolute)
-            end do
+            ch = deflection_change(m, dn - st%delta)
             st%conv = ch <= etol
             if (st%conv .or. it == eqit .or. .not. ch < huge(1.0_dp)) exit
             st%delta = dn
@@ -743,55 +956,96 @@ contains
     !> ent_col(k) moves joint ent_vj(k) by ent_coef(k) per unit; lawcol
     !> [21,nk] names the driver of each law-parameter slot (0: none).
     !> Solves (I - D G_ee) z = D G_e,drivers + dlaw/dparams (first order:
-    !> z = the right-hand side; rigid: z = 0). info = sk_err_singular when
-    !> I - D G_ee is singular (an unstable equilibrium).
-    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info)
+    !> z = the right-hand side; rigid: z = 0). With resid[ne] (st%eqit >= 2
+    !> only), also y = (I - D G_ee)^-1 resid, the Newton correction of an
+    !> equilibrium residual, with the same factors. info = sk_err_singular
+    !> when I - D G_ee is singular (an unstable equilibrium).
+    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y)
         type(tree_model), intent(in) :: m
-        type(tree_state), intent(in) :: st
+        type(tree_state), intent(inout) :: st
         integer, intent(in) :: ent_vj(:), ent_col(:), lawcol(:, :)
         real(dp), intent(in) :: ent_coef(:)
         real(dp), intent(out) :: z(:, :)
         integer(ip), intent(out) :: info
-        real(dp), allocatable :: graw(:, :), gee(:, :), amat(:, :)
-        real(dp) :: dmat(6, 6), dpar(6, nsym)
-        integer :: ne, ncol, e, k, n, e0, j, a
+        real(dp), intent(in), optional :: resid(:)
+        real(dp), intent(out), optional :: y(:)
+        real(dp) :: dmat(6, 6), dpar(6, nsym), w(6), up(3)
+        integer :: ne, ncol, nc, e, k, n, e0, j, a, c, i, d
         ne = m%ne
         ncol = size(z, 2)
-        z = 0.0_dp
+        nc = ncol + merge(1, 0, present(resid))
         info = sk_ok
-        if (ne == 0 .or. st%eqit <= 0 .or. ncol == 0) return
-        allocate(graw(ne, ncol))
-        graw = 0.0_dp
+        if (ne == 0 .or. st%eqit <= 0 .or. nc == 0) then
+            z = 0.0_dp
+            if (present(y)) y = 0.0_dp
+            return
+        end if
+        if (present(y) .and. st%eqit < 2) y = 0.0_dp
+        if (allocated(st%rhs)) then
+            if (size(st%rhs, 2) /= nc) deallocate(st%rhs)
+        end if
+        if (.not. allocated(st%rhs)) allocate(st%rhs(ne, nc))
+        ! G of the drivers, in the columns of the right-hand side
+        st%rhs = 0.0_dp
         do k = 1, size(ent_vj)
             a = ent_vj(k)
+            c = ent_col(k)
             do e = 1, ne
-                graw(e, ent_col(k)) = graw(e, ent_col(k)) + ent_coef(k)*gpair(m, st, m%evj(e), a)
+                st%rhs(e, c) = st%rhs(e, c) + ent_coef(k)*gpair(m, st, m%evj(e), a)
             end do
         end do
         if (st%eqit >= 2) then
-            allocate(gee(ne, ne), amat(ne, ne))
+            ! G_ee is symmetric but for the payload moments (in the
+            ! entries of a force distal to a value): gprox, written out
             do j = 1, ne
-                do e = 1, ne
-                    gee(e, j) = gpair(m, st, m%evj(e), m%evj(j))
+                a = m%evj(j)
+                do e = j, ne
+                    d = m%evj(e)
+                    select case (m%erel(e, j))
+                    case (1)
+                        up = st%lu(:, a)
+                        st%gee(j, e) = up(1)*st%gh(1, d) + up(2)*st%gh(2, d) + up(3)*st%gh(3, d)
+                        st%gee(e, j) = st%gee(j, e)
+                        if (e /= j) st%gee(e, j) = up(1)*st%ghm(1, d) + up(2)*st%ghm(2, d) + up(3)*st%ghm(3, d)
+                    case (2)
+                        up = st%lu(:, d)
+                        st%gee(e, j) = up(1)*st%gh(1, a) + up(2)*st%gh(2, a) + up(3)*st%gh(3, a)
+                        st%gee(j, e) = up(1)*st%ghm(1, a) + up(2)*st%ghm(2, a) + up(3)*st%ghm(3, a)
+                    case default
+                        st%gee(e, j) = 0.0_dp
+                        st%gee(j, e) = 0.0_dp
+                    end select
                 end do
             end do
         end if
         do k = 1, m%nk
             e0 = m%kfirst(k)
             n = m%kdim(k)
-            call law_derivs(m%ktype(k), st%par(:, k), m%kw0(k), st%wv(m%evj(e0:e0 + n - 1)), &
-                dmat(1:n, 1:n), dpar(1:n, :))
-            z(e0:e0 + n - 1, :) = matmul(dmat(1:n, 1:n), graw(e0:e0 + n - 1, :))
-            do j = 1, nsym
-                if (lawcol(j, k) > 0) z(e0:e0 + n - 1, lawcol(j, k)) = z(e0:e0 + n - 1, lawcol(j, k)) + dpar(1:n, j)
+            do i = 1, n
+                w(i) = st%wv(m%evj(e0 + i - 1))
             end do
-            if (st%eqit >= 2) amat(e0:e0 + n - 1, :) = -matmul(dmat(1:n, 1:n), gee(e0:e0 + n - 1, :))
+            call law_derivs(m%ktype(k), st%par(:, k), m%kw0(k), w(1:n), dmat(1:n, 1:n), dpar(1:n, :))
+            if (n == 1) then
+                z(e0, :) = dmat(1, 1)*st%rhs(e0, 1:ncol)
+                if (st%eqit >= 2) st%amat(e0, :) = -dmat(1, 1)*st%gee(e0, :)
+            else
+                z(e0:e0 + n - 1, :) = matmul(dmat(1:n, 1:n), st%rhs(e0:e0 + n - 1, 1:ncol))
+                if (st%eqit >= 2) st%amat(e0:e0 + n - 1, :) = -matmul(dmat(1:n, 1:n), st%gee(e0:e0 + n - 1, :))
+            end if
+            do j = 1, law_nslot(m%ktype(k))
+                c = lawcol(j, k)
+                if (c > 0) z(e0:e0 + n - 1, c) = z(e0:e0 + n - 1, c) + dpar(1:n, j)
+            end do
         end do
         if (st%eqit >= 2) then
             do e = 1, ne
-                amat(e, e) = amat(e, e) + 1.0_dp
+                st%amat(e, e) = st%amat(e, e) + 1.0_dp
             end do
-            call solve_inplace(amat, z, info)
+            st%rhs(:, 1:ncol) = z
+            if (present(resid)) st%rhs(:, nc) = resid
+            call solve_inplace(st%amat, st%rhs, info)
+            z = st%rhs(:, 1:ncol)
+            if (present(y)) y = st%rhs(:, nc)
         end if
     end subroutine elastic_sensitivity
 
@@ -913,7 +1167,7 @@ contains
         pf = st%pa(:, f)
         a = f
         do while (a > 0)
-            if (m%vtype(a) /= vj_fixed) then
+            if (m%vtype(a) /= vj_fixed .and. (m%qcol(a) > 0 .or. m%vel(a) > 0)) then
                 u = matmul(st%rb(:, :, a), m%axis(:, a))
                 if (m%vtype(a) == vj_revolute) then
                     tw(1:3) = cross(u, pf - st%pb(:, a))
@@ -1024,6 +1278,7 @@ contains
         type(tree_state) :: st
         real(dp) :: rt(3, 3), tt(3), tw(3, 3), y(3)
         real(dp), allocatable :: z(:, :), jrow(:, :)
+        logical :: need(pr%m%nv)
         integer :: ipost, k, i, r0
         integer(ip) :: sinfo
         pred = 0.0_dp
@@ -1038,7 +1293,9 @@ contains
         if (want_jac .and. any(shape(jac) /= [3*pr%nobs, pr%nfree])) return
         info = sk_err_nonfinite
         if (.not. (all_finite(theta) .and. etol == etol)) return
-        call state_init(pr%m, st)
+        need = .false.
+        need(pr%ent_vj) = .true.
+        call state_init(pr%m, st, need)
         call tracker_pose(pr%m, theta, rt, tt, tw)
         allocate(z(pr%m%ne, pr%nz), jrow(3, pr%nfree))
         z = 0.0_dp
@@ -1072,7 +1329,8 @@ contains
     !> Pose of frame frame(i) (rf[3,3,n], pf[3,n], base) at postures
     !> q[ndof,n] at equilibrium, and its Jacobian jq[6,ndof,n] w.r.t. q
     !> (total, through the equilibrium); payloads lpost (1..n), lvj, lw.
-    !> nit, eqinfo, info as in poses_batch.
+    !> nit, eqinfo, info as in poses_batch. Computed on the model with its
+    !> constant joints folded (model_fold).
     subroutine frame_jacobian_batch(m, theta, frame, q, lpost, lvj, lw, eqit, etol, rf, pf, jq, delta, &
             nit, eqinfo, info)
         type(tree_model), intent(in) :: m
@@ -1082,7 +1340,10 @@ contains
         integer(ip), intent(out) :: nit(:), eqinfo(:), info
         type(tree_state) :: st
         integer, allocatable :: lstart(:), lidx(:)
-        integer :: ent_vj(m%nv), ent_col(m%nv), nent, ipost, n
+        integer :: ent_vj(m%nv), ent_col(m%nv), nent, ipost, n, newidx(0:m%nv)
+        integer(ip) :: lvjf(size(lvj))
+        logical :: keep(m%nv)
+        type(tree_model) :: mf
         real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof)
         integer :: lawcol(nsym, m%nk)
         n = size(q, 2)
@@ -1103,15 +1364,26 @@ contains
         if (any(frame < 0) .or. any(frame > m%nv) .or. any(lvj < 0) .or. any(lvj > m%nv)) return
         call group_by(lpost, n, lstart, lidx, info)
         if (info /= sk_ok) return
-        call q_drivers(m, ent_vj, ent_col, ent_coef, nent)
-        lawcol = 0
-        call state_init(m, st)
+        ! the frames asked for and the payload frames stay; constant joints fold away
+        keep = .false.
         do ipost = 1, n
-            call solve_posture(m, theta, q(:, ipost), lidx(lstart(ipost):lstart(ipost + 1) - 1), lvj, lw, &
+            if (frame(ipost) > 0) keep(frame(ipost)) = .true.
+        end do
+        do ipost = 1, size(lvj)
+            if (lvj(ipost) > 0) keep(lvj(ipost)) = .true.
+        end do
+        call model_fold(m, theta, keep, mf, newidx, info)
+        if (info /= sk_ok) return
+        lvjf = newidx(lvj)
+        call q_drivers(mf, ent_vj, ent_col, ent_coef, nent)
+        lawcol = 0
+        call state_init(mf, st, mf%qcol > 0)
+        do ipost = 1, n
+            call solve_posture(mf, theta, q(:, ipost), lidx(lstart(ipost):lstart(ipost + 1) - 1), lvjf, lw, &
                 eqit, etol, .false., st)
-            call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, zq, info)
+            call elastic_sensitivity(mf, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, zq, info)
             if (info /= sk_ok) return
-            call frame_jacobian(m, st, frame(ipost), zq, rf(:, :, ipost), pf(:, ipost), jq(:, :, ipost))
+            call frame_jacobian(mf, st, newidx(frame(ipost)), zq, rf(:, :, ipost), pf(:, ipost), jq(:, :, ipost))
             delta(:, ipost) = st%delta
             nit(ipost) = st%nit
             if (.not. st%conv) eqinfo(ipost) = sk_err_noconv

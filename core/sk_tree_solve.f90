@@ -19,12 +19,19 @@
 !> orientation when asked, equal the target: the step is the damped
 !> pseudo-inverse solution plus the projection of (q - q') on the Jacobian's
 !> null space, so a redundant chain converges to the nearest solution
-!> (least-norm change of q). Rotation rows are scaled by the model's lever
-!> bound so that metres and radians weigh alike.
+!> (least-norm change of q); steps longer than dqmax are shortened. Rotation
+!> rows are scaled by the model's lever bound so that metres and radians
+!> weigh alike. With the full equilibrium (eqit >= 2) the deflections are
+!> not iterated to a fixed point at every q: q and delta are Newton's
+!> unknowns together, with the equilibrium residual r = delta - law(w):
+!>   delta <- delta + Z dq - y,  (I - D G_ee) y = r,
+!>   (J_q + J_delta Z) dq = e + J_delta y        (e: pose error),
+!> one frame evaluation per step, quadratic convergence of both; a row is
+!> done when the pose errors and the point motion of r are within tolerance.
 module sk_tree_solve
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: rot_log, all_finite, qr_triangle, lstsq, svd
+    use sk_linalg, only: rot_log, all_finite, qr_triangle, lstsq, jacobi_eig, spd_inverse, inv3
     use sk_spatial, only: nsym
     use sk_tree
     implicit none
@@ -33,6 +40,10 @@ module sk_tree_solve
     !> joint-space tolerance (rad or m) of the least-norm condition of a
     !> redundant chain: the null-space component of q_cmd - q'
     real(dp), parameter :: qtol = 1.0e-10_dp
+    !> longest Newton step of the compensation (rad or m): compensations are
+    !> small, and near a singular posture the full step would leave the
+    !> region where the linearisation holds
+    real(dp), parameter :: dqmax = 0.2_dp
     public :: tree_lm, compensate_batch
 
     !> reasons the fit stopped (tree_lm reason)
@@ -193,7 +204,9 @@ contains
     !> errors resp[n] (m) and resr[n] (rad, rotation vector of
     !> R_target R^T), Newton steps nit[n], rinfo[n] = sk_ok or
     !> sk_err_noconv (tolerances or the equilibrium not met). info: input
-    !> errors only (size, NaN, out-of-range frame or rotation).
+    !> errors only (size, NaN, out-of-range frame or rotation). eqit >= 2
+    !> solves the equilibrium inside the Newton iteration (module header),
+    !> to etol; eqit 0 or 1 evaluate the rigid or first-order model at each q.
     subroutine compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, &
             maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
         type(tree_model), intent(in) :: m
@@ -201,16 +214,10 @@ contains
         integer(ip), intent(in) :: frame(:), lpost(:), lvj(:), full6, eqit, maxit
         real(dp), intent(out) :: qout(:, :), resp(:), resr(:)
         integer(ip), intent(out) :: nit(:), rinfo(:), info
-        type(tree_state) :: st
+        type(tree_model) :: mf
         integer, allocatable :: lstart(:), lidx(:)
-        integer :: ent_vj(m%nv), ent_col(m%nv), nent, i, n, nd, nr, it, k, f
-        integer :: lawcol(nsym, m%nk)
-        real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof), jq(6, m%ndof), rf(3, 3), pf(3), ep(3), er(3), b(6)
-        real(dp), allocatable :: a(:, :), u(:, :), s(:), vt(:, :), q(:), dq(:), coef(:)
-        logical, allocatable :: keep(:)
-        real(dp) :: mu
-        logical :: done
-        integer(ip) :: sinfo
+        integer :: newidx(0:m%nv), i, n, nd
+        logical :: keep(m%nv)
         n = size(qcmd, 2)
         nd = m%ndof
         qout = 0.0_dp
@@ -235,18 +242,71 @@ contains
         end do
         call group_by(lpost, n, lstart, lidx, info)
         if (info /= sk_ok) return
+        ! the frames of the rows and payloads stay; constant joints fold away
+        keep = .false.
+        do i = 1, n
+            if (frame(i) > 0) keep(frame(i)) = .true.
+        end do
+        do i = 1, size(lvj)
+            if (lvj(i) > 0) keep(lvj(i)) = .true.
+        end do
+        call model_fold(m, theta, keep, mf, newidx, info)
+        if (info /= sk_ok) return
+        call compensate_rows(mf, theta, newidx(frame), qcmd, rtarget, ptarget, lstart, lidx, newidx(lvj), lw, &
+            full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
+        info = sk_ok
+    end subroutine compensate_batch
+
+    !> The rows of compensate_batch on a validated (folded) model.
+    subroutine compensate_rows(m, theta, frame, qcmd, rtarget, ptarget, lstart, lidx, lvj, lw, full6, eqit, etol, &
+            maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol
+        integer, intent(in) :: frame(:), lstart(:), lidx(:), lvj(:)
+        integer(ip), intent(in) :: full6, eqit, maxit
+        real(dp), intent(inout) :: qout(:, :), resp(:), resr(:)
+        integer(ip), intent(inout) :: nit(:), rinfo(:)
+        type(tree_state) :: st
+        integer :: ent_vj(m%nv), ent_col(m%nv), nent, i, n, nd, nr, it, k, f
+        integer :: lawcol(nsym, m%nk)
+        integer(ip) :: lvjp(size(lvj))
+        real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof + 1), jq(6, m%ndof + 1), rf(3, 3), pf(3), ep(3), er(3), b(6), &
+            re(m%ne)
+        real(dp), allocatable :: a(:, :), q(:), dq(:), dqn(:)
+        logical :: done, coupled
+        integer(ip) :: sinfo
+        integer, allocatable :: lsel(:)
+        n = size(qcmd, 2)
+        nd = m%ndof
+        lvjp = lvj
         call q_drivers(m, ent_vj, ent_col, ent_coef, nent)
         lawcol = 0
         nr = merge(6, 3, full6 == 1)
         k = min(nr, nd)
-        allocate(a(nr, nd), u(nr, k), s(k), vt(k, nd), q(nd), dq(nd), coef(k), keep(k))
-        call state_init(m, st)
+        allocate(a(nr, nd), q(nd), dq(nd), dqn(nd))
+        call state_init(m, st, m%qcol > 0)
+        coupled = eqit >= 2 .and. m%ne > 0
         do i = 1, n
             f = frame(i)
             q = qcmd(:, i)
+            lsel = lidx(lstart(i):lstart(i + 1) - 1)
             done = .false.
+            st%delta = 0.0_dp
             do it = 0, maxit
-                call solve_posture(m, theta, q, lidx(lstart(i):lstart(i + 1) - 1), lvj, lw, eqit, etol, it > 0, st)
+                if (coupled) then
+                    ! one frame evaluation per step: q and the deflections are
+                    ! solved together (re: the equilibrium residual)
+                    call posture_values(m, theta, q, st)
+                    st%eqit = eqit
+                    call deflected_frames(m, st)
+                    call load_state(m, st, lsel, lvjp, lw)
+                    call apply_laws(m, st, re)
+                    re = st%delta - re
+                    st%conv = deflection_change(m, re) <= etol
+                else
+                    call solve_posture(m, theta, q, lsel, lvjp, lw, eqit, etol, .false., st)
+                    re = 0.0_dp
+                end if
                 if (f > 0) then
                     rf = st%ra(:, :, f)
                     pf = st%pa(:, f)
@@ -261,36 +321,109 @@ contains
                 nit(i) = it
                 done = st%conv .and. resp(i) <= ptol .and. (full6 == 0 .or. resr(i) <= rtol)
                 if ((done .and. nd <= nr) .or. it == maxit .or. k == 0) exit
-                call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, zq, sinfo)
+                ! total Jacobian J = J_q + J_delta Z; column nd + 1: J_delta y,
+                ! the frame motion of the equilibrium correction y
+                call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, &
+                    zq(:, 1:nd), sinfo, re, zq(:, nd + 1))
                 if (sinfo /= sk_ok) exit
                 call frame_jacobian(m, st, f, zq, rf, pf, jq)
-                a(1:3, :) = jq(1:3, :)
-                b(1:3) = ep
+                a(1:3, :) = jq(1:3, 1:nd)
+                b(1:3) = ep + jq(1:3, nd + 1)
                 if (nr == 6) then
-                    a(4:6, :) = m%lscale*jq(4:6, :)
-                    b(4:6) = m%lscale*er
+                    a(4:6, :) = m%lscale*jq(4:6, 1:nd)
+                    b(4:6) = m%lscale*(er + jq(4:6, nd + 1))
                 end if
-                call svd(a, u, s, vt, sinfo)
-                if (sinfo /= sk_ok) exit
-                ! the pull towards the command within the null space of the
-                ! rows kept: (I - V V^T)(qcmd - q)
-                keep = s > 1.0e-13_dp*s(1)
-                coef = 0.0_dp
-                where (keep) coef = matmul(vt, qcmd(:, i) - q)
-                dq = (qcmd(:, i) - q) - matmul(transpose(vt), coef)
+                call least_norm_step(a, b(1:nr), qcmd(:, i) - q, dq, dqn)
                 ! a redundant chain stops when the change of q is least-norm too
-                if (done .and. norm2(dq) <= qtol) exit
-                ! damped pseudo-inverse step
-                mu = 1.0e-10_dp*s(1)
-                coef = 0.0_dp
-                where (keep) coef = s/(s*s + mu*mu)*matmul(transpose(u), b(1:nr))
-                dq = dq + matmul(transpose(vt), coef)
+                if (done .and. norm2(dqn) <= qtol) exit
+                dq = dq + dqn
+                ! a step near a singular posture is cut to dqmax
+                if (norm2(dq) > dqmax) dq = dq*(dqmax/norm2(dq))
                 q = q + dq
+                if (coupled) st%delta = st%delta + matmul(zq(:, 1:nd), dq) - zq(:, nd + 1)
             end do
             qout(:, i) = q
             rinfo(i) = merge(sk_ok, sk_err_noconv, done)
         end do
-        info = sk_ok
-    end subroutine compensate_batch
+    end subroutine compensate_rows
+
+    !> Newton step of the compensation for rows a[nr,nd] and errors b[nr]:
+    !> dq = A^+ b, the least-norm (least-squares when nd < nr) solution, and
+    !> dqn = (I - A^+ A) pull, the part of the pull towards the command in
+    !> A's null space. Through the small matrix A A^T (A^T A when nd < nr)
+    !> with a ridge of 1e-15 of its trace: Cholesky (3x3: adjugate), or, when
+    !> that fails (a singular posture), its eigenvectors by cyclic Jacobi
+    !> with the eigenvalues below 1e-14 of the largest dropped.
+    subroutine least_norm_step(a, b, pull, dq, dqn)
+        real(dp), intent(in) :: a(:, :), b(:), pull(:)
+        real(dp), intent(out) :: dq(:), dqn(:)
+        integer :: nr, nd
+        nr = size(a, 1)
+        nd = size(a, 2)
+        if (nd >= nr) then
+            call row_form(nr)
+        else
+            call column_form(nd)
+        end if
+    contains
+        subroutine row_form(n)
+            integer, intent(in) :: n
+            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), t(n), lmax
+            integer(ip) :: info
+            integer :: i
+            mm = matmul(a, transpose(a))
+            lmax = 0.0_dp
+            do i = 1, n
+                lmax = lmax + mm(i, i)
+            end do
+            do i = 1, n
+                mm(i, i) = mm(i, i) + 1.0e-15_dp*lmax
+            end do
+            info = sk_err_singular
+            if (n == 3) then
+                mi = inv3(mm)
+                if (all_finite(mi)) info = sk_ok
+            else
+                call spd_inverse(mm, mi, info)
+            end if
+            if (info /= sk_ok) then
+                call jacobi_eig(n, mm, lam, u)
+                lmax = max(lam(n), tiny(1.0_dp))
+                mi = 0.0_dp
+                do i = 1, n
+                    if (lam(i) > 1.0e-14_dp*lmax) mi = mi + spread(u(:, i), 2, n)*spread(u(:, i), 1, n)/lam(i)
+                end do
+            end if
+            t = matmul(mi, b)
+            dq = matmul(t, a)
+            t = matmul(mi, matmul(a, pull))
+            dqn = pull - matmul(t, a)
+        end subroutine row_form
+        subroutine column_form(n)
+            integer, intent(in) :: n
+            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), lmax
+            integer(ip) :: info
+            integer :: i
+            mm = matmul(transpose(a), a)
+            lmax = 0.0_dp
+            do i = 1, n
+                lmax = lmax + mm(i, i)
+            end do
+            do i = 1, n
+                mm(i, i) = mm(i, i) + 1.0e-15_dp*lmax
+            end do
+            call spd_inverse(mm, mi, info)
+            if (info /= sk_ok) then
+                call jacobi_eig(n, mm, lam, u)
+                lmax = max(lam(n), tiny(1.0_dp))
+                mi = 0.0_dp
+                do i = 1, n
+                    if (lam(i) > 1.0e-14_dp*lmax) mi = mi + spread(u(:, i), 2, n)*spread(u(:, i), 1, n)/lam(i)
+                end do
+            end if
+            dq = matmul(mi, matmul(b, a))
+            dqn = 0.0_dp
+        end subroutine column_form
+    end subroutine least_norm_step
 
 end module sk_tree_solve

@@ -604,7 +604,7 @@ contains
         type(tree_model) :: m
         real(dp) :: q(nj, nr), qout(nj, nr), resp(nr), resr(nr), rt(3, 3, nr), pt(3, nr), jq(6, nj, nr)
         real(dp) :: rf(3, 3, nr), pf(3, nr), delta(3*nj, nr), theta0(cap), axis(3), err, opt
-        real(dp), allocatable :: u(:, :), s(:), vt(:, :)
+        real(dp), allocatable :: u(:, :), s(:), vt(:, :), ra(:, :, :, :), pa(:, :, :), wv(:, :), tauq(:, :)
         real(dp) :: nol(6, 0)
         integer(ip) :: frame(nr), nit(nr), rinfo(nr), eqinfo(nr), info, none(0)
         integer :: j, v, i, k, nrow
@@ -651,6 +651,18 @@ contains
             delta, nit, eqinfo, info)
         err = maxval(norm2(pf - pt, dim=1))
         call expect(err < 2.0e-12_dp, 'compensate: the identified model reaches the target')
+        ! the same through poses_batch, on the model as given (no folding)
+        allocate(ra(3, 3, b%nv, nr), pa(3, b%nv, nr), wv(b%nv, nr), tauq(nj, nr))
+        call poses_batch(m, b%theta(1:b%npar), qout, none, none, nol, 100_ip, 1.0e-14_dp, ra, pa, wv, tauq, delta, &
+            nit, eqinfo, info)
+        err = maxval(norm2(pa(:, v, :) - pt, dim=1))
+        call expect(info == sk_ok .and. err < 2.0e-12_dp, 'compensate: target reached (unfolded model)')
+        err = 0
+        do i = 1, nr
+            err = max(err, maxval(abs(ra(:, :, v, i) - rf(:, :, i))))
+        end do
+        call expect(err < 1.0e-14_dp .and. maxval(abs(pa(:, v, :) - pf)) < 1.0e-14_dp, &
+            'compensate: folded and unfolded model agree')
         nrow = merge(6, 3, full6 == 1)
         allocate(u(nrow, nrow), s(nrow), vt(nrow, nj))
         opt = 0
