@@ -1,7 +1,7 @@
 !> Small dense linear algebra shared by the core: cross-product matrices,
 !> rotations (exponential and logarithm maps of SO(3)), and thin checked
-!> wrappers around LAPACK (dgesv, dgesvd, dsyev, dpotrf/dpotri, dgeqrf,
-!> dgels).
+!> wrappers around LAPACK (dgesv, dgetrf/dgetrs, dgesvd, dsyev,
+!> dpotrf/dpotri, dgeqrf, dgels).
 !>
 !> Wrappers copy their inputs, check sizes and return an `info` from
 !> sk_errors (never the raw LAPACK code).
@@ -13,7 +13,7 @@ module sk_linalg
     public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
     public :: eye, jacobi_eig, sym_eigvals_small, inv3
-    public :: solve_inplace, qr_triangle, lstsq
+    public :: solve_inplace, lu_factor, lu_solve, qr_triangle, lstsq
 
     interface all_finite
         module procedure all_finite_1, all_finite_2, all_finite_3
@@ -56,6 +56,20 @@ module sk_linalg
             real(dp), intent(inout) :: a(lda, *)
             integer, intent(out) :: info
         end subroutine dpotri
+        subroutine dgetrf(m, n, a, lda, ipiv, info)
+            import :: dp
+            integer, intent(in) :: m, n, lda
+            real(dp), intent(inout) :: a(lda, *)
+            integer, intent(out) :: ipiv(*), info
+        end subroutine dgetrf
+        subroutine dgetrs(trans, n, nrhs, a, lda, ipiv, b, ldb, info)
+            import :: dp
+            character, intent(in) :: trans
+            integer, intent(in) :: n, nrhs, lda, ldb, ipiv(*)
+            real(dp), intent(in) :: a(lda, *)
+            real(dp), intent(inout) :: b(ldb, *)
+            integer, intent(out) :: info
+        end subroutine dgetrs
         subroutine dgeqrf(m, n, a, lda, tau, work, lwork, info)
             import :: dp
             integer, intent(in) :: m, n, lda, lwork
@@ -249,49 +263,54 @@ contains
     end subroutine inverse
 
     !> Solve a x = b in place: on return b[n,nrhs] holds x and a[n,n] its LU
-    !> factors (for hot loops where the copies of `inverse` cost more than
-    !> the solve). Up to n = 40, Gaussian elimination with partial pivoting
-    !> in place (the call overhead of dgesv dominates there), above, dgesv.
-    !> info = sk_err_singular if a is exactly singular.
+    !> factors (lu_factor, lu_solve; for hot loops where the copies of
+    !> `inverse` cost more than the solve). info = sk_err_singular if a is
+    !> exactly singular.
     subroutine solve_inplace(a, b, info)
         real(dp), intent(inout), contiguous :: a(:, :), b(:, :)
         integer(ip), intent(out) :: info
-        integer :: ipiv(size(a, 1)), n, linfo, k, p, j, i
-        real(dp) :: t
-        n = size(a, 1)
-        if (size(a, 2) /= n .or. size(b, 1) /= n) then
+        integer :: ipiv(size(a, 1))
+        if (size(a, 2) /= size(a, 1) .or. size(b, 1) /= size(a, 1)) then
             info = sk_err_size
             return
         end if
-        if (n == 0 .or. size(b, 2) == 0) then
-            info = sk_ok
-            return
-        end if
+        call lu_factor(a, ipiv, info)
+        if (info == sk_ok) call lu_solve(a, ipiv, b)
+    end subroutine solve_inplace
+
+    !> LU factorisation in place with partial pivoting, LAPACK's layout
+    !> (dgetrf: unit L below the diagonal, U on and above, row k swapped
+    !> with row ipiv(k)). Up to n = 40 by elimination here (dgetrf's call
+    !> overhead dominates there), above by dgetrf. info = sk_err_singular
+    !> if a is exactly singular.
+    subroutine lu_factor(a, ipiv, info)
+        real(dp), intent(inout), contiguous :: a(:, :)
+        integer, intent(out) :: ipiv(:)
+        integer(ip), intent(out) :: info
+        integer :: n, k, p, j, i, linfo
+        real(dp) :: t
+        n = size(a, 1)
+        info = sk_ok
+        if (n == 0) return
         if (n > 40) then
-            call dgesv(n, size(b, 2), a, n, ipiv, b, n, linfo)
+            call dgetrf(n, n, a, n, ipiv, linfo)
             if (linfo > 0) then
                 info = sk_err_singular
             else if (linfo < 0) then
                 info = sk_err_lapack
-            else
-                info = sk_ok
             end if
             return
         end if
         info = sk_err_singular
         do k = 1, n
             p = k - 1 + maxloc(abs(a(k:n, k)), dim=1)
+            ipiv(k) = p
             if (a(p, k) == 0.0_dp) return
             if (p /= k) then
                 do j = 1, n
                     t = a(k, j)
                     a(k, j) = a(p, j)
                     a(p, j) = t
-                end do
-                do j = 1, size(b, 2)
-                    t = b(k, j)
-                    b(k, j) = b(p, j)
-                    b(p, j) = t
                 end do
             end if
             t = 1.0_dp/a(k, k)
@@ -303,13 +322,36 @@ contains
                     a(i, j) = a(i, j) - a(i, k)*a(k, j)
                 end do
             end do
-            do j = 1, size(b, 2)
+        end do
+        info = sk_ok
+    end subroutine lu_factor
+
+    !> Solve with the factors of lu_factor: b[n,nrhs] is overwritten by x.
+    subroutine lu_solve(a, ipiv, b)
+        real(dp), intent(in), contiguous :: a(:, :)
+        integer, intent(in) :: ipiv(:)
+        real(dp), intent(inout), contiguous :: b(:, :)
+        integer :: n, k, j, i, linfo
+        real(dp) :: t
+        n = size(a, 1)
+        if (n == 0 .or. size(b, 2) == 0) return
+        if (n > 40) then
+            call dgetrs('N', n, size(b, 2), a, n, ipiv, b, n, linfo)
+            return
+        end if
+        do j = 1, size(b, 2)
+            do k = 1, n
+                if (ipiv(k) /= k) then
+                    t = b(k, j)
+                    b(k, j) = b(ipiv(k), j)
+                    b(ipiv(k), j) = t
+                end if
+            end do
+            do k = 1, n
                 do i = k + 1, n
                     b(i, j) = b(i, j) - a(i, k)*b(k, j)
                 end do
             end do
-        end do
-        do j = 1, size(b, 2)
             do k = n, 1, -1
                 b(k, j) = b(k, j)/a(k, k)
                 do i = 1, k - 1
@@ -317,8 +359,7 @@ contains
                 end do
             end do
         end do
-        info = sk_ok
-    end subroutine solve_inplace
+    end subroutine lu_solve
 
     !> Triangular factor of the QR decomposition a = Q R of a[m,n], m >= n
     !> (dgeqrf): r[n,n] upper triangular (zero below the diagonal). Q is not

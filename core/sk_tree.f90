@@ -81,7 +81,7 @@
 module sk_tree
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, cross, rot_exp, all_finite, solve_inplace
+    use sk_linalg, only: eye, cross, rot_exp, all_finite, lu_factor, lu_solve
     use sk_spatial, only: sym_index, nsym
     implicit none
     private
@@ -138,6 +138,7 @@ module sk_tree
         real(dp), allocatable :: gh(:, :), ghm(:, :)
         !> motion cache of tree_frames; work arrays of elastic_sensitivity
         real(dp), allocatable :: cval(:), cmot(:, :, :), gee(:, :), amat(:, :), rhs(:, :)
+        integer, allocatable :: ipiv(:)
         logical, allocatable :: cok(:)
         !> joints whose generalised force and G coefficients are wanted
         logical, allocatable :: need(:)
@@ -653,7 +654,7 @@ contains
         allocate(st%val(nv), st%rb(3, 3, nv), st%pb(3, nv), st%ra(3, 3, nv), st%pa(3, nv), &
             st%lu(3, nv), st%lo(3, nv), st%f(3, nv), st%s(3, 3, nv), st%mp(3, nv), st%wv(nv), &
             st%delta(m%ne), st%par(nsym, m%nk), st%gh(3, nv), st%ghm(3, nv), &
-            st%cval(nv), st%cmot(3, 3, nv), st%cok(nv), st%gee(m%ne, m%ne), st%amat(m%ne, m%ne), st%need(nv))
+            st%cval(nv), st%cmot(3, 3, nv), st%cok(nv), st%gee(m%ne, m%ne), st%amat(m%ne, m%ne), st%ipiv(m%ne), st%need(nv))
         st%delta = 0.0_dp
         st%wv = 0.0_dp
         st%gh = 0.0_dp
@@ -958,9 +959,12 @@ contains
     !> Solves (I - D G_ee) z = D G_e,drivers + dlaw/dparams (first order:
     !> z = the right-hand side; rigid: z = 0). With resid[ne] (st%eqit >= 2
     !> only), also y = (I - D G_ee)^-1 resid, the Newton correction of an
-    !> equilibrium residual, with the same factors. info = sk_err_singular
-    !> when I - D G_ee is singular (an unstable equilibrium).
-    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y)
+    !> equilibrium residual, with the same factors. reuse: keep the factors
+    !> of I - D G_ee of the previous call (a chord step of a Newton
+    !> iteration whose pose moved little; the right-hand side is current).
+    !> info = sk_err_singular when I - D G_ee is singular (an unstable
+    !> equilibrium).
+    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y, reuse)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(inout) :: st
         integer, intent(in) :: ent_vj(:), ent_col(:), lawcol(:, :)
@@ -969,8 +973,10 @@ contains
         integer(ip), intent(out) :: info
         real(dp), intent(in), optional :: resid(:)
         real(dp), intent(out), optional :: y(:)
+        logical, intent(in), optional :: reuse
         real(dp) :: dmat(6, 6), dpar(6, nsym), w(6), up(3)
         integer :: ne, ncol, nc, e, k, n, e0, j, a, c, i, d
+        logical :: factor
         ne = m%ne
         ncol = size(z, 2)
         nc = ncol + merge(1, 0, present(resid))
@@ -981,6 +987,8 @@ contains
             return
         end if
         if (present(y) .and. st%eqit < 2) y = 0.0_dp
+        factor = st%eqit >= 2
+        if (present(reuse)) factor = factor .and. .not. reuse
         if (allocated(st%rhs)) then
             if (size(st%rhs, 2) /= nc) deallocate(st%rhs)
         end if
@@ -994,7 +1002,7 @@ contains
                 st%rhs(e, c) = st%rhs(e, c) + ent_coef(k)*gpair(m, st, m%evj(e), a)
             end do
         end do
-        if (st%eqit >= 2) then
+        if (factor) then
             ! G_ee is symmetric but for the payload moments (in the
             ! entries of a force distal to a value): gprox, written out
             do j = 1, ne
@@ -1027,23 +1035,27 @@ contains
             call law_derivs(m%ktype(k), st%par(:, k), m%kw0(k), w(1:n), dmat(1:n, 1:n), dpar(1:n, :))
             if (n == 1) then
                 z(e0, :) = dmat(1, 1)*st%rhs(e0, 1:ncol)
-                if (st%eqit >= 2) st%amat(e0, :) = -dmat(1, 1)*st%gee(e0, :)
+                if (factor) st%amat(e0, :) = -dmat(1, 1)*st%gee(e0, :)
             else
                 z(e0:e0 + n - 1, :) = matmul(dmat(1:n, 1:n), st%rhs(e0:e0 + n - 1, 1:ncol))
-                if (st%eqit >= 2) st%amat(e0:e0 + n - 1, :) = -matmul(dmat(1:n, 1:n), st%gee(e0:e0 + n - 1, :))
+                if (factor) st%amat(e0:e0 + n - 1, :) = -matmul(dmat(1:n, 1:n), st%gee(e0:e0 + n - 1, :))
             end if
             do j = 1, law_nslot(m%ktype(k))
                 c = lawcol(j, k)
                 if (c > 0) z(e0:e0 + n - 1, c) = z(e0:e0 + n - 1, c) + dpar(1:n, j)
             end do
         end do
-        if (st%eqit >= 2) then
+        if (factor) then
             do e = 1, ne
                 st%amat(e, e) = st%amat(e, e) + 1.0_dp
             end do
+            call lu_factor(st%amat, st%ipiv, info)
+            if (info /= sk_ok) return
+        end if
+        if (st%eqit >= 2) then
             st%rhs(:, 1:ncol) = z
             if (present(resid)) st%rhs(:, nc) = resid
-            call solve_inplace(st%amat, st%rhs, info)
+            call lu_solve(st%amat, st%ipiv, st%rhs)
             z = st%rhs(:, 1:ncol)
             if (present(y)) y = st%rhs(:, nc)
         end if
@@ -1148,7 +1160,8 @@ contains
     !> Pose of frame f (rf[3,3], pf[3], base) at a solved posture and its
     !> Jacobian jq[6,ndof] w.r.t. the joint coordinates q: twist (velocity
     !> of the frame origin, angular velocity), base axes; zq[ne,ndof] the
-    !> deflection sensitivity to q.
+    !> deflection sensitivity to q; a further column of zq (a deflection
+    !> change) gives its frame motion in the same column of jq.
     pure subroutine frame_jacobian(m, st, f, zq, rf, pf, jq)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(in) :: st

@@ -28,6 +28,9 @@
 !>   (J_q + J_delta Z) dq = e + J_delta y        (e: pose error),
 !> one frame evaluation per step, quadratic convergence of both; a row is
 !> done when the pose errors and the point motion of r are within tolerance.
+!> Once the pose error falls tenfold per step, the LU factors of
+!> I - D G_ee are kept (chord in that matrix only: it moves with q by
+!> O(|dq| |D G|), far below what would slow Newton down).
 module sk_tree_solve
     use sk_kinds, only: dp, ip
     use sk_errors
@@ -38,8 +41,10 @@ module sk_tree_solve
     private
 
     !> joint-space tolerance (rad or m) of the least-norm condition of a
-    !> redundant chain: the null-space component of q_cmd - q'
-    real(dp), parameter :: qtol = 1.0e-10_dp
+    !> redundant chain: the null-space component of q_cmd - q' (1e-8 rad
+    !> moves a 1 m arm by 1e-8 m along the solution manifold, where the pose
+    !> error stays below ptol)
+    real(dp), parameter :: qtol = 1.0e-8_dp
     !> longest Newton step of the compensation (rad or m): compensations are
     !> small, and near a singular posture the full step would leave the
     !> region where the linearisation holds
@@ -271,9 +276,9 @@ contains
         integer :: lawcol(nsym, m%nk)
         integer(ip) :: lvjp(size(lvj))
         real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof + 1), jq(6, m%ndof + 1), rf(3, 3), pf(3), ep(3), er(3), b(6), &
-            re(m%ne)
+            re(m%ne), eprev, erot
         real(dp), allocatable :: a(:, :), q(:), dq(:), dqn(:)
-        logical :: done, coupled
+        logical :: done, coupled, reuse, factored
         integer(ip) :: sinfo
         integer, allocatable :: lsel(:)
         n = size(qcmd, 2)
@@ -291,6 +296,8 @@ contains
             q = qcmd(:, i)
             lsel = lidx(lstart(i):lstart(i + 1) - 1)
             done = .false.
+            factored = .false.
+            eprev = huge(1.0_dp)
             st%delta = 0.0_dp
             do it = 0, maxit
                 if (coupled) then
@@ -322,10 +329,17 @@ contains
                 done = st%conv .and. resp(i) <= ptol .and. (full6 == 0 .or. resr(i) <= rtol)
                 if ((done .and. nd <= nr) .or. it == maxit .or. k == 0) exit
                 ! total Jacobian J = J_q + J_delta Z; column nd + 1: J_delta y,
-                ! the frame motion of the equilibrium correction y
+                ! the frame motion of the equilibrium correction y. Once the pose
+                ! error fell tenfold in a step, the factors of I - D G_ee
+                ! are kept (they change with q by far less than Newton needs)
+                erot = 0.0_dp
+                if (nr == 6) erot = m%lscale*resr(i)
+                reuse = factored .and. resp(i) + erot <= 0.1_dp*eprev
+                eprev = resp(i) + erot
                 call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, &
-                    zq(:, 1:nd), sinfo, re, zq(:, nd + 1))
+                    zq(:, 1:nd), sinfo, re, zq(:, nd + 1), reuse)
                 if (sinfo /= sk_ok) exit
+                factored = .true.
                 call frame_jacobian(m, st, f, zq, rf, pf, jq)
                 a(1:3, :) = jq(1:3, 1:nd)
                 b(1:3) = ep + jq(1:3, nd + 1)
