@@ -326,20 +326,50 @@ contains
         info = sk_ok
     end subroutine lu_factor
 
-    !> Solve with the factors of lu_factor: b[n,nrhs] is overwritten by x.
-    subroutine lu_solve(a, ipiv, b)
+    !> Solve with the factors of lu_factor: b[n,nrhs] is overwritten by x;
+    !> transposed: solve a^T x = b.
+    subroutine lu_solve(a, ipiv, b, transposed)
         real(dp), intent(in), contiguous :: a(:, :)
         integer, intent(in) :: ipiv(:)
         real(dp), intent(inout), contiguous :: b(:, :)
+        logical, intent(in), optional :: transposed
         integer :: n, k, j, i, linfo
         real(dp) :: t
+        logical :: tr
         n = size(a, 1)
+        tr = .false.
+        if (present(transposed)) tr = transposed
         if (n == 0 .or. size(b, 2) == 0) return
         if (n > 40) then
-            call dgetrs('N', n, size(b, 2), a, n, ipiv, b, n, linfo)
+            call dgetrs(merge('T', 'N', tr), n, size(b, 2), a, n, ipiv, b, n, linfo)
             return
         end if
         do j = 1, size(b, 2)
+            if (tr) then
+                ! U^T z = b, L^T w = z, x = P w
+                do k = 1, n
+                    t = b(k, j)
+                    do i = 1, k - 1
+                        t = t - a(i, k)*b(i, j)
+                    end do
+                    b(k, j) = t/a(k, k)
+                end do
+                do k = n, 1, -1
+                    t = b(k, j)
+                    do i = k + 1, n
+                        t = t - a(i, k)*b(i, j)
+                    end do
+                    b(k, j) = t
+                end do
+                do k = n, 1, -1
+                    if (ipiv(k) /= k) then
+                        t = b(k, j)
+                        b(k, j) = b(ipiv(k), j)
+                        b(ipiv(k), j) = t
+                    end if
+                end do
+                cycle
+            end if
             do k = 1, n
                 if (ipiv(k) /= k) then
                     t = b(k, j)

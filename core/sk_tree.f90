@@ -962,9 +962,12 @@ contains
     !> equilibrium residual, with the same factors. reuse: keep the factors
     !> of I - D G_ee of the previous call (a chord step of a Newton
     !> iteration whose pose moved little; the right-hand side is current).
+    !> adjoint: return the right-hand side in z and leave I - D G_ee
+    !> factored in st%amat, st%ipiv (st%eqit >= 2) for a transposed solve
+    !> of the caller's few rows (lu_solve).
     !> info = sk_err_singular when I - D G_ee is singular (an unstable
     !> equilibrium).
-    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y, reuse)
+    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y, reuse, adjoint)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(inout) :: st
         integer, intent(in) :: ent_vj(:), ent_col(:), lawcol(:, :)
@@ -973,7 +976,7 @@ contains
         integer(ip), intent(out) :: info
         real(dp), intent(in), optional :: resid(:)
         real(dp), intent(out), optional :: y(:)
-        logical, intent(in), optional :: reuse
+        logical, intent(in), optional :: reuse, adjoint
         real(dp) :: dmat(6, 6), dpar(6, nsym), w(6), up(3)
         integer :: ne, ncol, nc, e, k, n, e0, j, a, c, i, d
         logical :: factor
@@ -1052,6 +1055,9 @@ contains
             call lu_factor(st%amat, st%ipiv, info)
             if (info /= sk_ok) return
         end if
+        if (present(adjoint)) then
+            if (adjoint) return
+        end if
         if (st%eqit >= 2) then
             st%rhs(:, 1:ncol) = z
             if (present(resid)) st%rhs(:, nc) = resid
@@ -1097,18 +1103,19 @@ contains
         r(i, j) = -s
     end function axis_rot
 
-    !> Predicted tracker-frame point y[3] of marker mk at a solved posture
-    !> and its Jacobian jrow[3,nfree] w.r.t. the free parameters (columns
-    !> colof(theta index)); z[ne,nz] the deflection sensitivity of the
-    !> nz driver columns zcol.
-    pure subroutine point_jacobian(m, st, theta, rt, tt, tw, mk, colof, zcol, z, y, jrow)
+    !> Predicted tracker-frame point y[3] of marker mk at a solved posture,
+    !> its direct Jacobian jrow[3,nfree] w.r.t. the free parameters (columns
+    !> colof(theta index); the deflections held), and jdel[3,ne] = dy/ddelta
+    !> (zero off the marker's path). The total Jacobian adds jdel Z, Z the
+    !> deflection sensitivity (elastic_sensitivity).
+    pure subroutine point_jacobian(m, st, theta, rt, tt, tw, mk, colof, y, jrow, jdel)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(in) :: st
-        real(dp), intent(in) :: theta(:), rt(3, 3), tt(3), tw(3, 3), z(:, :)
-        integer, intent(in) :: mk, colof(:), zcol(:)
-        real(dp), intent(out) :: y(3), jrow(:, :)
-        real(dp) :: x(3), pm(3), rx(3), jx(3), jy(3), rtf(3, 3), jye(3, m%ne)
-        integer :: f, a, k, c, nep, ep(m%ne), j, i
+        real(dp), intent(in) :: theta(:), rt(3, 3), tt(3), tw(3, 3)
+        integer, intent(in) :: mk, colof(:)
+        real(dp), intent(out) :: y(3), jrow(:, :), jdel(:, :)
+        real(dp) :: x(3), pm(3), rx(3), jx(3), jy(3), rtf(3, 3)
+        integer :: f, a, k, c
         f = m%mvj(mk)
         pm = theta(m%mpar(:, mk))
         if (f > 0) then
@@ -1121,6 +1128,7 @@ contains
         rx = matmul(rt, x)
         y = rx + tt
         jrow = 0.0_dp
+        jdel = 0.0_dp
         do k = 1, 3
             c = colof(m%tpar(k))
             if (c > 0) jrow(k, c) = jrow(k, c) + 1.0_dp
@@ -1129,7 +1137,6 @@ contains
             c = colof(m%mpar(k, mk))
             if (c > 0) jrow(:, c) = jrow(:, c) + rtf(:, k)
         end do
-        nep = 0
         a = f
         do while (a > 0)
             if (m%vtype(a) /= vj_fixed) then
@@ -1140,20 +1147,9 @@ contains
                     c = colof(m%gpar(k))
                     if (c > 0) jrow(:, c) = jrow(:, c) + m%gcoef(k)*jy
                 end do
-                if (m%vel(a) > 0) then
-                    nep = nep + 1
-                    ep(nep) = m%vel(a)
-                    jye(:, nep) = jy
-                end if
+                if (m%vel(a) > 0) jdel(:, m%vel(a)) = jy
             end if
             a = m%parent(a)
-        end do
-        if (nep == 0) return
-        do j = 1, size(zcol)
-            c = zcol(j)
-            do i = 1, nep
-                jrow(:, c) = jrow(:, c) + jye(:, i)*z(ep(i), j)
-            end do
         end do
     end subroutine point_jacobian
 
@@ -1290,9 +1286,9 @@ contains
         integer(ip), intent(out) :: nit(:), eqinfo(:), info
         type(tree_state) :: st
         real(dp) :: rt(3, 3), tt(3), tw(3, 3), y(3)
-        real(dp), allocatable :: z(:, :), jrow(:, :)
+        real(dp), allocatable :: b(:, :), jrow(:, :), lam(:, :), jd(:, :)
         logical :: need(pr%m%nv)
-        integer :: ipost, k, i, r0
+        integer :: ipost, k, i, r0, nrow, ne, j, maxrow
         integer(ip) :: sinfo
         pred = 0.0_dp
         res = 0.0_dp
@@ -1310,8 +1306,12 @@ contains
         need(pr%ent_vj) = .true.
         call state_init(pr%m, st, need)
         call tracker_pose(pr%m, theta, rt, tt, tw)
-        allocate(z(pr%m%ne, pr%nz), jrow(3, pr%nfree))
-        z = 0.0_dp
+        ne = pr%m%ne
+        maxrow = 0
+        do ipost = 1, pr%np
+            maxrow = max(maxrow, 3*(pr%ostart(ipost + 1) - pr%ostart(ipost)))
+        end do
+        allocate(b(ne, pr%nz), jrow(3, pr%nfree), lam(ne, maxrow), jd(3, ne))
         info = sk_ok
         do ipost = 1, pr%np
             call solve_posture(pr%m, theta, pr%q(:, ipost), pr%lidx(pr%lstart(ipost):pr%lstart(ipost + 1) - 1), &
@@ -1320,20 +1320,39 @@ contains
             nit(ipost) = st%nit
             if (.not. st%conv) eqinfo(ipost) = sk_err_noconv
             if (pr%ostart(ipost + 1) == pr%ostart(ipost)) cycle
+            ! deflection part by the adjoint: rows J_delta (I - D G)^-1 B with
+            ! B the drivers' right-hand side (few rows, many parameters)
             if (want_jac) then
-                call elastic_sensitivity(pr%m, st, pr%ent_vj, pr%ent_col, pr%ent_coef, pr%lawcol, z, sinfo)
+                call elastic_sensitivity(pr%m, st, pr%ent_vj, pr%ent_col, pr%ent_coef, pr%lawcol, b, sinfo, &
+                    adjoint=.true.)
                 if (sinfo /= sk_ok) then
                     info = sinfo
                     return
                 end if
             end if
+            nrow = 0
             do k = pr%ostart(ipost), pr%ostart(ipost + 1) - 1
                 i = pr%oidx(k)
-                call point_jacobian(pr%m, st, theta, rt, tt, tw, pr%omark(i), pr%colof, pr%zcol, z, y, jrow)
+                call point_jacobian(pr%m, st, theta, rt, tt, tw, pr%omark(i), pr%colof, y, jrow, jd)
+                lam(:, nrow + 1:nrow + 3) = transpose(jd)
+                nrow = nrow + 3
                 pred(:, i) = y
                 r0 = 3*(i - 1)
                 res(r0 + 1:r0 + 3) = pr%osw(i)*(y - pr%oxyz(:, i))
                 if (want_jac) jac(r0 + 1:r0 + 3, :) = pr%osw(i)*jrow
+            end do
+            if (.not. want_jac .or. ne == 0 .or. pr%nz == 0) cycle
+            ! lam holds J_delta^T; (I - D G)^-T J_delta^T when iterated
+            if (st%eqit >= 2) call lu_solve(st%amat, st%ipiv, lam(:, 1:nrow), transposed=.true.)
+            nrow = 0
+            do k = pr%ostart(ipost), pr%ostart(ipost + 1) - 1
+                i = pr%oidx(k)
+                r0 = 3*(i - 1)
+                do j = 1, pr%nz
+                    jac(r0 + 1:r0 + 3, pr%zcol(j)) = jac(r0 + 1:r0 + 3, pr%zcol(j)) &
+                        + pr%osw(i)*matmul(b(:, j), lam(:, nrow + 1:nrow + 3))
+                end do
+                nrow = nrow + 3
             end do
         end do
         if (any(eqinfo /= sk_ok)) info = sk_err_noconv

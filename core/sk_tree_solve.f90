@@ -28,7 +28,7 @@
 !>   (J_q + J_delta Z) dq = e + J_delta y        (e: pose error),
 !> one frame evaluation per step, quadratic convergence of both; a row is
 !> done when the pose errors and the point motion of r are within tolerance.
-!> Once the pose error falls tenfold per step, the LU factors of
+!> Once the pose error falls tenfold per step (steps below 1e-3), the LU factors of
 !> I - D G_ee are kept (chord in that matrix only: it moves with q by
 !> O(|dq| |D G|), far below what would slow Newton down).
 module sk_tree_solve
@@ -276,7 +276,7 @@ contains
         integer :: lawcol(nsym, m%nk)
         integer(ip) :: lvjp(size(lvj))
         real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof + 1), jq(6, m%ndof + 1), rf(3, 3), pf(3), ep(3), er(3), b(6), &
-            re(m%ne), eprev, erot
+            re(m%ne), eprev, erot, dqlast
         real(dp), allocatable :: a(:, :), q(:), dq(:), dqn(:)
         logical :: done, coupled, reuse, factored
         integer(ip) :: sinfo
@@ -298,6 +298,7 @@ contains
             done = .false.
             factored = .false.
             eprev = huge(1.0_dp)
+            dqlast = huge(1.0_dp)
             st%delta = 0.0_dp
             do it = 0, maxit
                 if (coupled) then
@@ -330,11 +331,12 @@ contains
                 if ((done .and. nd <= nr) .or. it == maxit .or. k == 0) exit
                 ! total Jacobian J = J_q + J_delta Z; column nd + 1: J_delta y,
                 ! the frame motion of the equilibrium correction y. Once the pose
-                ! error fell tenfold in a step, the factors of I - D G_ee
-                ! are kept (they change with q by far less than Newton needs)
+                ! error fell tenfold in a step shorter than 1e-3, the factors of
+                ! I - D G_ee are kept (they change with q by far less than
+                ! Newton needs)
                 erot = 0.0_dp
                 if (nr == 6) erot = m%lscale*resr(i)
-                reuse = factored .and. resp(i) + erot <= 0.1_dp*eprev
+                reuse = factored .and. resp(i) + erot <= 0.1_dp*eprev .and. dqlast <= 1.0e-3_dp
                 eprev = resp(i) + erot
                 call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, &
                     zq(:, 1:nd), sinfo, re, zq(:, nd + 1), reuse)
@@ -348,11 +350,14 @@ contains
                     b(4:6) = m%lscale*(er + jq(4:6, nd + 1))
                 end if
                 call least_norm_step(a, b(1:nr), qcmd(:, i) - q, dq, dqn)
-                ! a redundant chain stops when the change of q is least-norm too
+                ! a redundant chain stops when the change of q is least-norm too;
+                ! a null-space step below qtol is left out (its round-off would
+                ! keep the pose error at its floor)
                 if (done .and. norm2(dqn) <= qtol) exit
-                dq = dq + dqn
+                if (norm2(dqn) > qtol) dq = dq + dqn
                 ! a step near a singular posture is cut to dqmax
                 if (norm2(dq) > dqmax) dq = dq*(dqmax/norm2(dq))
+                dqlast = norm2(dq)
                 q = q + dq
                 if (coupled) st%delta = st%delta + matmul(zq(:, 1:nd), dq) - zq(:, nd + 1)
             end do
@@ -410,6 +415,8 @@ contains
             end if
             t = matmul(mi, b)
             dq = matmul(t, a)
+            dqn = 0.0_dp
+            if (size(a, 2) == n) return
             t = matmul(mi, matmul(a, pull))
             dqn = pull - matmul(t, a)
         end subroutine row_form

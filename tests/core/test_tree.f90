@@ -7,7 +7,7 @@ program test_tree
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, rot_exp, rot_log, svd
+    use sk_linalg, only: eye, rot_exp, rot_log, svd, lu_factor, lu_solve
     use sk_tree
     use sk_tree_solve
     use sk_chain, only: chain_frames
@@ -40,6 +40,8 @@ program test_tree
     call test_compensate(4, 0)
     call test_chain_is_tree()
     call test_bad_input()
+    call test_lu(10)
+    call test_lu(50)
     call finish('tree')
 
 contains
@@ -723,6 +725,31 @@ contains
         end do
         call expect(info == sk_ok .and. same, 'chain: chain_frames = tree kinematics, bit for bit')
     end subroutine test_chain_is_tree
+
+    !> lu_factor / lu_solve (the small in-place elimination below n = 41,
+    !> LAPACK above): a x = b and a^T x = b, with pivoting.
+    subroutine test_lu(n)
+        integer, intent(in) :: n
+        real(dp) :: a(n, n), f(n, n), b(n, 3), x(n, 3)
+        integer :: ipiv(n), i, j
+        integer(ip) :: info
+        character(len=60) :: msg
+        do j = 1, n
+            do i = 1, n
+                a(i, j) = sin(1.3_dp*i + 0.7_dp*j*j) + merge(0.5_dp, 0.0_dp, i == n + 1 - j)
+            end do
+            b(j, :) = [cos(0.3_dp*j), sin(2.0_dp*j), 1.0_dp]
+        end do
+        f = a
+        call lu_factor(f, ipiv, info)
+        x = b
+        call lu_solve(f, ipiv, x)
+        write (msg, '(a, i0)') 'lu: n = ', n
+        call expect(info == sk_ok .and. maxval(abs(matmul(a, x) - b)) < 1.0e-10_dp, trim(msg)//', a x = b')
+        x = b
+        call lu_solve(f, ipiv, x, transposed=.true.)
+        call expect(maxval(abs(matmul(transpose(a), x) - b)) < 1.0e-10_dp, trim(msg)//', a^T x = b')
+    end subroutine test_lu
 
     !> Bad input gives info codes: sizes, NaN, parent order, non-unit axis.
     subroutine test_bad_input()
