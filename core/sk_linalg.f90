@@ -13,7 +13,7 @@ module sk_linalg
     public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
     public :: eye, jacobi_eig, sym_eigvals_small, inv3
-    public :: solve_inplace, lu_factor, lu_solve, qr_triangle, lstsq
+    public :: solve_inplace, lu_factor, lu_solve, qr_triangle, lstsq, spd_inverse_small
 
     interface all_finite
         module procedure all_finite_1, all_finite_2, all_finite_3
@@ -234,6 +234,68 @@ contains
             ok = ok .and. all_finite_2(x(:, :, k))
         end do
     end function all_finite_3
+
+    !> Inverse of a small symmetric positive definite a[n,n] by Cholesky and
+    !> the lower bound 1/(tr(a) tr(a^-1)) of its smallest/largest eigenvalue
+    !> ratio; ok = .false. if a pivot is not positive.
+    pure subroutine spd_inverse_small(n, a, ainv, bound, ok)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n)
+        real(dp), intent(out) :: ainv(n, n), bound
+        logical, intent(out) :: ok
+        real(dp) :: l(n, n), li(n, n), s, tra, tri
+        integer :: i, j, k
+        ok = .false.
+        bound = 0.0_dp
+        ainv = 0.0_dp
+        l = 0.0_dp
+        do j = 1, n
+            s = a(j, j)
+            do k = 1, j - 1
+                s = s - l(j, k)**2
+            end do
+            if (.not. (s > 0.0_dp)) return
+            l(j, j) = sqrt(s)
+            do i = j + 1, n
+                s = a(i, j)
+                do k = 1, j - 1
+                    s = s - l(i, k)*l(j, k)
+                end do
+                l(i, j) = s/l(j, j)
+            end do
+        end do
+        ! li = l^-1 (lower triangular)
+        li = 0.0_dp
+        do j = 1, n
+            li(j, j) = 1.0_dp/l(j, j)
+            do i = j + 1, n
+                s = 0.0_dp
+                do k = j, i - 1
+                    s = s - l(i, k)*li(k, j)
+                end do
+                li(i, j) = s/l(i, i)
+            end do
+        end do
+        ! ainv = li^T li
+        do j = 1, n
+            do i = j, n
+                s = 0.0_dp
+                do k = i, n
+                    s = s + li(k, i)*li(k, j)
+                end do
+                ainv(i, j) = s
+                ainv(j, i) = s
+            end do
+        end do
+        tra = 0.0_dp
+        tri = 0.0_dp
+        do i = 1, n
+            tra = tra + a(i, i)
+            tri = tri + ainv(i, i)
+        end do
+        bound = 1.0_dp/(tra*tri)
+        ok = .true.
+    end subroutine spd_inverse_small
 
     !> General inverse ainv = a^-1 by LU (dgesv); info = sk_err_singular if
     !> a is exactly singular.

@@ -40,7 +40,7 @@ module sk_springs
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_spatial, only: rotate_blocks, congruence_transfer, revolute_twist
-    use sk_linalg, only: jacobi_eig, sym_eigvals_small
+    use sk_linalg, only: jacobi_eig, sym_eigvals_small, spd_inverse_small
     implicit none
     private
     public :: op_spring, op_joint, op_series, op_parallel
@@ -108,68 +108,6 @@ contains
             end if
         end do
     end subroutine split_range
-
-    !> Inverse of a small symmetric positive definite a[n,n] by Cholesky and
-    !> the lower bound 1/(tr(a) tr(a^-1)) of its smallest/largest eigenvalue
-    !> ratio; ok = .false. if a pivot is not positive.
-    pure subroutine spd_inverse_small(n, a, ainv, bound, ok)
-        integer, intent(in) :: n
-        real(dp), intent(in) :: a(n, n)
-        real(dp), intent(out) :: ainv(n, n), bound
-        logical, intent(out) :: ok
-        real(dp) :: l(n, n), li(n, n), s, tra, tri
-        integer :: i, j, k
-        ok = .false.
-        bound = 0.0_dp
-        ainv = 0.0_dp
-        l = 0.0_dp
-        do j = 1, n
-            s = a(j, j)
-            do k = 1, j - 1
-                s = s - l(j, k)**2
-            end do
-            if (.not. (s > 0.0_dp)) return
-            l(j, j) = sqrt(s)
-            do i = j + 1, n
-                s = a(i, j)
-                do k = 1, j - 1
-                    s = s - l(i, k)*l(j, k)
-                end do
-                l(i, j) = s/l(j, j)
-            end do
-        end do
-        ! li = l^-1 (lower triangular)
-        li = 0.0_dp
-        do j = 1, n
-            li(j, j) = 1.0_dp/l(j, j)
-            do i = j + 1, n
-                s = 0.0_dp
-                do k = j, i - 1
-                    s = s - l(i, k)*li(k, j)
-                end do
-                li(i, j) = s/l(i, i)
-            end do
-        end do
-        ! ainv = li^T li
-        do j = 1, n
-            do i = j, n
-                s = 0.0_dp
-                do k = i, n
-                    s = s + li(k, i)*li(k, j)
-                end do
-                ainv(i, j) = s
-                ainv(j, i) = s
-            end do
-        end do
-        tra = 0.0_dp
-        tri = 0.0_dp
-        do i = 1, n
-            tra = tra + a(i, i)
-            tri = tri + ainv(i, i)
-        end do
-        bound = 1.0_dp/(tra*tri)
-        ok = .true.
-    end subroutine spd_inverse_small
 
     !> Shared body of the two switches: given the dual projector (free
     !> twists for C -> K, rigid wrenches for K -> C) and the matrix m

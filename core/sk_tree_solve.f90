@@ -34,7 +34,7 @@
 module sk_tree_solve
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: rot_log, all_finite, qr_triangle, lstsq, jacobi_eig, spd_inverse, inv3
+    use sk_linalg, only: rot_log, all_finite, qr_triangle, lstsq, jacobi_eig, spd_inverse_small
     use sk_spatial, only: nsym
     use sk_tree
     implicit none
@@ -370,7 +370,7 @@ contains
     !> dq = A^+ b, the least-norm (least-squares when nd < nr) solution, and
     !> dqn = (I - A^+ A) pull, the part of the pull towards the command in
     !> A's null space. Through the small matrix A A^T (A^T A when nd < nr)
-    !> with a ridge of 1e-15 of its trace: Cholesky (3x3: adjugate), or, when
+    !> with a ridge of 1e-15 of its trace: Cholesky (spd_inverse_small), or, when
     !> that fails (a singular posture), its eigenvectors by cyclic Jacobi
     !> with the eigenvalues below 1e-14 of the largest dropped.
     subroutine least_norm_step(a, b, pull, dq, dqn)
@@ -387,8 +387,8 @@ contains
     contains
         subroutine row_form(n)
             integer, intent(in) :: n
-            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), t(n), lmax
-            integer(ip) :: info
+            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), t(n), lmax, bound
+            logical :: ok
             integer :: i
             mm = matmul(a, transpose(a))
             lmax = 0.0_dp
@@ -398,14 +398,8 @@ contains
             do i = 1, n
                 mm(i, i) = mm(i, i) + 1.0e-15_dp*lmax
             end do
-            info = sk_err_singular
-            if (n == 3) then
-                mi = inv3(mm)
-                if (all_finite(mi)) info = sk_ok
-            else
-                call spd_inverse(mm, mi, info)
-            end if
-            if (info /= sk_ok) then
+            call spd_inverse_small(n, mm, mi, bound, ok)
+            if (.not. ok) then
                 call jacobi_eig(n, mm, lam, u)
                 lmax = max(lam(n), tiny(1.0_dp))
                 mi = 0.0_dp
@@ -422,8 +416,8 @@ contains
         end subroutine row_form
         subroutine column_form(n)
             integer, intent(in) :: n
-            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), lmax
-            integer(ip) :: info
+            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), lmax, bound
+            logical :: ok
             integer :: i
             mm = matmul(transpose(a), a)
             lmax = 0.0_dp
@@ -433,8 +427,8 @@ contains
             do i = 1, n
                 mm(i, i) = mm(i, i) + 1.0e-15_dp*lmax
             end do
-            call spd_inverse(mm, mi, info)
-            if (info /= sk_ok) then
+            call spd_inverse_small(n, mm, mi, bound, ok)
+            if (.not. ok) then
                 call jacobi_eig(n, mm, lam, u)
                 lmax = max(lam(n), tiny(1.0_dp))
                 mi = 0.0_dp
