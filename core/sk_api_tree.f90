@@ -99,11 +99,13 @@ end subroutine sk_tree_evaluate
 
 !> Levenberg-Marquardt fit of theta(free) from theta0: theta[npar],
 !> hist[maxit+1] (cost after each accepted step; nhist of them), niter,
-!> reason, jac[3*no,nfree], res[3*no] at theta (sk_tree_solve%tree_lm).
+!> reason, jac[3*no,nfree], res[3*no] at theta, and the re-centred tracker
+!> rotation rrefout[3,3] (theta's tracker angles are then 0)
+!> (sk_tree_solve%tree_lm).
 subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta0, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
-        free, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, info)
+        free, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, rrefout, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, tree_problem, model_setup, problem_setup
@@ -116,11 +118,12 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
         kw0(nk), bmass(nb), bcom(3, nb), grav(3), rref(3, 3)
     real(c_double), intent(in) :: theta0(npar), q(ndof, np), lw(6, nl), oxyz(3, no), owt(no), etol, ftol, xtol, gtol
     integer(c_int), intent(in) :: lpost(nl), lvj(nl), opost(no), omark(no), free(nfree), eqit, maxit
-    real(c_double), intent(out) :: theta(npar), hist(maxit + 1), jac(3*no, nfree), res(3*no)
+    real(c_double), intent(out) :: theta(npar), hist(maxit + 1), jac(3*no, nfree), res(3*no), rrefout(3, 3)
     integer(c_int), intent(out) :: nhist, niter, reason, info
     type(tree_model) :: m
     type(tree_problem) :: pr
     theta = theta0
+    rrefout = rref
     hist = 0
     jac = 0
     res = 0
@@ -132,7 +135,8 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
     if (info /= sk_ok) return
     call problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
     if (info /= sk_ok) return
-    call tree_lm(pr, theta0, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, info)
+    call tree_lm(pr, theta0, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, &
+        rrefout, info)
 end subroutine sk_tree_lm
 
 !> Pose rf[3,3,np], pf[3,np] (base) of frame(i) at q[ndof,np] at

@@ -65,17 +65,22 @@ contains
     !> gtol of orthogonal to the residual (3), or the cost is zero (4).
     !> Outputs: theta[npar], hist[maxit+1] the cost after each accepted step
     !> (hist(1) at theta0; nhist entries), niter iterations, reason, and
-    !> jac[3*nobs,nfree], res[3*nobs] at the returned theta (as evaluate).
+    !> jac[3*nobs,nfree], res[3*nobs] at the returned theta (as evaluate),
+    !> rref[3,3]: after every accepted step the tracker rotation is
+    !> re-centred (rref <- rref Rx(a1) Ry(a2) Rz(a3), the angles set to 0),
+    !> so the returned angles are 0 and the tracker is Trans(t) * rref.
     !> info: sk_ok on reasons 1-4; sk_err_noconv on reason 5 (maxit) and 6
     !> (lambda above 1e16: no decrease found), theta then the best found;
     !> an evaluate error at theta0 is returned as it is.
     subroutine tree_lm(pr, theta0, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, &
-            jac, res, info)
+            jac, res, rref, info)
         type(tree_problem), intent(in) :: pr
         real(dp), intent(in) :: theta0(:), etol, ftol, xtol, gtol
         integer(ip), intent(in) :: eqit, maxit
-        real(dp), intent(out) :: theta(:), hist(:), jac(:, :), res(:)
+        real(dp), intent(out) :: theta(:), hist(:), jac(:, :), res(:), rref(3, 3)
         integer(ip), intent(out) :: nhist, niter, reason, info
+        type(tree_problem) :: pl
+        real(dp) :: rt(3, 3), tt(3), tw(3, 3)
         real(dp), allocatable :: pred(:, :), delta(:, :), aug(:, :), rr(:, :), stack(:, :), rhs(:), &
             dx(:), thetat(:), jact(:, :), rest(:), dsc(:), c(:)
         integer(ip), allocatable :: nit(:), eqinfo(:)
@@ -86,6 +91,7 @@ contains
         n = pr%nfree
         mrow = 3*pr%nobs
         theta = 0.0_dp
+        rref = pr%m%rref
         hist = 0.0_dp
         nhist = 0
         niter = 0
@@ -101,7 +107,8 @@ contains
             rr(n + 1, n + 1), stack(2*n, n), rhs(2*n), dx(n), thetat(pr%m%npar), jact(mrow, n), rest(mrow), &
             dsc(n), c(n))
         theta = theta0
-        call evaluate(pr, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
+        pl = pr
+        call evaluate(pl, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
         if (info /= sk_ok) return
         cost = 0.5_dp*sum(res**2)
         nhist = 1
@@ -154,7 +161,7 @@ contains
                 predred = 0.5_dp*(sum(c**2) - sum((c + matmul(rr(1:n, 1:n), dx))**2))
                 thetat = theta
                 thetat(pr%free) = thetat(pr%free) + dx
-                call evaluate(pr, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo)
+                call evaluate(pl, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo)
                 costt = huge(1.0_dp)
                 if (tinfo == sk_ok) costt = 0.5_dp*sum(rest**2)
                 dnorm = norm2(dsc*dx)
@@ -169,6 +176,11 @@ contains
                     theta = thetat
                     res = rest
                     jac = jact
+                    ! re-centre the tracker rotation: rref <- rref Rx Ry Rz, angles
+                    ! 0 (the same poses and Jacobian columns; never near gimbal lock)
+                    call tracker_pose(pl%m, theta, rt, tt, tw)
+                    pl%m%rref = rt
+                    theta(pl%m%tpar(4:6)) = 0.0_dp
                     cost = costt
                     nhist = nhist + 1
                     hist(nhist) = cost
@@ -196,6 +208,7 @@ contains
             end do
             if (.not. accepted .and. reason == lm_maxit) exit
         end do
+        rref = pl%m%rref
         info = merge(sk_err_noconv, sk_ok, reason == lm_maxit .or. reason == lm_lambda)
     end subroutine tree_lm
 

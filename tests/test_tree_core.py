@@ -86,3 +86,30 @@ def test_bad_input_maps_to_input_error():
     assert info == 6
     with pytest.raises(_errors.InputError, match="sk_tree_evaluate"):
         _errors.check(info, "sk_tree_evaluate")
+
+
+def test_lm_recovers_tracker_and_compliance():
+    model, theta = arm()
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-1.2, 1.2, (3, 25))
+    truth = evaluate(model, theta, q, [])[0]
+    no = q.shape[1]
+    nl = np.zeros(0, np.int32)
+    free = np.array([1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 12], np.int32)
+    start = theta.copy()
+    start[:3] += [0.01, -0.02, 0.01]
+    start[3:6] += 0.02
+    start[10:12] *= 1.3
+    out = _tree.sk_tree_lm(
+        2, **model, theta0=start, q=np.asfortranarray(q), lpost=nl, lvj=nl, lw=np.zeros((6, 0), order="F"),
+        opost=np.arange(1, no + 1, dtype=np.int32), omark=np.ones(no, np.int32), oxyz=np.asfortranarray(truth),
+        owt=np.ones(no), free=free, eqit=100, etol=1e-14, maxit=50, ftol=1e-14, xtol=1e-14, gtol=0.0)
+    fit, hist, nhist, niter, reason, jac, res, rref, info = out
+    _errors.check(info, "sk_tree_lm")
+    assert hist[nhist - 1] < 1e-24 and np.all(np.diff(hist[:nhist]) <= 0)
+    # the tracker rotation comes back re-centred: rref * Rx Ry Rz of the truth
+    a = theta[3:6]
+    rx, ry, rz = (rot(np.eye(3)[k], a[k]) for k in range(3))
+    np.testing.assert_allclose(rref, model["rref"] @ rx @ ry @ rz, atol=1e-9)
+    np.testing.assert_allclose(fit[[0, 1, 2, 6, 7, 8]], theta[[0, 1, 2, 6, 7, 8]], atol=1e-9)
+    np.testing.assert_allclose(fit[10:12], theta[10:12], rtol=1e-7)

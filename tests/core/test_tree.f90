@@ -528,7 +528,8 @@ contains
         type(builder) :: b
         type(tree_model) :: m
         type(tree_problem) :: pr
-        real(dp) :: q(7, np), theta0(cap), thetaf(cap), hist(maxit + 1), worst, e
+        real(dp) :: q(7, np), theta0(cap), thetaf(cap), hist(maxit + 1), worst, e, rfit(3, 3), rtrue(3, 3), tt(3), &
+            tw(3, 3)
         real(dp), allocatable :: lw(:, :), oxyz(:, :), owt(:), pred(:, :), res(:), jac(:, :), delta(:, :)
         integer(ip), allocatable :: lpost(:), lvj(:), opost(:), omark(:), nit(:), eqinfo(:), free(:)
         integer(ip) :: info, nhist, niter, reason, none(0)
@@ -575,13 +576,17 @@ contains
         deallocate(jac)
         allocate(jac(3*no, nf))
         call tree_lm(pr, theta0(1:b%npar), 100_ip, 1.0e-13_dp, int(maxit, ip), 1.0e-14_dp, 1.0e-14_dp, 0.0_dp, &
-            thetaf(1:b%npar), hist, nhist, niter, reason, jac, res, info)
+            thetaf(1:b%npar), hist, nhist, niter, reason, jac, res, rfit, info)
         write (msg, '(a, i0, a, i0, a, i0, a, es9.2, a, es9.2)') 'recovery: ', nf, ' free, info ', info, &
             ', reason ', reason, ', cost ', hist(1), ' -> ', hist(nhist)
         print '(a, a, i0)', trim(msg), ', iterations ', niter
         call expect(info == sk_ok, 'recovery: LM converged')
-        worst = 0
+        ! the fit re-centres the tracker rotation into rfit (its angles 0)
+        call tracker_pose(m, b%theta(1:b%npar), rtrue, tt, tw)
+        worst = maxval(abs(rfit - rtrue))
+        call expect(worst < 1.0e-8_dp .and. all(thetaf(b%tpar(4:6)) == 0.0_dp), 'recovery: tracker rotation')
         do k = 1, nf
+            if (any(b%tpar(4:6) == free(k))) cycle
             e = abs(thetaf(free(k)) - b%theta(free(k)))/b%scale(free(k))
             worst = max(worst, e)
             if (e > 1.0e-8_dp) then
