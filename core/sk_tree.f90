@@ -77,7 +77,29 @@
 !> rotation (the fit re-centres it, so it never meets gimbal lock); a
 !> predicted measurement is y = T_tracker * T_frame * p (klimchik's
 !> observation equation, eq. 6, with the geometric and elastic model in
-!> place of eq. 4's linear map).
+!> place of eq. 4's linear map; the fit minimises eq. 7).
+!>
+!> Parameter roles. theta is one vector; a parameter's role is where its
+!> index appears (tpar, mpar, gpar, kpar), so one parameter may act in
+!> several places (a mimic leader's offset) and no separate kind code can
+!> disagree with the model.
+!>
+!> 6-dof springs. Their six coordinates are screws (3 prismatic along x, y,
+!> z, then revolute about x, y, z of the spring frame); the generalised
+!> forces of those screws are the transmitted wrench (f, m about the
+!> spring origin, spring axes) at zero deflection, and differ from it at
+!> second order in the deflection: delta = C w is the equilibrium of the
+!> spring energy 1/2 delta^T C^-1 delta in these coordinates.
+!>
+!> Cost. Aggregates make the forces O(nv) and G O(pairs) per posture;
+!> tree_frames caches the rotation of joints whose value did not change
+!> (frame errors); evaluate takes the deflection part of the Jacobian by
+!> the adjoint (rows of J_delta (I - D G)^-1: a few rows, many
+!> parameters); the frame Jacobian and compensation run on the model with
+!> its constant joints folded into their children (model_fold). The fixed
+!> point converges when D G is a contraction, as for any real robot
+!> (deflections of mm, D G ~ 1e-2); a compliance large enough to approach
+!> buckling is reported as not converged (eqinfo), not solved.
 module sk_tree
     use sk_kinds, only: dp, ip
     use sk_errors
@@ -91,7 +113,7 @@ module sk_tree
     public :: elastic_sensitivity, tracker_pose, point_jacobian, frame_jacobian
     public :: poses_batch, evaluate, frame_jacobian_batch
     public :: is_rotation, group_by, q_drivers, posture_values, deflected_frames, load_state, apply_laws
-    public :: deflection_change, model_fold
+    public :: deflection_change, model_fold, fold_for_frames
 
     integer, parameter, public :: vj_fixed = 0, vj_revolute = 1, vj_prismatic = 2
     integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
@@ -497,6 +519,27 @@ contains
             int(m%ndof, ip), int(m%npar, ip), int(m%ne, ip), info)
         mf%lscale = m%lscale
     end subroutine model_fold
+
+    !> model_fold keeping the frames frame(:) and the payload frames lvj(:)
+    !> (0 = base), for the routines that work on those frames only.
+    subroutine fold_for_frames(m, theta, frame, lvj, mf, newidx, info)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:)
+        integer(ip), intent(in) :: frame(:), lvj(:)
+        type(tree_model), intent(out) :: mf
+        integer, intent(out) :: newidx(0:)
+        integer(ip), intent(out) :: info
+        logical :: keep(m%nv)
+        integer :: i
+        keep = .false.
+        do i = 1, size(frame)
+            if (frame(i) > 0) keep(frame(i)) = .true.
+        end do
+        do i = 1, size(lvj)
+            if (lvj(i) > 0) keep(lvj(i)) = .true.
+        end do
+        call model_fold(m, theta, keep, mf, newidx, info)
+    end subroutine fold_for_frames
 
     pure logical function is_rotation(r)
         real(dp), intent(in) :: r(3, 3)
@@ -977,7 +1020,7 @@ contains
         real(dp), intent(in), optional :: resid(:)
         real(dp), intent(out), optional :: y(:)
         logical, intent(in), optional :: reuse, adjoint
-        real(dp) :: dmat(6, 6), dpar(6, nsym), w(6), up(3)
+        real(dp) :: dmat(6, 6), dpar(6, nsym), w(6)
         integer :: ne, ncol, nc, e, k, n, e0, j, a, c, i, d
         logical :: factor
         ne = m%ne
@@ -1007,21 +1050,19 @@ contains
         end do
         if (factor) then
             ! G_ee is symmetric but for the payload moments (in the
-            ! entries of a force distal to a value): gprox, written out
+            ! entries of a force distal to a value)
             do j = 1, ne
                 a = m%evj(j)
                 do e = j, ne
                     d = m%evj(e)
                     select case (m%erel(e, j))
                     case (1)
-                        up = st%lu(:, a)
-                        st%gee(j, e) = up(1)*st%gh(1, d) + up(2)*st%gh(2, d) + up(3)*st%gh(3, d)
+                        st%gee(j, e) = gprox(st, a, d, .false.)
                         st%gee(e, j) = st%gee(j, e)
-                        if (e /= j) st%gee(e, j) = up(1)*st%ghm(1, d) + up(2)*st%ghm(2, d) + up(3)*st%ghm(3, d)
+                        if (e /= j) st%gee(e, j) = gprox(st, a, d, .true.)
                     case (2)
-                        up = st%lu(:, d)
-                        st%gee(e, j) = up(1)*st%gh(1, a) + up(2)*st%gh(2, a) + up(3)*st%gh(3, a)
-                        st%gee(j, e) = up(1)*st%ghm(1, a) + up(2)*st%ghm(2, a) + up(3)*st%ghm(3, a)
+                        st%gee(e, j) = gprox(st, d, a, .false.)
+                        st%gee(j, e) = gprox(st, d, a, .true.)
                     case default
                         st%gee(e, j) = 0.0_dp
                         st%gee(j, e) = 0.0_dp
@@ -1374,7 +1415,6 @@ contains
         integer, allocatable :: lstart(:), lidx(:)
         integer :: ent_vj(m%nv), ent_col(m%nv), nent, ipost, n, newidx(0:m%nv)
         integer(ip) :: lvjf(size(lvj))
-        logical :: keep(m%nv)
         type(tree_model) :: mf
         real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof)
         integer :: lawcol(nsym, m%nk)
@@ -1396,15 +1436,7 @@ contains
         if (any(frame < 0) .or. any(frame > m%nv) .or. any(lvj < 0) .or. any(lvj > m%nv)) return
         call group_by(lpost, n, lstart, lidx, info)
         if (info /= sk_ok) return
-        ! the frames asked for and the payload frames stay; constant joints fold away
-        keep = .false.
-        do ipost = 1, n
-            if (frame(ipost) > 0) keep(frame(ipost)) = .true.
-        end do
-        do ipost = 1, size(lvj)
-            if (lvj(ipost) > 0) keep(lvj(ipost)) = .true.
-        end do
-        call model_fold(m, theta, keep, mf, newidx, info)
+        call fold_for_frames(m, theta, frame, lvj, mf, newidx, info)
         if (info /= sk_ok) return
         lvjf = newidx(lvj)
         call q_drivers(mf, ent_vj, ent_col, ent_coef, nent)

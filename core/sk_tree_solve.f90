@@ -235,7 +235,6 @@ contains
         type(tree_model) :: mf
         integer, allocatable :: lstart(:), lidx(:)
         integer :: newidx(0:m%nv), i, n, nd
-        logical :: keep(m%nv)
         n = size(qcmd, 2)
         nd = m%ndof
         qout = 0.0_dp
@@ -261,14 +260,7 @@ contains
         call group_by(lpost, n, lstart, lidx, info)
         if (info /= sk_ok) return
         ! the frames of the rows and payloads stay; constant joints fold away
-        keep = .false.
-        do i = 1, n
-            if (frame(i) > 0) keep(frame(i)) = .true.
-        end do
-        do i = 1, size(lvj)
-            if (lvj(i) > 0) keep(lvj(i)) = .true.
-        end do
-        call model_fold(m, theta, keep, mf, newidx, info)
+        call fold_for_frames(m, theta, frame, lvj, mf, newidx, info)
         if (info /= sk_ok) return
         call compensate_rows(mf, theta, newidx(frame), qcmd, rtarget, ptarget, lstart, lidx, newidx(lvj), lw, &
             full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
