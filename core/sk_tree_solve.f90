@@ -10,7 +10,7 @@
 !> with D the Marquardt scaling (running maximum of the column norms of
 !> J), from the triangular factor of the QR decomposition of [J r], so the
 !> normal equations (and the squared condition number) are never formed.
-!> lambda follows Nielsen's rule (down by max(1/3, 1 - (2 rho - 1)^3) on
+!> lambda follows Nielsen's rule (down by max(1/10, 1 - (2 rho - 1)^3) on
 !> success, up by 2, 4, 8, ... on failure). Row weights let the caller wrap
 !> iteratively reweighted least squares (Huber, Cauchy) around it.
 !>
@@ -28,9 +28,9 @@
 !>   (J_q + J_delta Z) dq = e + J_delta y        (e: pose error),
 !> one frame evaluation per step, quadratic convergence of both; a row is
 !> done when the pose errors and the point motion of r are within tolerance.
-!> Once the pose error falls tenfold per step (steps below 1e-3), the LU factors of
-!> I - D G_ee are kept (chord in that matrix only: it moves with q by
-!> O(|dq| |D G|), far below what would slow Newton down).
+!> Once the pose error falls tenfold per step (steps below 1e-3), the LU
+!> factors of I - D G_ee are kept (chord in that matrix only: it moves with
+!> q by O(|dq| |D G|), far below what would slow Newton down).
 module sk_tree_solve
     use sk_kinds, only: dp, ip
     use sk_errors
@@ -39,6 +39,7 @@ module sk_tree_solve
     use sk_tree
     implicit none
     private
+    public :: tree_lm, compensate_batch
 
     !> joint-space tolerance (rad or m) of the least-norm condition of a
     !> redundant chain: the null-space component of q_cmd - q' (1e-8 rad
@@ -49,7 +50,6 @@ module sk_tree_solve
     !> small, and near a singular posture the full step would leave the
     !> region where the linearisation holds
     real(dp), parameter :: dqmax = 0.2_dp
-    public :: tree_lm, compensate_batch
 
     !> reasons the fit stopped (tree_lm reason)
     integer, parameter, public :: lm_ftol = 1, lm_xtol = 2, lm_gtol = 3, lm_zero = 4, lm_maxit = 5, &
@@ -169,7 +169,7 @@ contains
                 if (costt < cost) then
                     rho = (cost - costt)/max(predred, tiny(1.0_dp))
                     accepted = .true.
-                    lam = lam*max(1.0_dp/3.0_dp, 1.0_dp - (2.0_dp*rho - 1.0_dp)**3)
+                    lam = lam*max(0.1_dp, 1.0_dp - (2.0_dp*rho - 1.0_dp)**3)
                     nu = 2.0_dp
                     if (cost - costt <= ftol*cost .and. predred <= ftol*cost) reason = lm_ftol
                     if (dnorm <= xtol*(xnorm + xtol)) reason = lm_xtol
