@@ -22,36 +22,16 @@
 module sk_chain
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, skew, rot_exp, sym_eig, spd_inverse, all_finite, psd_defect, psd_tol
+    use sk_linalg, only: eye, skew, sym_eig, spd_inverse, all_finite, psd_defect, psd_tol
+    use sk_tree, only: tree_frames, frame_step, vj_fixed, vj_revolute
     use sk_spatial, only: twist_transfer, blockdiag_rot, revolute_twist, spring_at, add_rank1, &
-        rotate_blocks, congruence_transfer
+        rotate_blocks, congruence_transfer, sym_index, nsym
     implicit none
     private
     public :: chain_frames, spring_jacobian, spring_ndof, tool_compliance_batch
     public :: spring_basis_batch, sym_index, nsym, spring_jacobians, chain_poses_batch
 
-    !> number of independent elements of a symmetric 6x6 matrix
-    integer, parameter :: nsym = 21
-
 contains
-
-    !> Element (i, j), i <= j, of the upper triangle, row by row:
-    !> (1,1) (1,2) ... (1,6) (2,2) ... (6,6) -> 1 .. 21.
-    pure subroutine sym_index(k, i, j)
-        integer, intent(in) :: k
-        integer, intent(out) :: i, j
-        integer :: kk
-        kk = k
-        do i = 1, 6
-            if (kk <= 7 - i) then
-                j = i + kk - 1
-                return
-            end if
-            kk = kk - (7 - i)
-        end do
-        i = 6
-        j = 6
-    end subroutine sym_index
 
     !> Degrees of freedom of a spring type (1 for a joint spring, else 6).
     pure integer function spring_ndof(stype) result(n)
@@ -60,24 +40,35 @@ contains
     end function spring_ndof
 
     !> Frames of the chain at posture q: rf[3,3,nj], pf[3,nj] of every F_k
-    !> (base axes/coordinates), and the tool frame rt[3,3], pt[3].
+    !> (base axes/coordinates), and the tool frame rt[3,3], pt[3]. The chain
+    !> is a tree with parent(k) = k - 1 (sk_tree's forward kinematics); F_k
+    !> is joint k's frame before its motion, the tool a fixed joint after
+    !> the last one.
     pure subroutine chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rt, pt)
         real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3), q(:)
         integer(ip), intent(in) :: qidx(:)
         real(dp), intent(out) :: rf(:, :, :), pf(:, :), rt(3, 3), pt(3)
-        real(dp) :: r(3, 3), p(3)
-        integer :: k
-        r = eye(3)
-        p = 0.0_dp
-        do k = 1, size(qidx)
-            p = p + matmul(r, jpos(:, k))
-            r = matmul(r, jrot(:, :, k))
-            rf(:, :, k) = r
-            pf(:, k) = p
-            if (qidx(k) > 0) r = matmul(r, rot_exp(jaxis(:, k)*q(qidx(k))))
+        integer :: parent(size(qidx)), vtype(size(qidx)), k, nj
+        real(dp) :: val(size(qidx)), ra(3, 3, size(qidx)), pa(3, size(qidx)), r(3, 3), p(3), ta(3, 3), tp(3)
+        nj = size(qidx)
+        do k = 1, nj
+            parent(k) = k - 1
+            vtype(k) = vj_fixed
+            val(k) = 0.0_dp
+            if (qidx(k) > 0) then
+                vtype(k) = vj_revolute
+                val(k) = q(qidx(k))
+            end if
         end do
-        pt = p + matmul(r, tpos)
-        rt = matmul(r, trot)
+        call tree_frames(parent, vtype, jrot, jpos, jaxis, val, rf, pf, ra, pa)
+        if (nj > 0) then
+            r = ra(:, :, nj)
+            p = pa(:, nj)
+        else
+            r = eye(3)
+            p = 0.0_dp
+        end if
+        call frame_step(r, p, trot, tpos, vj_fixed, tpos, 0.0_dp, trot, rt, pt, ta, tp)
     end subroutine chain_frames
 
     !> Jacobian j[6,n] (n = spring_ndof) of the tool twist with respect to

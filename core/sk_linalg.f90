@@ -1,7 +1,7 @@
 !> Small dense linear algebra shared by the core: cross-product matrices,
 !> rotations (exponential and logarithm maps of SO(3)), and thin checked
-!> wrappers around LAPACK (dgesv, dgesvd, dsyev, dpotrf/dpotri) and BLAS
-!> (dgemm).
+!> wrappers around LAPACK (dgesv, dgetrf/dgetrs, dgesvd, dsyev,
+!> dpotrf/dpotri, dgeqrf, dgels) and BLAS (dgemm).
 !>
 !> Wrappers copy their inputs, check sizes and return an `info` from
 !> sk_errors (never the raw LAPACK code).
@@ -15,6 +15,7 @@ module sk_linalg
     public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
     public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small, matmul_tn, psd_defect
+    public :: solve_inplace, lu_factor, lu_solve, qr_triangle, lstsq
 
     interface all_finite
         module procedure all_finite_1, all_finite_2, all_finite_3
@@ -64,6 +65,35 @@ module sk_linalg
             real(dp), intent(in) :: alpha, beta, a(lda, *), b(ldb, *)
             real(dp), intent(inout) :: c(ldc, *)
         end subroutine dgemm
+        subroutine dgetrf(m, n, a, lda, ipiv, info)
+            import :: dp
+            integer, intent(in) :: m, n, lda
+            real(dp), intent(inout) :: a(lda, *)
+            integer, intent(out) :: ipiv(*), info
+        end subroutine dgetrf
+        subroutine dgetrs(trans, n, nrhs, a, lda, ipiv, b, ldb, info)
+            import :: dp
+            character, intent(in) :: trans
+            integer, intent(in) :: n, nrhs, lda, ldb, ipiv(*)
+            real(dp), intent(in) :: a(lda, *)
+            real(dp), intent(inout) :: b(ldb, *)
+            integer, intent(out) :: info
+        end subroutine dgetrs
+        subroutine dgeqrf(m, n, a, lda, tau, work, lwork, info)
+            import :: dp
+            integer, intent(in) :: m, n, lda, lwork
+            real(dp), intent(inout) :: a(lda, *)
+            real(dp), intent(out) :: tau(*), work(*)
+            integer, intent(out) :: info
+        end subroutine dgeqrf
+        subroutine dgels(trans, m, n, nrhs, a, lda, b, ldb, work, lwork, info)
+            import :: dp
+            character, intent(in) :: trans
+            integer, intent(in) :: m, n, nrhs, lda, ldb, lwork
+            real(dp), intent(inout) :: a(lda, *), b(ldb, *)
+            real(dp), intent(out) :: work(*)
+            integer, intent(out) :: info
+        end subroutine dgels
     end interface
 
 contains
@@ -263,6 +293,209 @@ contains
         end if
         call dgemm('T', 'N', m, n, k, 1.0_dp, a, k, b, k, 0.0_dp, c, m)
     end subroutine matmul_tn
+    !> Solve a x = b in place: on return b[n,nrhs] holds x and a[n,n] its LU
+    !> factors (lu_factor, lu_solve; for hot loops where the copies of
+    !> `inverse` cost more than the solve). info = sk_err_singular if a is
+    !> exactly singular.
+    subroutine solve_inplace(a, b, info)
+        real(dp), intent(inout), contiguous :: a(:, :), b(:, :)
+        integer(ip), intent(out) :: info
+        integer :: ipiv(size(a, 1))
+        if (size(a, 2) /= size(a, 1) .or. size(b, 1) /= size(a, 1)) then
+            info = sk_err_size
+            return
+        end if
+        call lu_factor(a, ipiv, info)
+        if (info == sk_ok) call lu_solve(a, ipiv, b)
+    end subroutine solve_inplace
+
+    !> LU factorisation in place with partial pivoting, LAPACK's layout
+    !> (dgetrf: unit L below the diagonal, U on and above, row k swapped
+    !> with row ipiv(k)). Up to n = 40 by elimination here (dgetrf's call
+    !> overhead dominates there), above by dgetrf. info = sk_err_singular
+    !> if a is exactly singular.
+    subroutine lu_factor(a, ipiv, info)
+        real(dp), intent(inout), contiguous :: a(:, :)
+        integer, intent(out) :: ipiv(:)
+        integer(ip), intent(out) :: info
+        integer :: n, k, p, j, i, linfo
+        real(dp) :: t
+        n = size(a, 1)
+        info = sk_ok
+        if (n == 0) return
+        if (n > 40) then
+            call dgetrf(n, n, a, n, ipiv, linfo)
+            if (linfo > 0) then
+                info = sk_err_singular
+            else if (linfo < 0) then
+                info = sk_err_lapack
+            end if
+            return
+        end if
+        info = sk_err_singular
+        do k = 1, n
+            p = k - 1 + maxloc(abs(a(k:n, k)), dim=1)
+            ipiv(k) = p
+            if (a(p, k) == 0.0_dp) return
+            if (p /= k) then
+                do j = 1, n
+                    t = a(k, j)
+                    a(k, j) = a(p, j)
+                    a(p, j) = t
+                end do
+            end if
+            t = 1.0_dp/a(k, k)
+            do i = k + 1, n
+                a(i, k) = a(i, k)*t
+            end do
+            do j = k + 1, n
+                do i = k + 1, n
+                    a(i, j) = a(i, j) - a(i, k)*a(k, j)
+                end do
+            end do
+        end do
+        info = sk_ok
+    end subroutine lu_factor
+
+    !> Solve with the factors of lu_factor: b[n,nrhs] is overwritten by x;
+    !> transposed: solve a^T x = b.
+    subroutine lu_solve(a, ipiv, b, transposed)
+        real(dp), intent(in), contiguous :: a(:, :)
+        integer, intent(in) :: ipiv(:)
+        real(dp), intent(inout), contiguous :: b(:, :)
+        logical, intent(in), optional :: transposed
+        integer :: n, k, j, i, linfo
+        real(dp) :: t
+        logical :: tr
+        n = size(a, 1)
+        tr = .false.
+        if (present(transposed)) tr = transposed
+        if (n == 0 .or. size(b, 2) == 0) return
+        if (n > 40) then
+            call dgetrs(merge('T', 'N', tr), n, size(b, 2), a, n, ipiv, b, n, linfo)
+            return
+        end if
+        do j = 1, size(b, 2)
+            if (tr) then
+                ! U^T z = b, L^T w = z, x = P w
+                do k = 1, n
+                    t = b(k, j)
+                    do i = 1, k - 1
+                        t = t - a(i, k)*b(i, j)
+                    end do
+                    b(k, j) = t/a(k, k)
+                end do
+                do k = n, 1, -1
+                    t = b(k, j)
+                    do i = k + 1, n
+                        t = t - a(i, k)*b(i, j)
+                    end do
+                    b(k, j) = t
+                end do
+                do k = n, 1, -1
+                    if (ipiv(k) /= k) then
+                        t = b(k, j)
+                        b(k, j) = b(ipiv(k), j)
+                        b(ipiv(k), j) = t
+                    end if
+                end do
+                cycle
+            end if
+            do k = 1, n
+                if (ipiv(k) /= k) then
+                    t = b(k, j)
+                    b(k, j) = b(ipiv(k), j)
+                    b(ipiv(k), j) = t
+                end if
+            end do
+            do k = 1, n
+                do i = k + 1, n
+                    b(i, j) = b(i, j) - a(i, k)*b(k, j)
+                end do
+            end do
+            do k = n, 1, -1
+                b(k, j) = b(k, j)/a(k, k)
+                do i = 1, k - 1
+                    b(i, j) = b(i, j) - a(i, k)*b(k, j)
+                end do
+            end do
+        end do
+    end subroutine lu_solve
+
+    !> Triangular factor of the QR decomposition a = Q R of a[m,n], m >= n
+    !> (dgeqrf): r[n,n] upper triangular (zero below the diagonal). Q is not
+    !> formed: append the right-hand side as a last column of a to get Q^T b.
+    subroutine qr_triangle(a, r, info)
+        real(dp), intent(in) :: a(:, :)
+        real(dp), intent(out) :: r(:, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: w(:, :), tau(:), work(:)
+        real(dp) :: q(1)
+        integer :: m, n, lwork, linfo, j
+        m = size(a, 1)
+        n = size(a, 2)
+        r = 0.0_dp
+        if (m < n .or. any(shape(r) /= [n, n])) then
+            info = sk_err_size
+            return
+        end if
+        if (n == 0) then
+            info = sk_ok
+            return
+        end if
+        w = a
+        allocate(tau(n))
+        call dgeqrf(m, n, w, m, tau, q, -1, linfo)
+        lwork = max(1, int(q(1)))
+        allocate(work(lwork))
+        call dgeqrf(m, n, w, m, tau, work, lwork, linfo)
+        if (linfo /= 0) then
+            info = sk_err_lapack
+            return
+        end if
+        do j = 1, n
+            r(1:j, j) = w(1:j, j)
+        end do
+        info = sk_ok
+    end subroutine qr_triangle
+
+    !> Least squares min |a x - b| for a[m,n] of full column rank, m >= n,
+    !> by QR (dgels); x[n]. info = sk_err_singular when a triangular factor
+    !> has an exactly zero diagonal element (a rank-deficient a).
+    subroutine lstsq(a, b, x, info)
+        real(dp), intent(in) :: a(:, :), b(:)
+        real(dp), intent(out) :: x(:)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: w(:, :), rhs(:, :), work(:)
+        real(dp) :: q(1)
+        integer :: m, n, lwork, linfo
+        m = size(a, 1)
+        n = size(a, 2)
+        x = 0.0_dp
+        if (m < n .or. size(b) /= m .or. size(x) /= n) then
+            info = sk_err_size
+            return
+        end if
+        if (n == 0) then
+            info = sk_ok
+            return
+        end if
+        w = a
+        allocate(rhs(m, 1))
+        rhs(:, 1) = b
+        call dgels('N', m, n, 1, w, m, rhs, m, q, -1, linfo)
+        lwork = max(1, int(q(1)))
+        allocate(work(lwork))
+        call dgels('N', m, n, 1, w, m, rhs, m, work, lwork, linfo)
+        if (linfo > 0) then
+            info = sk_err_singular
+        else if (linfo < 0) then
+            info = sk_err_lapack
+        else
+            x = rhs(1:n, 1)
+            info = sk_ok
+        end if
+    end subroutine lstsq
 
     !> Thin SVD a = u diag(s) vt of a[m,n], k = min(m,n): u[m,k], s[k], vt[k,n].
     subroutine svd(a, u, s, vt, info)

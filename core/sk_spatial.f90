@@ -13,8 +13,30 @@ module sk_spatial
     private
     public :: twist_transfer, wrench_transfer, rotate6, compliance_move, blockdiag_rot
     public :: rotate_blocks, congruence_transfer, revolute_twist, spring_at, add_rank1
+    public :: sym_index, nsym
+
+    !> number of independent elements of a symmetric 6x6 matrix
+    integer, parameter :: nsym = 21
 
 contains
+
+    !> Element (i, j), i <= j, of the upper triangle, row by row:
+    !> (1,1) (1,2) ... (1,6) (2,2) ... (6,6) -> 1 .. 21.
+    pure subroutine sym_index(k, i, j)
+        integer, intent(in) :: k
+        integer, intent(out) :: i, j
+        integer :: kk
+        kk = k
+        do i = 1, 6
+            if (kk <= 7 - i) then
+                j = i + kk - 1
+                return
+            end if
+            kk = kk - (7 - i)
+        end do
+        i = 6
+        j = 6
+    end subroutine sym_index
 
     !> T with x_B = T x_A for one rigid body, r = B - A:
     !> t_B = t_A + phi x r  =>  T = [[I, -[r]x], [0, I]].

@@ -26,8 +26,8 @@ Every effect becomes virtual joints or parameters of the core's model:
   frame's axis least aligned with z', made orthogonal; y' = z' x x')
   driven by the moment components about them.
 - ``joint_cubic`` / ``joint_deadzone`` (target: a joint with a ``joint``
-  effect): the law becomes ``c tau + c3 tau^3`` (``<joint>.c3``) or
-  ``c tau + b tanh(tau / tau0)`` (``<joint>.b``, ``tau0`` a key in N m;
+  effect): the law becomes ``c tau + c3 tau^3`` (``<joint>.cubic``) or
+  ``c tau + b tanh(tau / tau0)`` (``<joint>.backlash``, ``tau0`` a key in N m;
   default 5 % of the RMS gravity torque about the joint in the data).
 - ``link`` (target: a link) and ``base``: 6-dof springs (21, 8 or 6
   parameters ``<link>.cIJ``, templates full / beam / diagonal) driven by
@@ -229,12 +229,17 @@ class TreeModel:
         R = self.arrays["rref"] @ _rx(a[0]) @ _ry(a[1]) @ _rz(a[2])
         return R, t
 
+    def copy(self) -> TreeModel:
+        """A copy whose arrays can be changed (tracker rotation, tau0) without touching this one."""
+        m = TreeModel(**{k: getattr(self, k) for k in self.__dataclass_fields__})
+        m.arrays = {k: np.array(v, order="F") for k, v in self.arrays.items()}
+        return m
+
     def recentred(self, theta: np.ndarray) -> tuple[TreeModel, np.ndarray]:
         """The same model with the tracker's reference rotation moved to the
-        pose at theta (angles back to zero): a fresh start for the LM."""
+        pose at theta (angles back to zero)."""
         R, _t = self.tracker_pose(theta)
-        m = TreeModel(**{k: getattr(self, k) for k in self.__dataclass_fields__})
-        m.arrays = dict(self.arrays)
+        m = self.copy()
         m.arrays["rref"] = np.asfortranarray(R)
         th = np.array(theta, dtype=float)
         th[self.arrays["tpar"][3:] - 1] = 0.0
@@ -354,7 +359,7 @@ def _joint_law(b: _Builder, jn: str, slot: dict, vj: int) -> tuple:
             raise InputError(f"{w}: a joint compliance must be >= 0 (rad/(N m) or m/N), got {val}")
     kp = [b.add_param(f"{jn}.c", "joint", jn, i, 0.0 if val is None else val, val is None)] + [0] * 20
     law, w0 = LAW_LINEAR, 1.0
-    for kind, law_k, pname in (("joint_cubic", LAW_CUBIC, "c3"), ("joint_deadzone", LAW_DEADZONE, "b")):
+    for kind, law_k, pname in (("joint_cubic", LAW_CUBIC, "cubic"), ("joint_deadzone", LAW_DEADZONE, "backlash")):
         if kind not in slot:
             continue
         i2, t2, w2 = slot[kind]

@@ -1,0 +1,449 @@
+!> Solvers on the tree model of sk_tree: calibration on absolute (tracker)
+!> measurements by Levenberg-Marquardt, and compensation (the joint command
+!> that makes the identified model reach a target pose) by Newton.
+!>
+!> Calibration minimises cost = 1/2 sum_i w_i |y_i(theta) - y_i^meas|^2
+!> (klimchik eq. 7 with eta^T eta = diag(w); y the observation equation of
+!> sk_tree) over the free parameters; the others stay at theta0. Each step
+!> solves the damped problem as an augmented least-squares problem,
+!>   min | [J; sqrt(lambda) D] dx + [r; 0] |,
+!> with D the Marquardt scaling (running maximum of the column norms of
+!> J), from the triangular factor of the QR decomposition of [J r], so the
+!> normal equations (and the squared condition number) are never formed.
+!> lambda follows Nielsen's rule (down by max(1/10, 1 - (2 rho - 1)^3) on
+!> success, up by 2, 4, 8, ... on failure). Row weights let the caller wrap
+!> iteratively reweighted least squares (Huber, Cauchy) around it.
+!>
+!> Compensation: for each row, Newton on q' with the total Jacobian of the
+!> frame (through the equilibrium) so that the frame's position, and its
+!> orientation when asked, equal the target: the step is the damped
+!> pseudo-inverse solution plus the projection of (q - q') on the Jacobian's
+!> null space, so a redundant chain converges to the nearest solution
+!> (least-norm change of q); steps longer than dqmax are shortened. Rotation
+!> rows are scaled by the model's lever bound so that metres and radians
+!> weigh alike. With the full equilibrium (eqit >= 2) the deflections are
+!> not iterated to a fixed point at every q: q and delta are Newton's
+!> unknowns together, with the equilibrium residual r = delta - law(w):
+!>   delta <- delta + Z dq - y,  (I - D G_ee) y = r,
+!>   (J_q + J_delta Z) dq = e + J_delta y        (e: pose error),
+!> one frame evaluation per step, quadratic convergence of both; a row is
+!> done when the pose errors and the point motion of r are within tolerance.
+!> Once the pose error falls tenfold per step (steps below 1e-3), the LU
+!> factors of I - D G_ee are kept (chord in that matrix only: it moves with
+!> q by O(|dq| |D G|), far below what would slow Newton down).
+module sk_tree_solve
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_linalg, only: rot_log, all_finite, qr_triangle, lstsq, jacobi_eig, spd_inverse_small
+    use sk_spatial, only: nsym
+    use sk_tree
+    implicit none
+    private
+    public :: tree_lm, compensate_batch
+
+    !> joint-space tolerance (rad or m) of the least-norm condition of a
+    !> redundant chain: the null-space component of q_cmd - q' (1e-8 rad
+    !> moves a 1 m arm by 1e-8 m along the solution manifold, where the pose
+    !> error stays below ptol)
+    real(dp), parameter :: qtol = 1.0e-8_dp
+    !> longest Newton step of the compensation (rad or m): compensations are
+    !> small, and near a singular posture the full step would leave the
+    !> region where the linearisation holds
+    real(dp), parameter :: dqmax = 0.2_dp
+
+    !> reasons the fit stopped (tree_lm reason)
+    integer, parameter, public :: lm_ftol = 1, lm_xtol = 2, lm_gtol = 3, lm_zero = 4, lm_maxit = 5, &
+        lm_lambda = 6
+
+contains
+
+    !> Levenberg-Marquardt fit of theta(free) on problem pr from theta0
+    !> (module header). eqit, etol: equilibrium (sk_tree); maxit: most
+    !> iterations (Jacobian evaluations); stop when the actual and predicted
+    !> relative cost reductions are below ftol (reason 1), the scaled step
+    !> |D dx| is below xtol (|D x| + xtol) (2), every column of J is within
+    !> gtol of orthogonal to the residual (3), or the cost is zero (4).
+    !> Outputs: theta[npar], hist[maxit+1] the cost after each accepted step
+    !> (hist(1) at theta0; nhist entries), niter iterations, reason, and
+    !> jac[3*nobs,nfree], res[3*nobs] at the returned theta (as evaluate),
+    !> rref[3,3]: after every accepted step the tracker rotation is
+    !> re-centred (rref <- rref Rx(a1) Ry(a2) Rz(a3), the angles set to 0),
+    !> so the returned angles are 0 and the tracker is Trans(t) * rref.
+    !> info: sk_ok on reasons 1-4; sk_err_noconv on reason 5 (maxit) and 6
+    !> (lambda above 1e16: no decrease found), theta then the best found;
+    !> an evaluate error at theta0 is returned as it is.
+    subroutine tree_lm(pr, theta0, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, &
+            jac, res, rref, info)
+        type(tree_problem), intent(in) :: pr
+        real(dp), intent(in) :: theta0(:), etol, ftol, xtol, gtol
+        integer(ip), intent(in) :: eqit, maxit
+        real(dp), intent(out) :: theta(:), hist(:), jac(:, :), res(:), rref(3, 3)
+        integer(ip), intent(out) :: nhist, niter, reason, info
+        type(tree_problem) :: pl
+        real(dp) :: rt(3, 3), tt(3), tw(3, 3)
+        real(dp), allocatable :: pred(:, :), delta(:, :), aug(:, :), rr(:, :), stack(:, :), rhs(:), &
+            dx(:), thetat(:), jact(:, :), rest(:), dsc(:), c(:)
+        integer(ip), allocatable :: nit(:), eqinfo(:)
+        real(dp) :: cost, costt, predred, rho, lam, nu, rnorm, gmax, cn, dnorm, xnorm
+        integer(ip) :: tinfo
+        integer :: n, mrow, j, it
+        logical :: accepted
+        n = pr%nfree
+        mrow = 3*pr%nobs
+        theta = 0.0_dp
+        rref = pr%m%rref
+        hist = 0.0_dp
+        nhist = 0
+        niter = 0
+        reason = 0
+        jac = 0.0_dp
+        res = 0.0_dp
+        info = sk_err_size
+        if (size(theta0) /= pr%m%npar .or. size(theta) /= pr%m%npar .or. size(hist) < maxit + 1 &
+            .or. any(shape(jac) /= [mrow, n]) .or. size(res) /= mrow .or. mrow < n) return
+        info = sk_err_argument
+        if (maxit < 0 .or. .not. (ftol >= 0.0_dp .and. xtol >= 0.0_dp .and. gtol >= 0.0_dp)) return
+        allocate(pred(3, pr%nobs), delta(pr%m%ne, pr%np), nit(pr%np), eqinfo(pr%np), aug(mrow, n + 1), &
+            rr(n + 1, n + 1), stack(2*n, n), rhs(2*n), dx(n), thetat(pr%m%npar), jact(mrow, n), rest(mrow), &
+            dsc(n), c(n))
+        theta = theta0
+        pl = pr
+        call evaluate(pl, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
+        if (info /= sk_ok) return
+        cost = 0.5_dp*sum(res**2)
+        nhist = 1
+        hist(1) = cost
+        do j = 1, n
+            dsc(j) = norm2(jac(:, j))
+        end do
+        where (.not. dsc > 0.0_dp) dsc = 1.0_dp
+        lam = 1.0e-3_dp
+        nu = 2.0_dp
+        reason = lm_maxit
+        if (cost == 0.0_dp) reason = lm_zero
+        if (n == 0) reason = lm_ftol
+        do it = 1, maxit
+            if (reason /= lm_maxit) exit
+            ! orthogonality of the residual to every column
+            rnorm = norm2(res)
+            gmax = 0.0_dp
+            do j = 1, n
+                cn = norm2(jac(:, j))
+                if (cn > 0.0_dp) gmax = max(gmax, abs(dot_product(jac(:, j), res))/(cn*rnorm))
+            end do
+            if (gmax <= gtol) then
+                reason = lm_gtol
+                exit
+            end if
+            niter = it
+            aug(:, 1:n) = jac
+            aug(:, n + 1) = res
+            call qr_triangle(aug, rr, tinfo)
+            if (tinfo /= sk_ok) then
+                info = tinfo
+                return
+            end if
+            c = rr(1:n, n + 1)
+            accepted = .false.
+            do
+                stack = 0.0_dp
+                stack(1:n, :) = rr(1:n, 1:n)
+                do j = 1, n
+                    stack(n + j, j) = sqrt(lam)*dsc(j)
+                end do
+                rhs = 0.0_dp
+                rhs(1:n) = -c
+                call lstsq(stack, rhs, dx, tinfo)
+                if (tinfo /= sk_ok) then
+                    info = tinfo
+                    return
+                end if
+                predred = 0.5_dp*(sum(c**2) - sum((c + matmul(rr(1:n, 1:n), dx))**2))
+                thetat = theta
+                thetat(pr%free) = thetat(pr%free) + dx
+                call evaluate(pl, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo)
+                costt = huge(1.0_dp)
+                if (tinfo == sk_ok) costt = 0.5_dp*sum(rest**2)
+                dnorm = norm2(dsc*dx)
+                xnorm = norm2(dsc*theta(pr%free))
+                if (costt < cost) then
+                    rho = (cost - costt)/max(predred, tiny(1.0_dp))
+                    accepted = .true.
+                    lam = lam*max(0.1_dp, 1.0_dp - (2.0_dp*rho - 1.0_dp)**3)
+                    nu = 2.0_dp
+                    if (cost - costt <= ftol*cost .and. predred <= ftol*cost) reason = lm_ftol
+                    if (dnorm <= xtol*(xnorm + xtol)) reason = lm_xtol
+                    theta = thetat
+                    res = rest
+                    jac = jact
+                    ! re-centre the tracker rotation: rref <- rref Rx Ry Rz, angles
+                    ! 0 (the same poses and Jacobian columns; never near gimbal lock)
+                    call tracker_pose(pl%m, theta, rt, tt, tw)
+                    pl%m%rref = rt
+                    theta(pl%m%tpar(4:6)) = 0.0_dp
+                    cost = costt
+                    nhist = nhist + 1
+                    hist(nhist) = cost
+                    if (cost == 0.0_dp) reason = lm_zero
+                    do j = 1, n
+                        dsc(j) = max(dsc(j), norm2(jac(:, j)))
+                    end do
+                    exit
+                end if
+                ! no decrease: at the round-off floor, or damp harder
+                if (predred <= ftol*cost) then
+                    reason = lm_ftol
+                    exit
+                end if
+                if (dnorm <= xtol*(xnorm + xtol)) then
+                    reason = lm_xtol
+                    exit
+                end if
+                lam = lam*nu
+                nu = 2.0_dp*nu
+                if (lam > 1.0e16_dp) then
+                    reason = lm_lambda
+                    exit
+                end if
+            end do
+            if (.not. accepted .and. reason == lm_maxit) exit
+        end do
+        rref = pl%m%rref
+        info = merge(sk_err_noconv, sk_ok, reason == lm_maxit .or. reason == lm_lambda)
+    end subroutine tree_lm
+
+    !> Compensation of n rows: for row i, the joint command qout(:,i) that
+    !> puts frame(i) of the identified model (theta, equilibrium with the
+    !> row's payloads lpost = i, lvj, lw) at the target pose rtarget(:,:,i),
+    !> ptarget(:,i) (base). full6 = 1: position and orientation, 0: position
+    !> only. Newton from qcmd(:,i) (module header); stops when the position
+    !> error is below ptol (m) and, for full6, the rotation error below rtol
+    !> (rad), or after maxit steps. Outputs: qout[ndof,n], the remaining
+    !> errors resp[n] (m) and resr[n] (rad, rotation vector of
+    !> R_target R^T), Newton steps nit[n], rinfo[n] = sk_ok or
+    !> sk_err_noconv (tolerances or the equilibrium not met). info: input
+    !> errors only (size, NaN, out-of-range frame or rotation). eqit >= 2
+    !> solves the equilibrium inside the Newton iteration (module header),
+    !> to etol; eqit 0 or 1 evaluate the rigid or first-order model at each q.
+    subroutine compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, &
+            maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol
+        integer(ip), intent(in) :: frame(:), lpost(:), lvj(:), full6, eqit, maxit
+        real(dp), intent(out) :: qout(:, :), resp(:), resr(:)
+        integer(ip), intent(out) :: nit(:), rinfo(:), info
+        type(tree_model) :: mf
+        integer, allocatable :: lstart(:), lidx(:)
+        integer :: newidx(0:m%nv), i, n, nd
+        n = size(qcmd, 2)
+        nd = m%ndof
+        qout = 0.0_dp
+        resp = 0.0_dp
+        resr = 0.0_dp
+        nit = 0
+        rinfo = sk_ok
+        info = sk_err_size
+        if (size(theta) /= m%npar .or. size(qcmd, 1) /= nd .or. size(frame) /= n &
+            .or. any(shape(rtarget) /= [3, 3, n]) .or. any(shape(ptarget) /= [3, n]) &
+            .or. size(lvj) /= size(lpost) .or. any(shape(lw) /= [6, size(lpost)]) &
+            .or. any(shape(qout) /= [nd, n]) .or. size(resp) /= n .or. size(resr) /= n &
+            .or. size(nit) /= n .or. size(rinfo) /= n) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(theta) .and. all_finite(qcmd) .and. all_finite(rtarget) .and. all_finite(ptarget) &
+            .and. all_finite(lw) .and. etol == etol .and. ptol == ptol .and. rtol == rtol)) return
+        info = sk_err_argument
+        if (any(frame < 0) .or. any(frame > m%nv) .or. any(lvj < 0) .or. any(lvj > m%nv) .or. maxit < 0 &
+            .or. full6 < 0 .or. full6 > 1) return
+        do i = 1, n
+            if (.not. is_rotation(rtarget(:, :, i))) return
+        end do
+        call group_by(lpost, n, lstart, lidx, info)
+        if (info /= sk_ok) return
+        ! the frames of the rows and payloads stay; constant joints fold away
+        call fold_for_frames(m, theta, frame, lvj, mf, newidx, info)
+        if (info /= sk_ok) return
+        call compensate_rows(mf, theta, newidx(frame), qcmd, rtarget, ptarget, lstart, lidx, newidx(lvj), lw, &
+            full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
+        info = sk_ok
+    end subroutine compensate_batch
+
+    !> The rows of compensate_batch on a validated (folded) model.
+    subroutine compensate_rows(m, theta, frame, qcmd, rtarget, ptarget, lstart, lidx, lvj, lw, full6, eqit, etol, &
+            maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol
+        integer, intent(in) :: frame(:), lstart(:), lidx(:), lvj(:)
+        integer(ip), intent(in) :: full6, eqit, maxit
+        real(dp), intent(inout) :: qout(:, :), resp(:), resr(:)
+        integer(ip), intent(inout) :: nit(:), rinfo(:)
+        type(tree_state) :: st
+        integer :: ent_vj(m%nv), ent_col(m%nv), nent, i, n, nd, nr, it, k, f
+        integer :: lawcol(nsym, m%nk)
+        integer(ip) :: lvjp(size(lvj))
+        real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof + 1), jq(6, m%ndof + 1), rf(3, 3), pf(3), ep(3), er(3), b(6), &
+            re(m%ne), eprev, erot, dqlast
+        real(dp), allocatable :: a(:, :), q(:), dq(:), dqn(:)
+        logical :: done, coupled, reuse, factored
+        integer(ip) :: sinfo
+        integer, allocatable :: lsel(:)
+        n = size(qcmd, 2)
+        nd = m%ndof
+        lvjp = lvj
+        call q_drivers(m, ent_vj, ent_col, ent_coef, nent)
+        lawcol = 0
+        nr = merge(6, 3, full6 == 1)
+        k = min(nr, nd)
+        allocate(a(nr, nd), q(nd), dq(nd), dqn(nd))
+        call state_init(m, st, m%qcol > 0)
+        coupled = eqit >= 2 .and. m%ne > 0
+        do i = 1, n
+            f = frame(i)
+            q = qcmd(:, i)
+            lsel = lidx(lstart(i):lstart(i + 1) - 1)
+            done = .false.
+            factored = .false.
+            eprev = huge(1.0_dp)
+            dqlast = huge(1.0_dp)
+            st%delta = 0.0_dp
+            do it = 0, maxit
+                if (coupled) then
+                    ! one frame evaluation per step: q and the deflections are
+                    ! solved together (re: the equilibrium residual)
+                    call posture_values(m, theta, q, st)
+                    st%eqit = eqit
+                    call deflected_frames(m, st)
+                    call load_state(m, st, lsel, lvjp, lw)
+                    call apply_laws(m, st, re)
+                    re = st%delta - re
+                    st%conv = deflection_change(m, re) <= etol
+                else
+                    call solve_posture(m, theta, q, lsel, lvjp, lw, eqit, etol, .false., st)
+                    re = 0.0_dp
+                end if
+                if (f > 0) then
+                    rf = st%ra(:, :, f)
+                    pf = st%pa(:, f)
+                else
+                    rf = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+                    pf = 0.0_dp
+                end if
+                ep = ptarget(:, i) - pf
+                er = rot_log(matmul(rtarget(:, :, i), transpose(rf)))
+                resp(i) = norm2(ep)
+                resr(i) = norm2(er)
+                nit(i) = it
+                done = st%conv .and. resp(i) <= ptol .and. (full6 == 0 .or. resr(i) <= rtol)
+                if ((done .and. nd <= nr) .or. it == maxit .or. k == 0) exit
+                ! total Jacobian J = J_q + J_delta Z; column nd + 1: J_delta y,
+                ! the frame motion of the equilibrium correction y. Once the pose
+                ! error fell tenfold in a step shorter than 1e-3, the factors of
+                ! I - D G_ee are kept (they change with q by far less than
+                ! Newton needs)
+                erot = 0.0_dp
+                if (nr == 6) erot = m%lscale*resr(i)
+                reuse = factored .and. resp(i) + erot <= 0.1_dp*eprev .and. dqlast <= 1.0e-3_dp
+                eprev = resp(i) + erot
+                call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, &
+                    zq(:, 1:nd), sinfo, re, zq(:, nd + 1), reuse)
+                if (sinfo /= sk_ok) exit
+                factored = .true.
+                call frame_jacobian(m, st, f, zq, rf, pf, jq)
+                a(1:3, :) = jq(1:3, 1:nd)
+                b(1:3) = ep + jq(1:3, nd + 1)
+                if (nr == 6) then
+                    a(4:6, :) = m%lscale*jq(4:6, 1:nd)
+                    b(4:6) = m%lscale*(er + jq(4:6, nd + 1))
+                end if
+                call least_norm_step(a, b(1:nr), qcmd(:, i) - q, dq, dqn)
+                ! a redundant chain stops when the change of q is least-norm too;
+                ! a null-space step below qtol is left out (its round-off would
+                ! keep the pose error at its floor)
+                if (done .and. norm2(dqn) <= qtol) exit
+                if (norm2(dqn) > qtol) dq = dq + dqn
+                ! a step near a singular posture is cut to dqmax
+                if (norm2(dq) > dqmax) dq = dq*(dqmax/norm2(dq))
+                dqlast = norm2(dq)
+                q = q + dq
+                if (coupled) st%delta = st%delta + matmul(zq(:, 1:nd), dq) - zq(:, nd + 1)
+            end do
+            qout(:, i) = q
+            rinfo(i) = merge(sk_ok, sk_err_noconv, done)
+        end do
+    end subroutine compensate_rows
+
+    !> Newton step of the compensation for rows a[nr,nd] and errors b[nr]:
+    !> dq = A^+ b, the least-norm (least-squares when nd < nr) solution, and
+    !> dqn = (I - A^+ A) pull, the part of the pull towards the command in
+    !> A's null space. Through the small matrix A A^T (A^T A when nd < nr)
+    !> with a ridge of 1e-15 of its trace: Cholesky (spd_inverse_small), or, when
+    !> that fails (a singular posture), its eigenvectors by cyclic Jacobi
+    !> with the eigenvalues below 1e-14 of the largest dropped.
+    subroutine least_norm_step(a, b, pull, dq, dqn)
+        real(dp), intent(in) :: a(:, :), b(:), pull(:)
+        real(dp), intent(out) :: dq(:), dqn(:)
+        integer :: nr, nd
+        nr = size(a, 1)
+        nd = size(a, 2)
+        if (nd >= nr) then
+            call row_form(nr)
+        else
+            call column_form(nd)
+        end if
+    contains
+        subroutine row_form(n)
+            integer, intent(in) :: n
+            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), t(n), lmax, bound
+            logical :: ok
+            integer :: i
+            mm = matmul(a, transpose(a))
+            lmax = 0.0_dp
+            do i = 1, n
+                lmax = lmax + mm(i, i)
+            end do
+            do i = 1, n
+                mm(i, i) = mm(i, i) + 1.0e-15_dp*lmax
+            end do
+            call spd_inverse_small(n, mm, mi, bound, ok)
+            if (.not. ok) then
+                call jacobi_eig(n, mm, lam, u)
+                lmax = max(lam(n), tiny(1.0_dp))
+                mi = 0.0_dp
+                do i = 1, n
+                    if (lam(i) > 1.0e-14_dp*lmax) mi = mi + spread(u(:, i), 2, n)*spread(u(:, i), 1, n)/lam(i)
+                end do
+            end if
+            t = matmul(mi, b)
+            dq = matmul(t, a)
+            dqn = 0.0_dp
+            if (size(a, 2) == n) return
+            t = matmul(mi, matmul(a, pull))
+            dqn = pull - matmul(t, a)
+        end subroutine row_form
+        subroutine column_form(n)
+            integer, intent(in) :: n
+            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), lmax, bound
+            logical :: ok
+            integer :: i
+            mm = matmul(transpose(a), a)
+            lmax = 0.0_dp
+            do i = 1, n
+                lmax = lmax + mm(i, i)
+            end do
+            do i = 1, n
+                mm(i, i) = mm(i, i) + 1.0e-15_dp*lmax
+            end do
+            call spd_inverse_small(n, mm, mi, bound, ok)
+            if (.not. ok) then
+                call jacobi_eig(n, mm, lam, u)
+                lmax = max(lam(n), tiny(1.0_dp))
+                mi = 0.0_dp
+                do i = 1, n
+                    if (lam(i) > 1.0e-14_dp*lmax) mi = mi + spread(u(:, i), 2, n)*spread(u(:, i), 1, n)/lam(i)
+                end do
+            end if
+            dq = matmul(mi, matmul(b, a))
+            dqn = 0.0_dp
+        end subroutine column_form
+    end subroutine least_norm_step
+
+end module sk_tree_solve
