@@ -60,36 +60,84 @@ def _check(info: int, routine: str) -> None:
     check(info, routine, _DETAILS)
 
 
-def poses(ne: int, model: dict, theta: np.ndarray, q: np.ndarray, loads: tuple | None, eqit: int,
-          etol: float) -> dict[str, np.ndarray]:
+def poses(
+    ne: int, model: dict, theta: np.ndarray, q: np.ndarray, loads: tuple | None, eqit: int, etol: float
+) -> dict[str, np.ndarray]:
     """Frames after motion ``ra`` (np, nv, 3, 3), ``pa`` (np, nv, 3), generalised
     gravity forces ``wv`` (np, nv) and per joint coordinate ``tauq`` (np, ndof),
     deflections ``delta`` (np, ne), ``nit``, ``eqinfo`` (np,) at postures q (np, ndof)."""
     ra, pa, wv, tauq, delta, nit, eqinfo, info = _tree.sk_tree_poses(
-        int(ne), **model, theta=_f(theta), q=_f(np.asarray(q, float).T), **_loads(loads), eqit=int(eqit),
-        etol=float(etol))
+        int(ne),
+        **model,
+        theta=_f(theta),
+        q=_f(np.asarray(q, float).T),
+        **_loads(loads),
+        eqit=int(eqit),
+        etol=float(etol),
+    )
     _check(info, "tree poses (sk_tree_poses)")
-    return {"ra": np.transpose(ra, (3, 2, 0, 1)), "pa": np.transpose(pa, (2, 1, 0)), "wv": wv.T.copy(),
-            "tauq": tauq.T.copy(), "delta": delta.T.copy(), "nit": nit, "eqinfo": eqinfo}
+    return {
+        "ra": np.transpose(ra, (3, 2, 0, 1)),
+        "pa": np.transpose(pa, (2, 1, 0)),
+        "wv": wv.T.copy(),
+        "tauq": tauq.T.copy(),
+        "delta": delta.T.copy(),
+        "nit": nit,
+        "eqinfo": eqinfo,
+    }
 
 
-def evaluate(ne: int, model: dict, theta: np.ndarray, q: np.ndarray, loads: tuple | None, posture: np.ndarray,
-             marker: np.ndarray, xyz: np.ndarray, weight: np.ndarray, free: np.ndarray, eqit: int,
-             etol: float) -> dict[str, np.ndarray]:
+def evaluate(
+    ne: int,
+    model: dict,
+    theta: np.ndarray,
+    q: np.ndarray,
+    loads: tuple | None,
+    posture: np.ndarray,
+    marker: np.ndarray,
+    xyz: np.ndarray,
+    weight: np.ndarray,
+    free: np.ndarray,
+    eqit: int,
+    etol: float,
+) -> dict[str, np.ndarray]:
     """Predicted points ``pred`` (no, 3), weighted residuals ``res`` (3 no,)
     = sqrt(w) (pred - xyz) ordered point by point, their Jacobian ``jac``
     (3 no, nfree) w.r.t. theta[free], ``delta`` (np, ne), ``nit``, ``eqinfo``."""
     free = np.asarray(free, int)
     pred, res, jac, delta, nit, eqinfo, info = _tree.sk_tree_evaluate(
-        int(ne), **model, theta=_f(theta), q=_f(np.asarray(q, float).T), **_loads(loads),
-        **_obs(posture, marker, xyz, weight), free=_i(free + 1), eqit=int(eqit), etol=float(etol))
+        int(ne),
+        **model,
+        theta=_f(theta),
+        q=_f(np.asarray(q, float).T),
+        **_loads(loads),
+        **_obs(posture, marker, xyz, weight),
+        free=_i(free + 1),
+        eqit=int(eqit),
+        etol=float(etol),
+    )
     _check(info, "tree evaluation (sk_tree_evaluate)")
     return {"pred": pred.T.copy(), "res": res, "jac": jac, "delta": delta.T.copy(), "nit": nit, "eqinfo": eqinfo}
 
 
-def lm(ne: int, model: dict, theta0: np.ndarray, q: np.ndarray, loads: tuple | None, posture: np.ndarray,
-       marker: np.ndarray, xyz: np.ndarray, weight: np.ndarray, free: np.ndarray, eqit: int, etol: float,
-       maxit: int = 100, ftol: float = 1e-12, xtol: float = 1e-12, gtol: float = 1e-12) -> dict:
+def lm(
+    ne: int,
+    model: dict,
+    theta0: np.ndarray,
+    q: np.ndarray,
+    loads: tuple | None,
+    posture: np.ndarray,
+    marker: np.ndarray,
+    xyz: np.ndarray,
+    weight: np.ndarray,
+    free: np.ndarray,
+    eqit: int,
+    etol: float,
+    maxit: int = 100,
+    ftol: float = 1e-12,
+    xtol: float = 1e-12,
+    gtol: float = 1e-12,
+) -> dict:
     """Levenberg-Marquardt on theta[free] from theta0: ``theta``, ``hist``
     (cost after each accepted step), ``niter``, ``reason`` (LM_REASONS),
     ``converged``, ``jac`` and ``res`` at theta, and ``rref``: the core
@@ -101,39 +149,103 @@ def lm(ne: int, model: dict, theta0: np.ndarray, q: np.ndarray, loads: tuple | N
     if free.size == 0:
         raise InputError("no free parameter to fit")
     theta, hist, nhist, niter, reason, jac, res, rref, info = _tree.sk_tree_lm(
-        int(ne), **model, theta0=_f(theta0), q=_f(np.asarray(q, float).T), **_loads(loads),
-        **_obs(posture, marker, xyz, weight), free=_i(free + 1), eqit=int(eqit), etol=float(etol),
-        maxit=int(maxit), ftol=float(ftol), xtol=float(xtol), gtol=float(gtol))
+        int(ne),
+        **model,
+        theta0=_f(theta0),
+        q=_f(np.asarray(q, float).T),
+        **_loads(loads),
+        **_obs(posture, marker, xyz, weight),
+        free=_i(free + 1),
+        eqit=int(eqit),
+        etol=float(etol),
+        maxit=int(maxit),
+        ftol=float(ftol),
+        xtol=float(xtol),
+        gtol=float(gtol),
+    )
     if info != 7:
         _check(info, "Levenberg-Marquardt (sk_tree_lm)")
-    return {"theta": theta, "hist": hist[:nhist].copy(), "niter": int(niter), "reason": int(reason),
-            "converged": info == 0, "jac": jac, "res": res, "rref": rref}
+    return {
+        "theta": theta,
+        "hist": hist[:nhist].copy(),
+        "niter": int(niter),
+        "reason": int(reason),
+        "converged": info == 0,
+        "jac": jac,
+        "res": res,
+        "rref": rref,
+    }
 
 
-def frame_jacobian(ne: int, model: dict, theta: np.ndarray, frame: np.ndarray, q: np.ndarray,
-                   loads: tuple | None, eqit: int, etol: float) -> dict[str, np.ndarray]:
+def frame_jacobian(
+    ne: int,
+    model: dict,
+    theta: np.ndarray,
+    frame: np.ndarray,
+    q: np.ndarray,
+    loads: tuple | None,
+    eqit: int,
+    etol: float,
+) -> dict[str, np.ndarray]:
     """Pose (``R`` (np, 3, 3), ``p`` (np, 3), base) of virtual joint frame[i]
     (1-based) at postures q (np, ndof), at equilibrium, and its total Jacobian
     ``J`` (np, 6, ndof) w.r.t. q (origin velocity, angular velocity)."""
     rf, pf, jq, delta, nit, eqinfo, info = _tree.sk_tree_frame_jacobian(
-        int(ne), **model, theta=_f(theta), frame=_i(frame), q=_f(np.asarray(q, float).T), **_loads(loads),
-        eqit=int(eqit), etol=float(etol))
+        int(ne),
+        **model,
+        theta=_f(theta),
+        frame=_i(frame),
+        q=_f(np.asarray(q, float).T),
+        **_loads(loads),
+        eqit=int(eqit),
+        etol=float(etol),
+    )
     _check(info, "frame Jacobian (sk_tree_frame_jacobian)")
-    return {"R": np.transpose(rf, (2, 0, 1)), "p": pf.T.copy(), "J": np.transpose(jq, (2, 0, 1)),
-            "delta": delta.T.copy(), "nit": nit, "eqinfo": eqinfo}
+    return {
+        "R": np.transpose(rf, (2, 0, 1)),
+        "p": pf.T.copy(),
+        "J": np.transpose(jq, (2, 0, 1)),
+        "delta": delta.T.copy(),
+        "nit": nit,
+        "eqinfo": eqinfo,
+    }
 
 
-def compensate(ne: int, model: dict, theta: np.ndarray, frame: np.ndarray, qcmd: np.ndarray, rtarget: np.ndarray,
-               ptarget: np.ndarray, loads: tuple | None, full6: bool, eqit: int, etol: float, maxit: int = 50,
-               ptol: float = 1e-12, rtol: float = 1e-12) -> dict[str, np.ndarray]:
+def compensate(
+    ne: int,
+    model: dict,
+    theta: np.ndarray,
+    frame: np.ndarray,
+    qcmd: np.ndarray,
+    rtarget: np.ndarray,
+    ptarget: np.ndarray,
+    loads: tuple | None,
+    full6: bool,
+    eqit: int,
+    etol: float,
+    maxit: int = 50,
+    ptol: float = 1e-12,
+    rtol: float = 1e-12,
+) -> dict[str, np.ndarray]:
     """Joint commands ``q`` (nr, ndof) that put virtual joint frame[i] (1-based)
     at (rtarget[i], ptarget[i]) (base axes): the pose when ``full6``, else
     the position; ``resp`` (m), ``resr`` (rad) left, ``nit``, ``rinfo`` per row."""
     qout, resp, resr, nit, rinfo, info = _tree.sk_tree_compensate(
-        int(ne), **model, theta=_f(theta), frame=_i(frame), qcmd=_f(np.asarray(qcmd, float).T),
-        rtarget=_f(np.transpose(np.asarray(rtarget, float), (1, 2, 0))), ptarget=_f(np.asarray(ptarget, float).T),
-        **_loads(loads), full6=int(bool(full6)), eqit=int(eqit), etol=float(etol), maxit=int(maxit),
-        ptol=float(ptol), rtol=float(rtol))
+        int(ne),
+        **model,
+        theta=_f(theta),
+        frame=_i(frame),
+        qcmd=_f(np.asarray(qcmd, float).T),
+        rtarget=_f(np.transpose(np.asarray(rtarget, float), (1, 2, 0))),
+        ptarget=_f(np.asarray(ptarget, float).T),
+        **_loads(loads),
+        full6=int(bool(full6)),
+        eqit=int(eqit),
+        etol=float(etol),
+        maxit=int(maxit),
+        ptol=float(ptol),
+        rtol=float(rtol),
+    )
     if info == 7:
         raise ConvergenceError("compensation (sk_tree_compensate): the Newton iteration did not converge")
     _check(info, "compensation (sk_tree_compensate)")

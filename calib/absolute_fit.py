@@ -47,8 +47,18 @@ DROP_TOL = 1e-7
 #: ... and shorter than this, near-redundant (merged into the parameters it nearly duplicates)
 MERGE_TOL = 1e-4
 #: order in which kinds are kept when columns are dependent
-PREFERENCE = ("tracker", "marker", "joint_offset", "frame", "joint", "lateral", "joint_cubic", "joint_deadzone",
-              "link", "base")
+PREFERENCE = (
+    "tracker",
+    "marker",
+    "joint_offset",
+    "frame",
+    "joint",
+    "lateral",
+    "joint_cubic",
+    "joint_deadzone",
+    "link",
+    "base",
+)
 #: standardised distance beyond which a robust fit sets a row aside: sqrt of chi2_3 at 99.9 %
 SET_ASIDE = math.sqrt(16.266)
 #: Huber's constant on the standardised distance: sqrt of chi2_3 at 95 %
@@ -120,14 +130,29 @@ def _marker_index(model: TreeModel, data: AbsoluteData) -> np.ndarray:
     return lut[data.frame]
 
 
-def predict(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray | None = None,
-            weight: np.ndarray | None = None) -> dict:
+def predict(
+    model: TreeModel,
+    data: AbsoluteData,
+    theta: np.ndarray,
+    free: np.ndarray | None = None,
+    weight: np.ndarray | None = None,
+) -> dict:
     """The core's evaluation of ``data`` at theta: ``pred`` (n, 3), weighted
     residuals ``res`` and, for ``free``, their Jacobian ``jac``."""
     free = np.zeros(0, int) if free is None else np.asarray(free, int)
     return core.evaluate(
-        model.ne, model.arrays, theta, data.Q, _loads(model, data), data.posture, _marker_index(model, data),
-        data.xyz, data.weight if weight is None else weight, free, model.eqit, 1e-9,
+        model.ne,
+        model.arrays,
+        theta,
+        data.Q,
+        _loads(model, data),
+        data.posture,
+        _marker_index(model, data),
+        data.xyz,
+        data.weight if weight is None else weight,
+        free,
+        model.eqit,
+        1e-9,
     )
 
 
@@ -249,27 +274,46 @@ class AbsoluteFit:
         out = []
         for i, p in enumerate(self.model.params):
             s = self.std[i]
-            out.append({"name": p.name, "value": float(self.theta[i]),
-                        "std": None if not np.isfinite(s) else float(s), "group": self.groups[i],
-                        "kind": p.kind, "target": p.target})
+            out.append(
+                {
+                    "name": p.name,
+                    "value": float(self.theta[i]),
+                    "std": None if not np.isfinite(s) else float(s),
+                    "group": self.groups[i],
+                    "kind": p.kind,
+                    "target": p.target,
+                }
+            )
         return out
 
     def to_json(self) -> dict:
         after = position_stats(self.residual, self.data.frame, self.data.frames)
         before = position_stats(self.before, self.data.frame, self.data.frames)
         out = {k: after[k] for k in ("mean_position_m", "rms_position_m", "max_position_m", "axes")}
-        out["compensated_fraction"] = (1.0 - after["rms_position_m"] / before["rms_position_m"]
-                                       if before["rms_position_m"] > 0 else 0.0)
+        out["compensated_fraction"] = (
+            1.0 - after["rms_position_m"] / before["rms_position_m"] if before["rms_position_m"] > 0 else 0.0
+        )
         out["parameters"] = self.parameters()
         out.update(
-            kind="absolute", frames=after.get("frames", {}), before=before, tracker=self.tracker(),
-            n_rows=self.data.n, n_postures=self.data.n_postures, n_parameters=int(len(self.model.params)),
-            n_identified=int(self.reduction.kept.size), chi2=self.chi2, dof=self.dof,
-            sigma_m=self.sigma if math.isfinite(self.sigma) else None, sigma_declared=self.sigma_declared,
-            iterations=self.iterations, converged=self.converged, stop_reason=self.reason,
+            kind="absolute",
+            frames=after.get("frames", {}),
+            before=before,
+            tracker=self.tracker(),
+            n_rows=self.data.n,
+            n_postures=self.data.n_postures,
+            n_parameters=int(len(self.model.params)),
+            n_identified=int(self.reduction.kept.size),
+            chi2=self.chi2,
+            dof=self.dof,
+            sigma_m=self.sigma if math.isfinite(self.sigma) else None,
+            sigma_declared=self.sigma_declared,
+            iterations=self.iterations,
+            converged=self.converged,
+            stop_reason=self.reason,
             dropped=[{"name": n, "reason": r} for n, r in self.reduction.dropped],
             merged=[{"name": n, "reason": r} for n, r in self.reduction.merged],
-            model=str(self.model.path) if self.model.path else None, measurements=self.data.path,
+            model=str(self.model.path) if self.model.path else None,
+            measurements=self.data.path,
             notes=self.notes,
         )
         if self.cv is not None:
@@ -279,14 +323,29 @@ class AbsoluteFit:
         return out
 
 
-def _lm(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, weight: np.ndarray,
-        maxit: int) -> dict:
-    return core.lm(model.ne, model.arrays, theta, data.Q, _loads(model, data), data.posture,
-                   _marker_index(model, data), data.xyz, weight, free, model.eqit, 1e-9, maxit=maxit)
+def _lm(
+    model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, weight: np.ndarray, maxit: int
+) -> dict:
+    return core.lm(
+        model.ne,
+        model.arrays,
+        theta,
+        data.Q,
+        _loads(model, data),
+        data.posture,
+        _marker_index(model, data),
+        data.xyz,
+        weight,
+        free,
+        model.eqit,
+        1e-9,
+        maxit=maxit,
+    )
 
 
-def _solve(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, weight: np.ndarray,
-           maxit: int) -> tuple[TreeModel, dict]:
+def _solve(
+    model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, weight: np.ndarray, maxit: int
+) -> tuple[TreeModel, dict]:
     """LM from theta; the model returned carries the re-centred tracker rotation."""
     r = _lm(model, data, theta, free, weight, maxit)
     m = model.copy()
@@ -294,8 +353,15 @@ def _solve(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.nda
     return m, r
 
 
-def fit_absolute(model: TreeModel, data: AbsoluteData, sigma_position: float | None = None, cv: int = 0,
-                 robust: bool = False, maxit: int = 200, seed: int = 0) -> AbsoluteFit:
+def fit_absolute(
+    model: TreeModel,
+    data: AbsoluteData,
+    sigma_position: float | None = None,
+    cv: int = 0,
+    robust: bool = False,
+    maxit: int = 200,
+    seed: int = 0,
+) -> AbsoluteFit:
     """Identify ``model``'s free parameters from ``data`` (module docstring)."""
     if sigma_position is not None and not (math.isfinite(sigma_position) and sigma_position > 0):
         raise InputError(f"sigma_position must be a positive length in m, got {sigma_position}")
@@ -347,10 +413,23 @@ def fit_absolute(model: TreeModel, data: AbsoluteData, sigma_position: float | N
     for n, _why in red.merged:
         groups[model.index(n)] = "near-redundant"
     fit = AbsoluteFit(
-        model=model, data=data, theta=theta, reduction=red, std=std, groups=groups, residual=resid,
-        before=before, sigma=sigma, sigma_declared=declared is not None, chi2=chi2, dof=int(dof),
-        iterations=sol["niter"], converged=sol["converged"], reason=core.LM_REASONS.get(sol["reason"], "?"),
-        weight=w, robust=robust_info,
+        model=model,
+        data=data,
+        theta=theta,
+        reduction=red,
+        std=std,
+        groups=groups,
+        residual=resid,
+        before=before,
+        sigma=sigma,
+        sigma_declared=declared is not None,
+        chi2=chi2,
+        dof=int(dof),
+        iterations=sol["niter"],
+        converged=sol["converged"],
+        reason=core.LM_REASONS.get(sol["reason"], "?"),
+        weight=w,
+        robust=robust_info,
     )
     if not sol["converged"]:
         fit.notes.append(f"the fit did not converge: {fit.reason}; the values are the best found")
@@ -359,8 +438,9 @@ def fit_absolute(model: TreeModel, data: AbsoluteData, sigma_position: float | N
     return fit
 
 
-def _robust(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, w0: np.ndarray,
-            maxit: int) -> tuple[TreeModel, dict, np.ndarray, dict]:
+def _robust(
+    model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, w0: np.ndarray, maxit: int
+) -> tuple[TreeModel, dict, np.ndarray, dict]:
     """Iteratively reweighted LM: Huber weights on the points' standardised
     distances (scale from their median), then the rows beyond SET_ASIDE
     get weight 0 and the fit is repeated."""
@@ -388,16 +468,29 @@ def _robust(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.nd
         "method": "Huber weights, then rows beyond the 99.9 % quantile set aside",
         "scale_m": s,
         "set_aside": [
-            {"line": int(data.lines[i]), "config": data.configs[data.posture[i]], "frame": data.frames[data.frame[i]],
-             "standardised_residual": float(u[i]), "distance_m": float(d[i])}
+            {
+                "line": int(data.lines[i]),
+                "config": data.configs[data.posture[i]],
+                "frame": data.frames[data.frame[i]],
+                "standardised_residual": float(u[i]),
+                "distance_m": float(d[i]),
+            }
             for i in aside
         ],
     }
     return m, sol, w, info
 
 
-def cross_validate(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, weight: np.ndarray,
-                   k: int, maxit: int = 200, seed: int = 0) -> dict:
+def cross_validate(
+    model: TreeModel,
+    data: AbsoluteData,
+    theta: np.ndarray,
+    free: np.ndarray,
+    weight: np.ndarray,
+    k: int,
+    maxit: int = 200,
+    seed: int = 0,
+) -> dict:
     """K-fold cross-validation by configuration: each fold's postures are
     predicted by the model fitted on the others (from the full fit's values)."""
     if isinstance(k, bool) or not isinstance(k, int) or k < 2:
@@ -419,5 +512,11 @@ def cross_validate(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free
         held[test] = dte.xyz - predict(_m, dte, sol["theta"])["pred"]
     ok = np.all(np.isfinite(held), axis=1) & (weight > 0)
     st = position_stats(held[ok], data.frame[ok], data.frames)
-    return {"folds": k, "mean_position_m": st["mean_position_m"], "rms_position_m": st["rms_position_m"],
-            "max_position_m": st["max_position_m"], "frames": st.get("frames", {}), "n_points": st["n_points"]}
+    return {
+        "folds": k,
+        "mean_position_m": st["mean_position_m"],
+        "rms_position_m": st["rms_position_m"],
+        "max_position_m": st["max_position_m"],
+        "frames": st.get("frames", {}),
+        "n_points": st["n_points"],
+    }

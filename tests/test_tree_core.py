@@ -4,15 +4,15 @@ The Fortran tests (tests/core/test_tree.f90) check the numerics in depth;
 these prove the Python path: argument order, hidden sizes, 1-based indices,
 Fortran-ordered outputs and the mapping of ``info`` to exceptions.
 """
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 import stiffkit
-from stiffkit._core import errors as _errors
-
 from stiffkit._core import _tree
+from stiffkit._core import errors as _errors
 
 
 def rot(axis, angle):
@@ -28,24 +28,42 @@ def arm():
     c3' 12 (cubic)."""
     z, y = np.array([0.0, 0, 1]), np.array([0.0, 1, 0])
     m = dict(
-        vparent=[0, 1, 2, 3], vtype=[1, 1, 1, 0],
+        vparent=[0, 1, 2, 3],
+        vtype=[1, 1, 1, 0],
         vaxis=np.column_stack([z, y, y, np.zeros(3)]),
         vrot=np.stack([rot(y, 0.1), np.eye(3), rot(z, -0.2), np.eye(3)], axis=2),
         vpos=np.column_stack([[0, 0, 0.4], [0.05, 0, 0.3], [0.6, 0, 0], [0.5, 0, 0.02]]),
-        qcol=[1, 2, 3, 0], qcoef=[1.0, 1, 1, 0], qconst=[0.0, 0, 0, 0],
-        gvj=[2], gpar=[10], gcoef=[1.0],
-        ktype=[1, 2], kvj=np.zeros((6, 2), int), kpar=np.zeros((21, 2), int), kw0=[1.0, 1.0],
-        bvj=[1, 2, 3], bmass=[10.0, 8.0, 5.0],
+        qcol=[1, 2, 3, 0],
+        qcoef=[1.0, 1, 1, 0],
+        qconst=[0.0, 0, 0, 0],
+        gvj=[2],
+        gpar=[10],
+        gcoef=[1.0],
+        ktype=[1, 2],
+        kvj=np.zeros((6, 2), int),
+        kpar=np.zeros((21, 2), int),
+        kw0=[1.0, 1.0],
+        bvj=[1, 2, 3],
+        bmass=[10.0, 8.0, 5.0],
         bcom=np.column_stack([[0, 0, 0.1], [0.3, 0, 0], [0.25, 0.02, 0]]),
-        grav=[0, 0, -9.81], tpar=[1, 2, 3, 4, 5, 6], rref=rot(z, 1.0),
-        mvj=[4], mpar=np.array([[7], [8], [9]]),
+        grav=[0, 0, -9.81],
+        tpar=[1, 2, 3, 4, 5, 6],
+        rref=rot(z, 1.0),
+        mvj=[4],
+        mpar=np.array([[7], [8], [9]]),
     )
     m["kvj"][0] = [2, 3]
     m["kpar"][0] = [11, 12]
     m["kpar"][1, 1] = 13
     theta = np.array([1.5, -0.5, 0.2, 0.05, -0.1, 0.2, 0.03, 0.01, -0.02, 0.01, 5e-5, 6e-5, 3e-8])
-    arrays = {k: (np.asfortranarray(v, dtype=np.int32) if np.asarray(v).dtype.kind == "i"
-                  else np.asfortranarray(v, dtype=float)) for k, v in m.items()}
+    arrays = {
+        k: (
+            np.asfortranarray(v, dtype=np.int32)
+            if np.asarray(v).dtype.kind == "i"
+            else np.asfortranarray(v, dtype=float)
+        )
+        for k, v in m.items()
+    }
     return arrays, theta
 
 
@@ -53,9 +71,21 @@ def evaluate(model, theta, q, free, eqit=100):
     no = q.shape[1]
     nl = np.zeros(0, np.int32)
     out = _tree.sk_tree_evaluate(
-        2, **model, theta=theta, q=np.asfortranarray(q), lpost=nl, lvj=nl, lw=np.zeros((6, 0), order="F"),
-        opost=np.arange(1, no + 1, dtype=np.int32), omark=np.ones(no, np.int32), oxyz=np.zeros((3, no), order="F"),
-        owt=np.ones(no), free=np.asarray(free, np.int32), eqit=eqit, etol=1e-15)
+        2,
+        **model,
+        theta=theta,
+        q=np.asfortranarray(q),
+        lpost=nl,
+        lvj=nl,
+        lw=np.zeros((6, 0), order="F"),
+        opost=np.arange(1, no + 1, dtype=np.int32),
+        omark=np.ones(no, np.int32),
+        oxyz=np.zeros((3, no), order="F"),
+        owt=np.ones(no),
+        free=np.asarray(free, np.int32),
+        eqit=eqit,
+        etol=1e-15,
+    )
     return out
 
 
@@ -66,8 +96,8 @@ def test_jacobian_matches_central_differences():
     free = np.arange(1, theta.size + 1)
     pred, res, jac, delta, nit, eqinfo, info = evaluate(model, theta, q, free)
     _errors.check(info, "sk_tree_evaluate")
-    assert np.all(eqinfo == 0) and np.max(np.abs(delta)) > 1e-3   # deflections matter
-    np.testing.assert_allclose(res, pred.T.ravel())               # weights 1, measured 0
+    assert np.all(eqinfo == 0) and np.max(np.abs(delta)) > 1e-3  # deflections matter
+    np.testing.assert_allclose(res, pred.T.ravel())  # weights 1, measured 0
     for k in range(theta.size):
         h = 1e-2 * abs(theta[k]) if k >= 10 else 1e-5
         tp, tm = theta.copy(), theta.copy()
@@ -79,7 +109,7 @@ def test_jacobian_matches_central_differences():
 
 def test_bad_input_maps_to_input_error():
     model, theta = arm()
-    model["vparent"] = np.array([0, 1, 3, 2], np.int32)           # parent after its child
+    model["vparent"] = np.array([0, 1, 3, 2], np.int32)  # parent after its child
     info = evaluate(model, theta, np.zeros((3, 2)), [1])[-1]
     assert info == 6
     with pytest.raises(stiffkit.InputError, match="sk_tree_evaluate"):
@@ -99,9 +129,25 @@ def test_lm_recovers_tracker_and_compliance():
     start[3:6] += 0.02
     start[10:12] *= 1.3
     out = _tree.sk_tree_lm(
-        2, **model, theta0=start, q=np.asfortranarray(q), lpost=nl, lvj=nl, lw=np.zeros((6, 0), order="F"),
-        opost=np.arange(1, no + 1, dtype=np.int32), omark=np.ones(no, np.int32), oxyz=np.asfortranarray(truth),
-        owt=np.ones(no), free=free, eqit=100, etol=1e-14, maxit=50, ftol=1e-14, xtol=1e-14, gtol=0.0)
+        2,
+        **model,
+        theta0=start,
+        q=np.asfortranarray(q),
+        lpost=nl,
+        lvj=nl,
+        lw=np.zeros((6, 0), order="F"),
+        opost=np.arange(1, no + 1, dtype=np.int32),
+        omark=np.ones(no, np.int32),
+        oxyz=np.asfortranarray(truth),
+        owt=np.ones(no),
+        free=free,
+        eqit=100,
+        etol=1e-14,
+        maxit=50,
+        ftol=1e-14,
+        xtol=1e-14,
+        gtol=0.0,
+    )
     fit, hist, nhist, niter, reason, jac, res, rref, info = out
     _errors.check(info, "sk_tree_lm")
     assert hist[nhist - 1] < 1e-24 and np.all(np.diff(hist[:nhist]) <= 0)
