@@ -196,20 +196,27 @@ def tracker_start(model: TreeModel, data: AbsoluteData, theta: np.ndarray) -> np
 
 
 def reduce_parameters(model: TreeModel, jac: np.ndarray, free: np.ndarray) -> Reduction:
-    """The rank-revealing reduction of the free parameters (module docstring)."""
+    """The rank-revealing reduction of the free parameters (module docstring).
+
+    A column is negligible when it is below 1e-9 of the largest column of
+    its kind (the data's scale for that kind of parameter, not rounding);
+    the others are scaled to unit norm and taken in the preference order."""
     names = model.names
     A = np.asarray(jac, float)
     norms = np.linalg.norm(A, axis=0)
+    kinds = [model.params[i].kind for i in free]
+    biggest = {k: max(norms[c] for c in range(len(free)) if kinds[c] == k) for k in set(kinds)}
+    zero = np.array([norms[c] <= 1e-9 * biggest[kinds[c]] for c in range(len(free))], dtype=bool)
     kind_rank = {k: i for i, k in enumerate(PREFERENCE)}
-    order = sorted(range(len(free)), key=lambda c: (kind_rank.get(model.params[free[c]].kind, 99), c))
-    scaled = A / np.where(norms > 0, norms, 1.0)
-    keep_loose = core_calib.select_independent(scaled, np.array(order), MERGE_TOL)
-    keep_tight = core_calib.select_independent(scaled, np.array(order), DROP_TOL)
+    order = sorted(range(len(free)), key=lambda c: (kind_rank.get(kinds[c], 99), c))
+    scaled = np.where(zero, 0.0, A / np.where(norms > 0, norms, 1.0))
+    keep_loose = core_calib.select_independent(scaled, np.array(order), MERGE_TOL) & ~zero
+    keep_tight = core_calib.select_independent(scaled, np.array(order), DROP_TOL) & ~zero
     red = Reduction(kept=free[keep_loose])
     kept_cols = np.flatnonzero(keep_loose)
     for c in np.flatnonzero(~keep_loose):
         name = names[free[c]]
-        if norms[c] == 0:
+        if zero[c]:
             red.dropped.append((name, "the measurements do not depend on it (its column is zero)"))
             continue
         why = _duplicates(scaled, c, kept_cols, [names[free[k]] for k in kept_cols])
@@ -375,6 +382,13 @@ def fit_absolute(
     if free.size == 0:
         raise InputError(f"{model.path or 'model'}: every parameter is fixed; nothing to identify")
     w = data.weight.copy()
+    # the nominal model with the tracker (and markers) fitted: the error "before"
+    # and a generic point for the reduction (a marker start on a joint axis would
+    # hide that joint's parameters)
+    frames_only = np.array([i for i in free if model.params[i].kind in ("tracker", "marker")], dtype=int)
+    if frames_only.size:
+        model, sol0 = _solve(model, data, theta, frames_only, w, maxit)
+        theta = sol0["theta"]
     ev = predict(model, data, theta, free, w)
     before = data.xyz - ev["pred"]
     red = reduce_parameters(model, ev["jac"], free)

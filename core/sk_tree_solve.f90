@@ -116,7 +116,15 @@ contains
         do j = 1, n
             dsc(j) = norm2(jac(:, j))
         end do
-        where (.not. dsc > 0.0_dp) dsc = 1.0_dp
+        ! Marquardt's scales, floored relative to the largest: a column that
+        ! is zero or at round-off at the start (a marker on a joint axis, a
+        ! joint that gravity does not load) is damped like the others
+        ! instead of taking an unbounded step along it
+        if (maxval(dsc) > 0.0_dp) then
+            where (dsc < 1.0e-6_dp*maxval(dsc)) dsc = 1.0e-6_dp*maxval(dsc)
+        else
+            dsc = 1.0_dp
+        end if
         lam = 1.0e-3_dp
         nu = 2.0_dp
         reason = lm_maxit
