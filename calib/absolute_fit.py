@@ -39,6 +39,7 @@ from .._core import tree as core
 from ..errors import InputError
 from ..robot.tree_model import DEADZONE_TAU0_FRACTION, LAW_DEADZONE, TreeModel, rpy_from_matrix
 from .absolute_data import AbsoluteData
+from .crossval import config_folds
 
 __all__ = ["AbsoluteFit", "Reduction", "fit_absolute", "position_stats", "predict", "DROP_TOL", "MERGE_TOL"]
 
@@ -367,7 +368,6 @@ def fit_absolute(
     cv: int = 0,
     robust: bool = False,
     maxit: int = 200,
-    seed: int = 0,
 ) -> AbsoluteFit:
     """Identify ``model``'s free parameters from ``data`` (module docstring)."""
     if sigma_position is not None and not (math.isfinite(sigma_position) and sigma_position > 0):
@@ -448,7 +448,7 @@ def fit_absolute(
     if not sol["converged"]:
         fit.notes.append(f"the fit did not converge: {fit.reason}; the values are the best found")
     if cv:
-        fit.cv = cross_validate(model, data, theta, red.kept, w, cv, maxit, seed)
+        fit.cv = cross_validate(model, data, theta, red.kept, w, cv, maxit)
     return fit
 
 
@@ -503,20 +503,20 @@ def cross_validate(
     weight: np.ndarray,
     k: int,
     maxit: int = 200,
-    seed: int = 0,
 ) -> dict:
-    """K-fold cross-validation by configuration: each fold's postures are
-    predicted by the model fitted on the others (from the full fit's values)."""
+    """K-fold cross-validation by configuration (crossval.config_folds: the
+    configurations dealt to the folds in turn): each fold's postures are
+    predicted by the model fitted on the others, from the full fit's values."""
     if isinstance(k, bool) or not isinstance(k, int) or k < 2:
         raise InputError(f"--cv needs a whole number of folds >= 2, got {k!r}")
     if data.n_postures < k:
         raise InputError(f"{data.path}: {data.n_postures} configurations for {k} cross-validation folds")
-    rng = np.random.default_rng(seed)
-    fold_of = np.empty(data.n_postures, int)
-    fold_of[rng.permutation(data.n_postures)] = np.arange(data.n_postures) % k
+    labels = [data.configs[p] for p in data.posture]
+    folds = config_folds(labels, k)
     held = np.full((data.n, 3), np.nan)
-    for f in range(k):
-        test = fold_of[data.posture] == f
+    for rows in folds:
+        test = np.zeros(data.n, bool)
+        test[rows] = True
         train = ~test & (weight > 0)
         if not np.any(test) or not np.any(train):
             continue

@@ -46,12 +46,16 @@ import argparse
 import json
 from pathlib import Path
 
+from ..calib.absolute_diagnose import CV_FOLDS, diagnose_absolute, format_absolute_diagnosis
+from ..calib.absolute_report import format_absolute, load_absolute
 from ..calib.diagnose import diagnose, format_diagnosis
 from ..calib.fit import format_table
 from ..calib.measure import read_measurements
 from ..calib.plots import candidates_plot, fit_plots, residual_plots
 from ..errors import InputError
+from ..io.files import write_json
 from ..robot.model import KINDS, load_model
+from ..robot.tree_model import model_kind
 
 HELP = """\
 JSON (--json): the contract keys (verdict, sigma_position_m, rms_position_m,
@@ -106,7 +110,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-
+    if model_kind(args.model) == "absolute":
+        return run_absolute(args)
     model = load_model(args.model)
     meas = read_measurements(args.measurements, model.chain.dof)
     kinds = None
@@ -139,4 +144,24 @@ def run(args) -> int:
         files += residual_plots(dg, args.plots, label="diagnose")
         for f in files:
             print(f"wrote {f}")
+    return 0
+
+
+def run_absolute(args) -> int:
+    """``diagnose`` on absolute measurements (docs/calibration.md section 6.4)."""
+    model, data = load_absolute(args.model, args.measurements)
+    dg = diagnose_absolute(
+        model,
+        data,
+        sigma_position=args.sigma,
+        alpha=args.alpha,
+        cv_folds=args.cv or CV_FOLDS,
+        checks=not args.no_checks,
+    )
+    print(format_absolute(dg.fit))
+    print()
+    print(format_absolute_diagnosis(dg, top=args.top))
+    if args.json:
+        write_json(args.json, dg.to_json())
+        print(f"wrote {args.json}")
     return 0

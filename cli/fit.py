@@ -16,13 +16,18 @@ from __future__ import annotations
 import argparse
 import json
 
+from ..calib.absolute_fit import fit_absolute
+from ..calib.absolute_report import format_absolute, format_absolute_parameters, load_absolute, residual_table
 from ..calib.compare import compare
 from ..calib.fit import fit, format_parameters, format_table, write_model
 from ..calib.measure import read_measurements
 from ..calib.plots import fit_plots
 from ..calib.reduce import format_reduction, reduce_model, reduced_model
 from ..calib.robust import format_checks, robust_fit
+from ..errors import InputError
+from ..io.files import write_json
 from ..robot.model import load_model
+from ..robot.tree_model import model_kind
 
 HELP = """\
 inputs:
@@ -99,11 +104,23 @@ def register(sub) -> None:
         help="check the data (gross errors, unit slips) and fit without the rows listed",
     )
     p.add_argument("--quiet", action="store_true", help="table only, no parameter list")
+    p.add_argument(
+        "--cv",
+        type=int,
+        metavar="K",
+        help="absolute data: K-fold cross-validation with folds by config (a posture's points never split)",
+    )
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-
+    if model_kind(args.model) == "absolute":
+        return run_absolute(args)
+    if args.cv is not None:
+        raise InputError(
+            "--cv: cross-validation of a fit is for absolute data; `stiffkit diagnose --cv K` "
+            "cross-validates deflection data"
+        )
     model = load_model(args.model)
     meas = read_measurements(args.measurements, model.chain.dof)
     checks = None
@@ -147,6 +164,32 @@ def run(args) -> int:
     if args.write_model:
         write_model(res, args.write_model)
         print(f"wrote {args.write_model}")
+    if args.compare:
+        print()
+        print(compare(args.compare, out, names=("before", "now")))
+    return 0
+
+
+def run_absolute(args) -> int:
+    """``fit`` on absolute measurements (docs/calibration.md section 6.4)."""
+    model, data = load_absolute(args.model, args.measurements)
+    for w in data.warnings:
+        print(f"warning: {w}")
+    fit = fit_absolute(model, data, sigma_position=args.sigma, cv=args.cv or 0, robust=args.robust)
+    print(
+        f"model {args.model}: {len(model.effects)} effect(s), {len(model.params)} parameters; "
+        f"{data.n} points from {args.measurements}"
+    )
+    print(format_absolute(fit))
+    if not args.quiet:
+        print()
+        print(format_absolute_parameters(fit))
+        print()
+        print(residual_table(fit))
+    out = fit.to_json()
+    if args.json:
+        write_json(args.json, out)
+        print(f"wrote {args.json}")
     if args.compare:
         print()
         print(compare(args.compare, out, names=("before", "now")))

@@ -62,7 +62,12 @@ __all__ = [
     "tree_model_from_tables",
     "rpy_from_matrix",
     "GRAVITY",
+    "model_kind",
+    "MEASUREMENT_KINDS",
 ]
+
+#: [measurements] kind: relative deflections under known loads (section 3) or absolute positions (section 6)
+MEASUREMENT_KINDS = ("deflection", "absolute")
 
 ABS_KINDS = (
     "tracker",
@@ -691,3 +696,22 @@ def load_tree_model(path: str | Path) -> TreeModel:
     m.path = path
     m.robot_table = robot
     return m
+
+
+def model_kind(path: str | Path) -> str:
+    """The ``[measurements] kind`` of a model file: "deflection" (section 3,
+    the default) or "absolute" (section 6)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such model file")
+    try:
+        doc = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    meas = doc.get("measurements", {})
+    kind = meas.get("kind", "deflection") if isinstance(meas, dict) else "deflection"
+    if kind not in MEASUREMENT_KINDS:
+        raise InputError(
+            f"{path}: [measurements] kind = {kind!r}; choose one of {', '.join(repr(k) for k in MEASUREMENT_KINDS)}"
+        )
+    return kind
