@@ -21,5 +21,14 @@ __all__ = [
     "StiffkitError", "InputError", "DegenerateError", "SingularError", "ConvergenceError",
     "METHODS", "FieldFit", "Compliance", "fit_field", "fit_fields",
     "compliance_from_experiments", "section_properties", "cantilever_compliance",
-    "beam_stiffness", "normal_quantile", "load_model", "fit", "diagnose", "compare",
+    "beam_stiffness", "normal_quantile", "load_model", "fit", "diagnose", "compare", "sweep",
 ]
+
+
+def __getattr__(name):
+    # stiffkit.sweep (design sweeps on Dask) is imported on first use, so that
+    # `import stiffkit` does not import dask; the subpackage is callable
+    if name == "sweep":
+        import importlib
+        return importlib.import_module(".sweep", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

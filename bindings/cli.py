@@ -24,6 +24,7 @@ COMMANDS = [
     ("stiffkit.cmd_synth", "synth: calibration data with a known truth and hidden effects"),
     ("stiffkit.cmd_link", "link: a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)"),
     ("stiffkit.cmd_convergence", "convergence: mesh-convergence study of a link (Table 5)"),
+    ("stiffkit.cmd_sweep", "sweep: design sweep of a link on Dask (any LINK.toml keys)"),
     ("stiffkit.cmd_demo", "demo: the main job on a built-in example"),
 ]
 
@@ -32,6 +33,7 @@ examples:
   stiffkit demo                       run the built-in example
   stiffkit link examples/beam.toml --json beam.json
   stiffkit convergence examples/beam.toml --orders 1,2 --sizes 5,3,2 -j 2
+  stiffkit sweep examples/beam.toml --vary mesh.size=5,3 --vary material.E=7e10,2e11 --csv s.csv
   stiffkit field nodes.csv disp1.csv ... disp6.csv --reference 1,0,0 --loads 1000,1,1,1,1,1
   stiffkit synth kr270 --out kr270    calibration data of a KR-270-like robot
   stiffkit fit kr270/model.toml kr270/measurements.csv
