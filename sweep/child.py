@@ -143,6 +143,7 @@ def serve() -> None:
         pid = os.fork()
         if pid == 0:
             _parent_death_signal(signal.SIGTERM)
+            os.dup2(2, 1)                       # stdout is the launcher's answer channel
             code = 1
             try:
                 signal.signal(signal.SIGINT, signal.default_int_handler)

@@ -195,7 +195,7 @@ def _number(v) -> bool:
 def coerce(key: Key, value, what: str = "--vary"):
     """Convert one value (a string from the command line, or a Python value)
     to the key's type; raise PlanError naming the key and the value."""
-    shown = value if isinstance(value, str) else fmt_value(value)
+    shown = value if isinstance(value, str) else repr(value)
     bad = PlanError(f"{what} {key.text}={shown}: [{key.section}] {key.name}"
                     f"{'' if key.index is None else f' element {key.index}'} takes "
                     f"{KIND_TEXT[key.kind]}, not {shown!r}")

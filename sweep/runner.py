@@ -49,7 +49,7 @@ from .table import failed_fields, one_line
 #: the Dask worker resource runs are placed by (bytes)
 RESOURCE = "MEMORY"
 #: seconds to wait for a scheduler to answer
-CONNECT_TIMEOUT_S = 4.0
+CONNECT_TIMEOUT_S = 3.0
 #: fraction of the available memory a LocalCluster hands out
 MEMORY_FRACTION = 0.9
 #: peak memory model of a run, MB: BASE + SAFETY * PEAK_40K * (nodes / 40084) ** POWER,
@@ -72,25 +72,40 @@ class SchedulerError(StiffkitError):
 _CAD_MEASURES: dict[tuple, tuple] = {}
 
 
+@contextlib.contextmanager
+def _silent_stdout():
+    """OpenCASCADE prints its STEP statistics on file descriptor 1."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def _cad_measures(path: str) -> tuple[float, float, float]:
     """(volume, surface, edge length) of a CAD file in its own units."""
     st = os.stat(path)
     key = (path, st.st_mtime_ns, st.st_size)
     if key not in _CAD_MEASURES:
         import gmsh
-        gmsh.initialize(readConfigFiles=False)
-        try:
-            gmsh.option.setNumber("General.Terminal", 0)
-            gmsh.model.occ.importShapes(path)
-            gmsh.model.occ.synchronize()
-            occ = gmsh.model.occ
-            V = sum(occ.getMass(3, t) for _, t in gmsh.model.getEntities(3))
-            S = sum(occ.getMass(2, t) for _, t in gmsh.model.getEntities(2))
-            P = sum(occ.getMass(1, t) for _, t in gmsh.model.getEntities(1))
-        except Exception:                        # unreadable: the run itself will say why
-            V = S = P = 0.0
-        finally:
-            gmsh.finalize()
+        with _silent_stdout():
+            gmsh.initialize(readConfigFiles=False)
+            try:
+                gmsh.option.setNumber("General.Terminal", 0)
+                gmsh.model.occ.importShapes(path)
+                gmsh.model.occ.synchronize()
+                occ = gmsh.model.occ
+                V = sum(occ.getMass(3, t) for _, t in gmsh.model.getEntities(3))
+                S = sum(occ.getMass(2, t) for _, t in gmsh.model.getEntities(2))
+                P = sum(occ.getMass(1, t) for _, t in gmsh.model.getEntities(1))
+            except Exception:                    # unreadable: the run itself will say why
+                V = S = P = 0.0
+            finally:
+                gmsh.finalize()
         _CAD_MEASURES[key] = (V, S, P)
     return _CAD_MEASURES[key]
 
@@ -379,10 +394,11 @@ def open_cluster(client=None, scheduler: str | None = None, workers: int | None 
         t0 = time.perf_counter()
         with _quiet_dask():
             try:
+                _probe(addr)
                 cl = Client(addr, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
-            except (OSError, TimeoutError, ValueError) as exc:
+            except Exception as exc:
                 raise SchedulerError(f"--scheduler {addr}: no Dask scheduler answers there "
-                                     f"(waited {time.perf_counter() - t0:.0f} s: "
+                                     f"({time.perf_counter() - t0:.0f} s: "
                                      f"{one_line(str(exc) or type(exc).__name__, 160)})") from None
         try:
             yield _describe(cl, addr)
@@ -413,6 +429,24 @@ def open_cluster(client=None, scheduler: str | None = None, workers: int | None 
                 cluster.close()
                 close_launchers()
                 _stopping.clear()
+
+
+def _probe(addr: str) -> None:
+    """Connect and shake hands with whatever listens at ``addr`` (a Client
+    that fails half-way would hang on closing)."""
+    import asyncio
+    from distributed.comm import connect
+
+    async def go():
+        comm = await connect(addr, timeout=CONNECT_TIMEOUT_S)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(go(), CONNECT_TIMEOUT_S + 1))
+    except MemoryError:
+        raise OSError("something answers, but not in the Dask protocol") from None
+    except asyncio.TimeoutError:
+        raise OSError(f"no answer within {CONNECT_TIMEOUT_S:.0f} s") from None
 
 
 def _describe(client, name: str) -> Where:
