@@ -278,6 +278,29 @@ def test_a_failed_run_is_reported_and_the_others_finish(tmp_path):
             assert r["status"] == "ok" and r["nodes"] > 100 and r["reason"] == ""
     assert "FAILED" in proc.stdout and "2 of 4 runs ok, 2 failed" in proc.stdout
     assert (tmp_path / "s.png").is_file()
+    # a worker that does not see the CAD file gets it with the task
+    from stiffkit.sweep import runner
+    job = pl.make_plan(p, [pl.parse_vary("mesh.order=1")]).runs[0].job
+    cad = Path(job.geometry["step"]).read_bytes()
+    job.geometry["step"] = str(tmp_path / "elsewhere" / "box.step")
+    try:
+        out = runner.run_task({"job": job, "cache_dir": str(tmp_path / "c2"), "cad": cad})
+    finally:
+        runner.close_launchers()
+    assert out["status"] == "ok", out
+    assert out["cache_key"] == doc["runs"][0]["cache_key"]          # the key is the file's content
+
+
+def test_runs_that_differ_only_in_the_fit_share_one_fea(link, tmp_path, counting_ccx):
+    env, launches, _count, _mark = counting_ccx
+    proc = stiffkit_cli("sweep", link, "--vary", "fit.method=lin,exact,svd+-", "-j", "2", "--cache",
+                        tmp_path / "c", "--json", tmp_path / "s.json", env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert launches() == 1
+    runs = json.loads((tmp_path / "s.json").read_text())["runs"]
+    assert sorted(r["cached"] for r in runs) == [False, True, True]
+    assert len({r["cache_key"] for r in runs}) == 1
+    assert len({tuple(r[e] for e in tb.ELEMENTS) for r in runs}) == 3        # three fits
 
 
 def test_scheduler_where_nothing_listens(link, tmp_path):
