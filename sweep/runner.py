@@ -583,8 +583,13 @@ def run_jobs(jobs: list, labels: list[str], cache_dir, *, client=None, scheduler
                 i = index[f.key]
                 if f.status == "finished":
                     r = f.result()
-                else:
-                    exc = f.exception()
+                else:                          # a lost worker, a cancelled task
+                    try:
+                        exc = f.exception()
+                    except (KeyboardInterrupt, SystemExit):
+                        raise
+                    except BaseException as e:  # cancelled: there is no exception to fetch
+                        exc = e
                     r = failed_fields(f"the task failed on its worker ({type(exc).__name__}: {exc})")
                 r["memory_est_mb"] = mem[i]
                 if "t_start" in r:

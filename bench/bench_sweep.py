@@ -1,0 +1,80 @@
+"""Sweep benchmark (stiffkit sweep on Dask), figures for the README.
+
+A sweep of 8 runs of the paper's beam (1000 x 10 x 10 mm) at C3D10 3 mm
+(40k nodes each; 4 Young's moduli x 2 Poisson ratios, so that every run is
+a distinct FEA), each time into a fresh cache:
+
+1. wall time of the whole sweep with 1 and with 2 run slots (LocalCluster;
+   goal on 2 cores: >= 1.7x when memory allows);
+2. the overhead the machinery adds per run: (sweep wall time at 1 slot - the
+   sum of the runs' own mesh + FEA + fit time) / runs, cluster start, a
+   fresh process per run, scheduling and gathering included (goal < 0.5 s);
+   and Dask's own scheduling cost per task (100 empty tasks on the same kind
+   of cluster).
+
+    python bench/bench_sweep.py           # C3D10 3 mm (~5 min)
+    python bench/bench_sweep.py quick     # C3D10 5 mm (~1 min)
+"""
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+
+from stiffkit.fea.config import paper_beam
+from stiffkit.sweep.study import run_sweep
+
+VARY = {"material.E": [1.9e11, 2.0e11, 2.1e11, 2.2e11], "material.nu": [0.266, 0.3]}
+
+
+def sweep(size: float, slots: int) -> dict:
+    link = paper_beam(size)
+    with tempfile.TemporaryDirectory(prefix="bench-sweep-") as cache:
+        t0 = time.perf_counter()
+        res = run_sweep(link, VARY, jobs=slots, cache=cache)
+        wall = time.perf_counter() - t0
+    rows = res.rows
+    assert all(r["status"] == "ok" and not r["cached"] for r in rows), [r["reason"] for r in rows]
+    own = sum(r["wall_s"] for r in rows)
+    return {"wall": wall, "own": own, "n": len(rows), "nodes": rows[0]["nodes"],
+            "mem": max(r["memory_mb"] for r in rows), "est": rows[0]["memory_est_mb"],
+            "task_over": sum(r["task_s"] - r["wall_s"] for r in rows) / len(rows)}
+
+
+def dask_overhead(n: int = 100) -> float:
+    from distributed import Client, LocalCluster
+    from stiffkit.sweep.runner import RESOURCE
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None,
+                      resources={RESOURCE: 1e9}) as lc, Client(lc, set_as_default=False) as cl:
+        cl.gather([cl.submit(int, 0, pure=False, resources={RESOURCE: 1e6})])
+        t0 = time.perf_counter()
+        futs = [cl.submit(int, i, pure=False, resources={RESOURCE: 1e6}) for i in range(n)]
+        cl.gather(futs)
+        return (time.perf_counter() - t0) / n
+
+
+def main() -> None:
+    quick = "quick" in sys.argv[1:]
+    size = 5.0 if quick else 3.0
+    print(f"-- sweep of 8 runs: beam 1000 x 10 x 10 mm, C3D10 {size:g} mm, matrix route, "
+          f"{os.cpu_count()} cores; fresh cache each time")
+    res = {}
+    for slots in (1, 2):
+        load = os.getloadavg()[0]
+        r = res[slots] = sweep(size, slots)
+        print(f"  (load average {load:.2f} before, {os.getloadavg()[0]:.2f} after: other jobs on the machine)")
+        print(f"  {slots} run slot{'s' if slots > 1 else ' '}: wall {r['wall']:6.1f} s for {r['n']} runs "
+              f"({r['nodes']} nodes each, peak {r['mem']:.0f} MB, estimated {r['est']:.0f} MB); "
+              f"runs' own time {r['own']:.1f} s", flush=True)
+    one, two = res[1], res[2]
+    print(f"  speed-up 2 slots vs 1: {one['wall'] / two['wall']:.2f}x (goal >= 1.7x)")
+    print(f"  overhead per run at 1 slot: {(one['wall'] - one['own']) / one['n']:.2f} s "
+          f"((sweep wall - runs' own time) / runs; goal < 0.5 s); of which process start, "
+          f"cache write and result per task: {one['task_over']:.2f} s")
+    print(f"  Dask scheduling per task (100 empty tasks, same cluster kind): "
+          f"{1e3 * dask_overhead():.1f} ms")
+
+
+if __name__ == "__main__":
+    main()
