@@ -2,10 +2,13 @@
 
 Where runs go:
 
-* default: a LocalCluster on this machine, one worker process whose threads
-  are the run slots (as many as cores, or ``workers``), and which declares
-  the machine's memory budget as the Dask resource ``MEMORY`` (bytes: 90 %
-  of the memory available when the sweep starts, or ``memory_mb``);
+* default: a LocalCluster on this machine, one worker whose threads are the
+  run slots (as many as cores, or ``workers``) and which declares the
+  machine's memory budget as the Dask resource ``MEMORY`` (bytes: 90 % of
+  the memory available when the sweep starts, or ``memory_mb``). The worker
+  lives in the calling process (its threads only wait for the runs' own
+  processes), so nothing of the caller's ``__main__`` is imported again and
+  nothing outlives it;
 * ``scheduler="tcp://host:8786"``: a running cluster (``dask scheduler`` +
   ``dask worker``, stiffkit installed on the workers). Workers started with
   ``--resources MEMORY=<bytes>`` get the same placement by memory; without
@@ -549,6 +552,7 @@ def run_jobs(jobs: list, labels: list[str], cache_dir, *, client=None, scheduler
     ``start_s``, ``end_s``, ``task_s``)."""
     cache = Path(cache_dir).expanduser().resolve()
     cache.mkdir(parents=True, exist_ok=True)
+    _stopping.clear()
     keys, cached, _nodes, mem = plan_estimates(jobs, cache)
     bar = Progress(len(jobs), progress, stream)
     with open_cluster(client, scheduler, workers, memory_mb, len(jobs)) as where:
@@ -562,7 +566,7 @@ def run_jobs(jobs: list, labels: list[str], cache_dir, *, client=None, scheduler
         send_cad = bool(scheduler) or client is not None
         token = uuid.uuid4().hex[:8]
         t0 = time.time()
-        futs, first = [], {}
+        futs, first, needs = [], {}, []
         for i, job in enumerate(jobs):
             spec = {"job": job, "cache_dir": str(cache)}
             step = job.geometry.get("step")
@@ -570,6 +574,7 @@ def run_jobs(jobs: list, labels: list[str], cache_dir, *, client=None, scheduler
                 spec["cad"] = Path(step).read_bytes()
             after = first.get(keys[i])
             need = CACHED_MB if after is not None else mem[i]
+            needs.append(need)
             res = ({RESOURCE: min(need, where.budget_mb) * 2 ** 20} if where.budget_mb else None)
             f = cl.submit(run_task, spec, *([after] if after is not None else []), resources=res,
                           key=f"stiffkit-run-{i + 1}-{keys[i]}-{token}", pure=False, retries=0)
@@ -591,7 +596,7 @@ def run_jobs(jobs: list, labels: list[str], cache_dir, *, client=None, scheduler
                     except BaseException as e:  # cancelled: there is no exception to fetch
                         exc = e
                     r = failed_fields(f"the task failed on its worker ({type(exc).__name__}: {exc})")
-                r["memory_est_mb"] = mem[i]
+                r["memory_est_mb"] = needs[i]
                 if "t_start" in r:
                     r["start_s"], r["end_s"] = r.pop("t_start") - t0, r.pop("t_end") - t0
                     r["task_s"] = r["end_s"] - r["start_s"]

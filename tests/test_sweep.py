@@ -137,6 +137,7 @@ def test_two_worker_sweep_equals_the_runs_one_by_one(two_worker_sweep, link, tmp
 ONE_BY_ONE = """
 import json, sys
 from pathlib import Path
+import numpy as np
 from stiffkit.fea.config import parse_link
 from stiffkit.fea.job import run_link
 link = Path(sys.argv[2])
