@@ -47,8 +47,9 @@ def sweep(size: float, slots: int) -> dict:
     rows = res.rows
     assert all(r["status"] == "ok" and not r["cached"] for r in rows), [r["reason"] for r in rows]
     own = sum(r["wall_s"] for r in rows)
+    span = max(r["end_s"] for r in rows) - min(r["start_s"] for r in rows)
     return {"wall": wall, "own": own, "n": len(rows), "nodes": rows[0]["nodes"], "cpu": cpu,
-            "load": (load, os.getloadavg()[0]),
+            "load": (load, os.getloadavg()[0]), "busy": sum(r["task_s"] for r in rows) / span,
             "mem": max(r["memory_mb"] for r in rows), "est": rows[0]["memory_est_mb"],
             "task_over": sum(r["task_s"] - r["wall_s"] for r in rows) / len(rows)}
 
@@ -79,7 +80,7 @@ def main() -> None:
             print(f"  {slots} run slot{'s' if slots > 1 else ' '}: wall {r['wall']:6.1f} s for {r['n']} runs "
                   f"({r['nodes']} nodes each, peak {r['mem']:.0f} MB, estimated {r['est']:.0f} MB); "
                   f"runs' own time {r['own']:.1f} s; CPU {r['cpu']:.1f} s ({r['cpu'] / r['n']:.1f} s per run, "
-                  f"{r['cpu'] / r['wall']:.2f} cores on average); load average {r['load'][0]:.1f} before, "
+                  f"{r['cpu'] / r['wall']:.2f} cores on average; {r['busy']:.2f} runs in flight); load average {r['load'][0]:.1f} before, "
                   f"{r['load'][1]:.1f} after", flush=True)
     one = min(res[1], key=lambda r: r["wall"])
     two = min(res[2], key=lambda r: r["wall"])
