@@ -54,7 +54,7 @@ DERIVED = {("geometry", "wall"): ("float", ("tube",))}
 #: geometry keys that a shape reads (the others would be ignored silently)
 SHAPE_KEYS = {"box": {"size"}, "tube": {"length", "outer_diameter", "inner_diameter", "wall"},
               "rod": {"length", "outer_diameter"}}
-KIND_TEXT = {"float": "a number", "int": "an integer", "str": "a word or path", "bool": "true or false",
+KIND_TEXT = {"float": "a finite number", "int": "an integer", "str": "a word or path", "bool": "true or false",
              "list": "a list of numbers [a,b,...]", "list3": "a list of three numbers [x,y,z]",
              "amplitudes": "\"auto\" or six numbers [Fx,Fy,Fz,Mx,My,Mz]"}
 
