@@ -192,6 +192,17 @@ class _Launcher:
         except OSError:
             pass
 
+    def close(self, timeout: float = 5.0) -> None:
+        """End an idle launcher (EOF on its stdin) and remove its log."""
+        try:
+            self.proc.stdin.close()
+            self.proc.wait(timeout=timeout)
+        except Exception:
+            self.stop()
+            with contextlib.suppress(Exception):
+                self.proc.wait(timeout=timeout)
+        self.log_path.unlink(missing_ok=True)
+
     def alive(self) -> bool:
         return self.proc.poll() is None
 
@@ -222,10 +233,9 @@ def stop_local_runs() -> None:
     for la in todo:
         la.stop()
     for la in todo:
-        try:
+        with contextlib.suppress(Exception):
             la.proc.wait(timeout=10)
-        except Exception:
-            pass
+        la.log_path.unlink(missing_ok=True)
 
 
 def close_launchers() -> None:
@@ -234,11 +244,7 @@ def close_launchers() -> None:
         todo = list(_launchers)
         _launchers.clear()
     for la in todo:
-        try:
-            la.proc.stdin.close()              # EOF: the launcher's loop ends
-            la.proc.wait(timeout=5)
-        except Exception:
-            la.stop()
+        la.close()
 
 
 def _tmp_root() -> Path:

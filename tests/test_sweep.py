@@ -233,6 +233,7 @@ def test_interrupted_sweep_resumes_and_leaves_no_process(link, tmp_path, countin
     assert marked_processes(mark) == []                # no worker, launcher, run or ccx left
     done = len(list(cache.glob("*.npz")))
     assert 2 <= done < 4
+    assert not list(cache.glob("run-*"))                # the stopped run's folder is gone
     first = launches()
     assert first >= done
     # resume: only the runs not in the cache launch ccx
