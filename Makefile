@@ -14,11 +14,13 @@ CHECK_BUILD := build/check
 DEB_PACKAGES := gfortran liblapack-dev libopenblas-dev libsuitesparse-dev calculix-ccx tetgen pkg-config python3-venv
 PY_BUILD := numpy meson-python meson ninja
 PY_RUNTIME := matplotlib meshio gmsh tomli-w yourdfpy pytest hypothesis ruff
+# the optional extra `sweep` of pyproject.toml (stiffkit sweep / convergence run on Dask)
+PY_SWEEP := 'dask[distributed]>=2024.8' 'tqdm>=4.60'
 LINK ?= examples/beam.toml
 export OMP_NUM_THREADS ?= 1
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
-.PHONY: help system-deps venv install test test-core test-py test-valgrind lint format demo bench clean link-stiffness convergence
+.PHONY: help system-deps venv install test test-core test-py test-valgrind lint format demo bench clean link-stiffness convergence sweep
 .DEFAULT_GOAL := help
 
 help:
@@ -31,6 +33,7 @@ help:
 	@echo "  make format      ruff format + import sorting"
 	@echo "  make link-stiffness [LINK=examples/beam.toml]   compliance of a link from its CAD (FEA)"
 	@echo "  make convergence [LINK=...] [ORDERS=1,2] [SIZES=5,3,2] [JOBS=2]   mesh-convergence study"
+	@echo "  make sweep [LINK=...] VARY='mesh.size=5,3 material.E=7e10,2e11'   design sweep on Dask"
 	@echo "  make install     system packages, .venv and an editable install only"
 	@echo "  make clean       remove build directories (keeps .venv)"
 
@@ -51,7 +54,7 @@ system-deps:
 $(STAMP_DEPS): pyproject.toml | system-deps
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
-	$(PIP) install -q $(PY_BUILD) $(PY_RUNTIME)
+	$(PIP) install -q $(PY_BUILD) $(PY_RUNTIME) $(PY_SWEEP)
 	touch $@
 
 venv: system-deps $(STAMP_DEPS)
@@ -124,3 +127,11 @@ convergence: install
 	@mkdir -p out
 	$(VENV)/bin/stiffkit convergence $(LINK) --orders $(ORDERS) --sizes $(SIZES) -j $(JOBS) \
 	  --json out/convergence-$(notdir $(basename $(LINK))).json --png out/convergence-$(notdir $(basename $(LINK))).png
+
+# Design sweep (stiffkit sweep): each word of VARY is one --vary axis.
+VARY ?= mesh.size=5,3 material.E=7e10,2e11
+sweep: install
+	@mkdir -p out
+	$(VENV)/bin/stiffkit sweep $(LINK) $(foreach v,$(VARY),--vary '$(v)') \
+	  --csv out/sweep-$(notdir $(basename $(LINK))).csv --json out/sweep-$(notdir $(basename $(LINK))).json \
+	  --png out/sweep-$(notdir $(basename $(LINK))).png

@@ -50,6 +50,7 @@ COMMANDS = [
     ("stiffkit.cli.synth", "synth: calibration data with a known truth and hidden effects"),
     ("stiffkit.cli.link", "link: a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)"),
     ("stiffkit.cli.convergence", "convergence: mesh-convergence study of a link (Table 5)"),
+    ("stiffkit.cli.sweep", "sweep: design sweep of a link on Dask (any LINK.toml keys)"),
     ("stiffkit.cli.demo", "demo: the main job on a built-in example"),
 ]
 

@@ -1,8 +1,9 @@
 """``stiffkit convergence``: a mesh-convergence study of one link (Table 5).
 
 Runs the LINK.toml job for every element order and size given, in parallel
-(-j), each through the cache (an interrupted study resumes where it
-stopped), and prints per run: nodes, the largest relative error of the
+(-j: a local Dask cluster of N run slots; --scheduler: a Dask cluster), each
+in a process of its own and through the cache (an interrupted study resumes
+where it stopped), and prints per run: nodes, the largest relative error of the
 significant compliance elements (vs the closed form when the shape has one,
 else vs a Richardson extrapolation of the finest meshes), the element that
 limits it, wall time and peak memory. A PNG plots error and time vs size.
@@ -27,7 +28,12 @@ Sizes are in the geometry units of LINK.toml. Wall time includes meshing,
 the FEA and the fit; runs taken from the cache report the time and memory
 of their original run (use another --cache folder to run them again).
 Memory: peak resident size of the run's processes (ccx; Python with CHOLMOD).
+A run starts only when its memory (estimated from its node count) fits
+beside the running ones (--memory, default 90 % of the available memory).
 An interrupted study (Ctrl-C) resumes from the runs already finished.
+Runs run on the same machinery as `stiffkit sweep` (see its --help for
+--scheduler); a run that fails is listed with its reason, the others finish,
+and the exit status is 3.
 """
 
 
@@ -52,7 +58,10 @@ def register(sub) -> None:
     p.add_argument("link", help="LINK.toml of the part")
     p.add_argument("--orders", default="1,2", help="element orders, e.g. 1,2 (default %(default)s)")
     p.add_argument("--sizes", default="5,3,2", help="element sizes in geometry units (default %(default)s)")
-    p.add_argument("-j", "--jobs", type=int, default=1, help="runs in parallel (default 1)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("-j", "--jobs", type=int, help="runs in parallel on this machine (default 1)")
+    where.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument("--memory", help="memory the local runs may use, e.g. 8G (default 90 %% of what is free)")
     p.add_argument("--cache", default=".stiffkit-cache", help="cache folder (default %(default)s)")
     p.add_argument("--json", help="write the study to this JSON file")
     p.add_argument("--png", default="convergence.png", help="plot file (default %(default)s)")
@@ -67,15 +76,30 @@ def run(args) -> int:
     sizes = _list(args.sizes, float, "--sizes")
     if any(o not in (1, 2) for o in orders):
         raise InputError(f"--orders {args.orders}: orders are 1 (C3D4) and 2 (C3D10)")
-    if any(s <= 0 for s in sizes):
+    if any(not (s > 0 and s < float("inf")) for s in sizes):
         raise InputError(f"--sizes {args.sizes}: sizes must be positive")
-    if args.jobs < 1:
+    if args.jobs is not None and args.jobs < 1:
         raise InputError(f"-j {args.jobs}: at least 1")
-    study = run_study(job, orders, sizes, args.cache, jobs=args.jobs, progress=not args.quiet)
+    if args.scheduler:
+        from .sweep.runner import check_address
+
+        check_address(args.scheduler)
+    from ..sweep.study import parse_memory
+
+    study = run_study(
+        job,
+        orders,
+        sizes,
+        args.cache,
+        jobs=args.jobs or 1,
+        progress=not args.quiet,
+        scheduler=args.scheduler,
+        memory_mb=parse_memory(args.memory),
+    )
     print(table(study))
     if args.json:
         atomic_write_text(args.json, json.dumps(to_json(study), indent=1))
         print(f"wrote {args.json}")
-    if args.png:
+    if args.png and study["records"]:
         print(f"wrote {plot(study, args.png)}")
-    return 0
+    return 3 if study["failed"] else 0

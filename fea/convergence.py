@@ -1,26 +1,24 @@
 """Mesh-convergence studies (the paper's Table 5).
 
 Every (order, size) pair is one LINK job run through the cache, so an
-interrupted study resumes from the runs already finished; runs go to a
-process pool (``jobs`` workers). The error of a run is the largest relative
-error of the non-zero compliance elements against the closed form when the
-shape has one (eq. 22), else against a Richardson extrapolation of the
-finest meshes of the same order.
+interrupted study resumes from the runs already finished. Runs are tasks of
+the sweep machinery (:mod:`stiffkit.sweep.runner`, Dask): a LocalCluster of
+``jobs`` run slots placing runs by their estimated memory, or the cluster at
+``scheduler``; each run in a fresh process of its own. The error of a run is
+the largest relative error of the non-zero compliance elements against the
+closed form when the shape has one (eq. 22), else against a Richardson
+extrapolation of the finest meshes of the same order.
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
-import multiprocessing
-import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .config import LinkJob
-from .job import atomic_write_text, closed_form, run_link
+from .job import atomic_write_text, closed_form
 
 
 @dataclass
@@ -37,24 +35,6 @@ class RunRecord:
     error: float = float("nan")
     worst: str = ""
     route: str = ""
-
-
-def _one(job: LinkJob, order: int, size: float, cache_dir: str) -> dict:
-    r = run_link(job.with_mesh(order=order, size=size), cache_dir=cache_dir)
-    st = r.solution.stats
-    wall = r.solution.timing.get("mesh", 0.0) + r.solution.timing.get("fea", 0.0) + r.timing["fit"]
-    return dict(
-        order=order,
-        size=size,
-        nodes=r.mesh.n_nodes,
-        elements=r.mesh.n_elements,
-        seconds=wall,
-        memory_mb=max(st.get("ccx_max_rss_mb", 0.0), st.get("python_max_rss_mb", 0.0)),
-        compliance=r.compliance.matrix,
-        significant=r.compliance.significant,
-        cached=r.cached,
-        route=r.solution.route,
-    )
 
 
 def richardson(sizes: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float, bool]:
@@ -101,33 +81,53 @@ def _errors(records: list[RunRecord], reference: np.ndarray, nonzero: np.ndarray
         r.worst = ELEMENT_NAMES[idx]
 
 
-def run_study(job: LinkJob, orders, sizes, cache_dir: str, jobs: int = 1, progress=True) -> dict:
-    """Run every (order, size) pair, return the table data (see module)."""
+def run_study(
+    job: LinkJob,
+    orders,
+    sizes,
+    cache_dir: str,
+    jobs: int = 1,
+    progress=True,
+    scheduler: str | None = None,
+    client=None,
+    memory_mb: float | None = None,
+) -> dict:
+    """Run every (order, size) pair, return the table data (see module).
+    Runs that fail are left out of the table and listed in ``failed``."""
+    from ..sweep.runner import run_jobs
+
     pairs = [(int(o), float(s)) for o in orders for s in sizes]
+    results = run_jobs(
+        [job.with_mesh(order=o, size=s) for o, s in pairs],
+        [f"order {o} size {s:g}" for o, s in pairs],
+        cache_dir,
+        client=client,
+        scheduler=scheduler,
+        workers=None if scheduler or client else jobs,
+        memory_mb=memory_mb,
+        progress=progress,
+        title="convergence",
+    )
     records: list[RunRecord] = []
-    t0 = time.perf_counter()
-    out = sys.stderr
-
-    def report(done, rec):
-        if progress:
-            bar = "#" * done + "." * (len(pairs) - done)
-            out.write(
-                f"\r[{bar}] {done}/{len(pairs)}  order {rec.order} size {rec.size:g}: "
-                f"{rec.nodes} nodes, {rec.seconds:.1f} s{' (cache)' if rec.cached else ''}"
-                f"   elapsed {time.perf_counter() - t0:.0f} s\n"
+    failed = []
+    for (o, s), r in zip(pairs, results):
+        if r["status"] != "ok":
+            failed.append({"order": o, "size": s, "reason": r["reason"]})
+            continue
+        records.append(
+            RunRecord(
+                order=o,
+                size=s,
+                nodes=r["nodes"],
+                elements=r["elements"],
+                seconds=r["wall_s"],
+                memory_mb=r["memory_mb"],
+                compliance=np.array(r["compliance"]),
+                significant=np.array(r["significant"], dtype=bool),
+                cached=r["cached"],
+                route=r["route"],
             )
-            out.flush()
-
-    if progress:
-        out.write(f"convergence: {len(pairs)} runs, {jobs} in parallel, cache {cache_dir}\n")
-    # one fresh process per run, so that its peak memory is its own
-    ctx = multiprocessing.get_context("spawn")
-    with cf.ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, max_tasks_per_child=1) as pool:
-        futs = {pool.submit(_one, job, o, s, cache_dir): (o, s) for o, s in pairs}
-        for k, fut in enumerate(cf.as_completed(futs), 1):
-            rec = RunRecord(**fut.result())
-            records.append(rec)
-            report(k, rec)
+        )
     records.sort(key=lambda r: (r.order, -r.size))
     # a single-beam [approximation] is no reference: only a true closed form is
     cform = closed_form(job) if job.approximation is None else None
@@ -145,7 +145,14 @@ def run_study(job: LinkJob, orders, sizes, cache_dir: str, jobs: int = 1, progre
             refs[o] = (k0, p, est)
             _errors(rs, k0, finest.significant)
         basis = "Richardson extrapolation of the finest meshes of each order"
-    return {"records": records, "basis": basis, "richardson": refs, "units": job.units, "scale": job.scale}
+    return {
+        "records": records,
+        "basis": basis,
+        "richardson": refs,
+        "units": job.units,
+        "scale": job.scale,
+        "failed": failed,
+    }
 
 
 def table(study: dict) -> str:
@@ -166,6 +173,11 @@ def table(study: dict) -> str:
             f"{r.order:5d} {('C3D10' if r.order == 2 else 'C3D4'):>7s} "
             f"{r.size:5g}{study['units']:>2s} {r.nodes:8d} {100 * r.error:9.4f} {r.worst:>6s} "
             f"{r.seconds:8.1f} {r.memory_mb:8.0f} {r.route:>7s}"
+        )
+    for f in study.get("failed", []):
+        lines.append(
+            f"{f['order']:5d} {('C3D10' if f['order'] == 2 else 'C3D4'):>7s} "
+            f"{f['size']:5g}{study['units']:>2s}   FAILED: {f['reason']}"
         )
     return "\n".join(lines)
 
@@ -194,6 +206,7 @@ def to_json(study: dict) -> dict:
             }
             for r in study["records"]
         ],
+        "failed_runs": study.get("failed", []),
     }
 
 

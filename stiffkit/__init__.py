@@ -57,5 +57,16 @@ __all__ = [
     "fit",
     "diagnose",
     "compare",
+    "sweep",
     "__version__",
 ]
+
+
+def __getattr__(name: str) -> object:
+    # stiffkit.sweep (design sweeps on Dask) is imported on first use, so that
+    # `import stiffkit` does not import dask
+    if name == "sweep":
+        import importlib
+
+        return importlib.import_module(".sweep", __name__)
+    raise AttributeError(f"module 'stiffkit' has no attribute {name!r}")

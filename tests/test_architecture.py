@@ -22,6 +22,7 @@ LAYERS = [
     ("meshing", "stiffkit.meshing"),
     ("field", "stiffkit.field"),
     ("fea", "stiffkit.fea"),
+    ("sweep", "stiffkit.sweep"),
     ("robot", "stiffkit.robot"),
     ("springs", "stiffkit.springs"),
     ("calib", "stiffkit.calib"),

@@ -1,0 +1,707 @@
+"""Runs of a sweep as tasks of a Dask cluster (``dask.distributed``).
+
+Where runs go:
+
+* default: a LocalCluster on this machine, one worker whose threads are the
+  run slots (as many as cores, or ``workers``) and which declares the
+  machine's memory budget as the Dask resource ``MEMORY`` (bytes: 90 % of
+  the memory available when the sweep starts, or ``memory_mb``). The worker
+  lives in the calling process (its threads only wait for the runs' own
+  processes), so nothing of the caller's ``__main__`` is imported again and
+  nothing outlives it;
+* ``scheduler="tcp://host:8786"``: a running cluster (``dask scheduler`` +
+  ``dask worker``, stiffkit installed on the workers). Workers started with
+  ``--resources MEMORY=<bytes>`` get the same placement by memory; without
+  it Dask places runs by free threads only.
+
+Every run asks for ``MEMORY`` = its estimated peak memory (from the node
+count its mesh will have, :func:`estimate_nodes`, before anything runs), so a
+worker starts a run only when it fits beside those already running: two
+4 GB runs do not start together on an 8 GB machine. A run estimated above the
+whole budget runs alone. Each run is one task; the task runs it in a fresh
+process (:mod:`stiffkit.sweep.child`) through the FEA cache in ``cache_dir``
+(a folder every worker reaches): a finished run is never computed again, an
+interrupted sweep resumes, and runs that share an FEA (differing only in the
+fit) wait for the first one and take its result from the cache.
+
+A failed run (mesh, ccx, fit) is a row with status ``failed`` and its
+one-line reason; the other runs go on.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import logging
+import math
+import os
+import pickle
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import uuid
+from pathlib import Path
+
+from ..errors import StiffkitError
+from ..fea.job import cache_key, resolve_route
+from .table import failed_fields, one_line
+
+#: the Dask worker resource runs are placed by (bytes)
+RESOURCE = "MEMORY"
+#: seconds to wait for a scheduler to answer
+CONNECT_TIMEOUT_S = 3.0
+#: fraction of the available memory a LocalCluster hands out
+MEMORY_FRACTION = 0.9
+#: peak memory model of a run, MB: BASE + SAFETY * PEAK_40K * (nodes / 40084) ** POWER,
+#: fitted to matrix-route runs of the paper's beam (C3D10: 8557 nodes 139 MB, 40084 nodes
+#: 535 MB, 109531 nodes 1.74 GB, 237423 nodes 4.6 GB; the six-step ccx route needs less)
+BASE_MB, PEAK_40K_MB, POWER, SAFETY = 100.0, 465.0, 1.28, 1.25
+#: a run whose FEA is in the cache only loads it and fits
+CACHED_MB = 150.0
+#: node count of an unstructured gmsh mesh of size h:
+#: a V/h^3 + b S/h^2 + c P/h (V volume, S surface, P edge length), by order
+NODE_MODEL = {1: (0.680, 0.732, 0.556), 2: (5.495, 3.478, 2.437)}
+
+
+class SchedulerError(StiffkitError):
+    """No Dask scheduler answers at the address given."""
+
+
+# ---------------------------------------------------------------- estimates
+
+_CAD_MEASURES: dict[tuple, tuple] = {}
+
+
+@contextlib.contextmanager
+def _silent_stdout():
+    """OpenCASCADE prints its STEP statistics on file descriptor 1."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _cad_measures(path: str) -> tuple[float, float, float]:
+    """(volume, surface, edge length) of a CAD file in its own units."""
+    st = os.stat(path)
+    key = (path, st.st_mtime_ns, st.st_size)
+    if key not in _CAD_MEASURES:
+        import gmsh
+
+        with _silent_stdout():
+            gmsh.initialize(readConfigFiles=False)
+            try:
+                gmsh.option.setNumber("General.Terminal", 0)
+                gmsh.model.occ.importShapes(path)
+                gmsh.model.occ.synchronize()
+                occ = gmsh.model.occ
+                V = sum(occ.getMass(3, t) for _, t in gmsh.model.getEntities(3))
+                S = sum(occ.getMass(2, t) for _, t in gmsh.model.getEntities(2))
+                P = sum(occ.getMass(1, t) for _, t in gmsh.model.getEntities(1))
+            except Exception:  # unreadable: the run itself will say why
+                V = S = P = 0.0
+            finally:
+                gmsh.finalize()
+        _CAD_MEASURES[key] = (V, S, P)
+    return _CAD_MEASURES[key]
+
+
+def estimate_nodes(job) -> int:
+    """Nodes of the run's mesh, estimated from the geometry and the mesh size
+    before meshing (unstructured gmsh meshes: within ~10 % above a few
+    thousand nodes, ~35 % for a section only one or two elements across)."""
+    g = job.geometry
+    h = job.size
+    if g.get("shape") == "box":
+        L, b, c = g["size"]
+        if job.structured:
+            ext = [L, b, c]
+            along = max(range(3), key=lambda i: ext[i])
+            n = [
+                max(1, math.ceil(e / (h if i == along else job.across_factor * h) * (1 - 1e-6)))
+                for i, e in enumerate(ext)
+            ]
+            k = 2 if job.order == 2 else 1
+            return int(math.prod(k * m + 1 for m in n))
+        V, S, P = L * b * c, 2 * (L * b + b * c + L * c), 4 * (L + b + c)
+        lmax = max(L, b, c)
+    elif g.get("shape") in ("tube", "rod"):
+        L = g["length"]
+        ro = g["outer_diameter"] / 2
+        ri = g.get("inner_diameter", 0.0) / 2 if g["shape"] == "tube" else 0.0
+        V = math.pi * (ro * ro - ri * ri) * L
+        S = 2 * math.pi * (ro + ri) * L + 2 * math.pi * (ro * ro - ri * ri)
+        P = 4 * math.pi * (ro + ri)
+        lmax = max(L, 2 * ro)
+    else:
+        V, S, P = _cad_measures(g["step"])
+        lmax = max(V ** (1 / 3), 1e-12) if V > 0 else h
+    a, b_, c_ = NODE_MODEL[job.order]
+    n = a * V / h**3 + b_ * S / h**2 + c_ * P / h
+    if job.refine:
+        R = job.refine_radius or 4 * h
+        n *= 1 + (1 / job.refine**3 - 1) * min(1.0, 2 * R / lmax)
+    return max(int(n), 10)
+
+
+def estimate_memory_mb(nodes: int) -> float:
+    """Peak resident memory of a run (ccx; Python with CHOLMOD), MB."""
+    return BASE_MB + SAFETY * PEAK_40K_MB * (nodes / 40084.0) ** POWER
+
+
+# ---------------------------------------------------------------- the task (runs on a worker)
+
+_local = threading.local()
+_launchers: set = set()  # every launcher of this process
+_launchers_lock = threading.Lock()
+_stopping = threading.Event()  # set on Ctrl-C: runs in flight are stopped, none start
+
+
+def _child_env() -> dict:
+    env = dict(os.environ)
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        env.setdefault(var, "1")  # one core per run: runs share the machine
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+class _Launcher:
+    """A process that has imported what runs need and forks one child per run."""
+
+    def __init__(self, tmp: Path):
+        self.log_path = tmp / f"launcher-{os.getpid()}-{threading.get_ident()}.log"
+        log = open(self.log_path, "ab")
+        try:
+            self.proc = subprocess.Popen(
+                [sys.executable, "-m", "stiffkit.sweep.child", "serve"],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=log,
+                env=_child_env(),
+                text=True,
+                bufsize=1,
+            )
+        finally:
+            log.close()
+        with _launchers_lock:
+            _launchers.add(self)
+
+    def stop(self) -> None:
+        """Stop the launcher and its run (SIGTERM: it stops its child, which stops ccx)."""
+        try:
+            self.proc.terminate()
+        except OSError:
+            pass
+
+    def close(self, timeout: float = 5.0) -> None:
+        """End an idle launcher (EOF on its stdin) and remove its log."""
+        try:
+            self.proc.stdin.close()
+            self.proc.wait(timeout=timeout)
+        except Exception:
+            self.stop()
+            with contextlib.suppress(Exception):
+                self.proc.wait(timeout=timeout)
+        self.log_path.unlink(missing_ok=True)
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def run(self, spec: Path, result: Path) -> int | None:
+        """Wait status of the child, or None if the launcher is gone."""
+        try:
+            self.proc.stdin.write(f"{spec}\t{result}\n")
+            self.proc.stdin.flush()
+            line = self.proc.stdout.readline()
+        except (OSError, ValueError):
+            return None
+        return int(line) if line.strip() else None
+
+    def log_tail(self) -> str:
+        try:
+            lines = [x for x in self.log_path.read_text(errors="replace").splitlines() if x.strip()]
+        except OSError:
+            return ""
+        return lines[-1] if lines else ""
+
+
+def stop_local_runs() -> None:
+    """Stop the runs in flight in this process's workers and start no more."""
+    _stopping.set()
+    with _launchers_lock:
+        todo = list(_launchers)
+        _launchers.clear()
+    for la in todo:
+        la.stop()
+    for la in todo:
+        with contextlib.suppress(Exception):
+            la.proc.wait(timeout=10)
+        la.log_path.unlink(missing_ok=True)
+
+
+def close_launchers() -> None:
+    """End the idle launchers of this process (when its cluster closes)."""
+    with _launchers_lock:
+        todo = list(_launchers)
+        _launchers.clear()
+    for la in todo:
+        la.close()
+
+
+def _tmp_root() -> Path:
+    root = Path(tempfile.gettempdir()) / f"stiffkit-sweep-{os.getuid()}"
+    root.mkdir(parents=True, exist_ok=True)
+    return root
+
+
+def _status_text(code: int) -> str:
+    """Why a run's process ended without a result (code: exit code, -N: signal N)."""
+    if code < 0:
+        name = {9: "SIGKILL: out of memory?", 11: "SIGSEGV: crashed"}.get(-code, f"signal {-code}")
+        return f"the run's process was killed ({name})"
+    return f"the run's process exited with status {code} and no result"
+
+
+def _run_in_child(spec_path: Path, result_path: Path) -> tuple[int | None, str]:
+    """Run a spec in a fresh process: (exit code or None if stopped, last log line)."""
+    if _stopping.is_set():
+        return None, ""
+    launcher = getattr(_local, "launcher", None)
+    if launcher is None or not launcher.alive():
+        launcher = _local.launcher = _Launcher(_tmp_root())
+    status = launcher.run(spec_path, result_path)
+    if status is not None:
+        return os.waitstatus_to_exitcode(status), launcher.log_tail()
+    _local.launcher = None
+    if _stopping.is_set():
+        return None, ""
+    # no launcher: a plain process of its own
+    proc = subprocess.run(
+        [sys.executable, "-m", "stiffkit.sweep.child", "run", str(spec_path), str(result_path)],
+        env=_child_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    return proc.returncode, ((proc.stderr or "").strip().splitlines() or [""])[-1]
+
+
+def run_task(spec: dict, *_after) -> dict:
+    """One run on a worker: returns its table fields (never raises for a run
+    that fails; ``_after`` are runs whose FEA this one reuses)."""
+    import json
+
+    t_start = time.time()
+    cache = Path(spec["cache_dir"])
+    cache.mkdir(parents=True, exist_ok=True)
+    # the run's folder (spec, result, ccx deck and scratch) in the cache folder,
+    # like `stiffkit link`'s; kept when the run fails, for inspection
+    tmp = Path(tempfile.mkdtemp(prefix="run-", dir=cache))
+    try:
+        job = spec["job"]
+        cad = spec.get("cad")
+        if cad is not None and not os.path.isfile(job.geometry["step"]):
+            # a worker without the client's files: the CAD travels with the task
+            # (the cache key is the file's content hash, not its path)
+            p = tmp / ("part" + Path(job.geometry["step"]).suffix)
+            p.write_bytes(cad)
+            job = copy.deepcopy(job)
+            job.geometry["step"] = str(p)
+        spec_path, result_path = tmp / "spec.pkl", tmp / "result.json"
+        with open(spec_path, "wb") as fh:
+            pickle.dump({"job": job, "cache_dir": str(cache), "workdir": str(tmp)}, fh)
+        code, tail = _run_in_child(spec_path, result_path)
+        if code is None:
+            out = failed_fields("interrupted")
+        else:
+            try:
+                out = json.loads(result_path.read_text())
+            except (OSError, ValueError):
+                out = failed_fields(_status_text(code) + (f"; {tail}" if tail else ""))
+    except Exception as exc:  # the task itself must not raise
+        out = failed_fields(f"{type(exc).__name__}: {exc}")
+    if out.get("status") == "failed" and "interrupted" not in out.get("reason", ""):
+        for name in ("spec.pkl", "result.json"):
+            (tmp / name).unlink(missing_ok=True)
+        with contextlib.suppress(OSError):
+            tmp.rmdir()  # nothing to inspect (e.g. a mesh failure)
+    else:
+        shutil.rmtree(tmp, ignore_errors=True)
+    out["host"] = socket.gethostname()
+    out["t_start"], out["t_end"] = t_start, time.time()
+    return out
+
+
+# ---------------------------------------------------------------- clients
+
+
+def default_slots() -> int:
+    try:
+        from distributed.system import CPU_COUNT
+
+        return max(1, int(CPU_COUNT))
+    except ImportError:  # pragma: no cover
+        return max(1, len(os.sched_getaffinity(0)))
+
+
+def default_memory_mb() -> float:
+    import psutil
+
+    avail = psutil.virtual_memory().available
+    try:
+        from distributed.system import MEMORY_LIMIT
+
+        avail = min(avail, MEMORY_LIMIT)
+    except ImportError:  # pragma: no cover
+        pass
+    return MEMORY_FRACTION * avail / 2**20
+
+
+_ADDRESS = re.compile(r"^(?:(tcp|tls|inproc|ucx|ws|wss)://)?([^\s:/]+|\[[0-9a-fA-F:]+\]):(\d{1,5})$")
+
+
+def check_address(address: str) -> str:
+    """``tcp://host:port`` (``host:port`` means tcp)."""
+    m = _ADDRESS.match(address.strip())
+    if not m or not 0 < int(m.group(3)) < 65536:
+        raise SchedulerError(f"--scheduler {address!r}: write a scheduler address, e.g. tcp://host:8786")
+    return address.strip() if m.group(1) else f"tcp://{address.strip()}"
+
+
+def need_dask() -> None:
+    try:
+        import distributed  # noqa: F401
+    except ImportError as exc:
+        raise StiffkitError(
+            f"sweeps run on Dask, which is not installed ({exc}); run `make install` or pip install 'stiffkit[sweep]'"
+        ) from None
+
+
+@contextlib.contextmanager
+def _quiet_dask():
+    names = [
+        "distributed",
+        "distributed.comm",
+        "distributed.core",
+        "distributed.client",
+        "distributed.scheduler",
+        "distributed.worker",
+        "distributed.nanny",
+        "tornado",
+    ]
+    saved = {n: logging.getLogger(n).level for n in names}
+    for n in names:
+        logging.getLogger(n).setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for n, lv in saved.items():
+            logging.getLogger(n).setLevel(lv)
+
+
+class Where:
+    """What the runs run on: a client, its memory placement, a description."""
+
+    def __init__(self, client, budget_mb: float | None, text: str, slots: int):
+        self.client, self.budget_mb, self.text, self.slots = client, budget_mb, text, slots
+
+
+@contextlib.contextmanager
+def open_cluster(
+    client=None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    memory_mb: float | None = None,
+    n_runs: int | None = None,
+):
+    """Yield a :class:`Where`; a cluster made here is closed on the way out
+    (also on Ctrl-C), a client given is left open."""
+    need_dask()
+    from distributed import Client, LocalCluster
+
+    if client is not None:
+        yield _describe(client, "the client given")
+        return
+    if scheduler:
+        addr = check_address(scheduler)
+        t0 = time.perf_counter()
+        with _quiet_dask():
+            try:
+                _probe(addr)
+                cl = Client(addr, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+            except Exception as exc:
+                raise SchedulerError(
+                    f"--scheduler {addr}: no Dask scheduler answers there "
+                    f"({time.perf_counter() - t0:.0f} s: "
+                    f"{one_line(str(exc) or type(exc).__name__, 160)})"
+                ) from None
+        try:
+            yield _describe(cl, addr)
+        finally:
+            with _quiet_dask():
+                cl.close()
+        return
+    slots = workers or default_slots()
+    if n_runs:
+        slots = min(slots, n_runs) if workers is None else slots
+    budget = memory_mb if memory_mb is not None else default_memory_mb()
+    with _quiet_dask():
+        # the worker lives in this process (its threads only wait for the runs'
+        # own processes): no interpreter to start, nothing of the caller's
+        # __main__ re-imported, and nothing left behind when this process ends
+        cluster = LocalCluster(
+            n_workers=1,
+            threads_per_worker=slots,
+            processes=False,
+            memory_limit=0,
+            resources={RESOURCE: budget * 2**20},
+            dashboard_address=None,
+            silence_logs=logging.CRITICAL,
+            local_directory=str(_tmp_root()),
+        )
+        cl = Client(cluster, set_as_default=False)
+    try:
+        yield Where(
+            cl, budget, f"a local cluster of {slots} run slot{'s' if slots > 1 else ''}, {budget / 1024:.1f} GB", slots
+        )
+    finally:
+        with _quiet_dask():
+            try:
+                cl.close()
+            finally:
+                cluster.close()
+                close_launchers()
+                _stopping.clear()
+
+
+def _probe(addr: str) -> None:
+    """Connect and shake hands with whatever listens at ``addr`` (a Client
+    that fails half-way would hang on closing)."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def go():
+        comm = await connect(addr, timeout=CONNECT_TIMEOUT_S)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(go(), CONNECT_TIMEOUT_S + 1))
+    except MemoryError:
+        raise OSError("something answers, but not in the Dask protocol") from None
+    except TimeoutError:
+        raise OSError(f"no answer within {CONNECT_TIMEOUT_S:.0f} s") from None
+
+
+def _describe(client, name: str) -> Where:
+    info = client.scheduler_info(n_workers=-1) if _accepts_n_workers(client) else client.scheduler_info()
+    ws = info.get("workers", {})
+    threads = sum(w.get("nthreads", 0) for w in ws.values())
+    mem = [w.get("resources", {}).get(RESOURCE) for w in ws.values()]
+    budget = max((m for m in mem if m), default=None)
+    text = f"{name}: {len(ws)} worker{'s' if len(ws) != 1 else ''}, {threads} thread{'s' if threads != 1 else ''}" + (
+        f", {RESOURCE} {budget / 2**30:.1f} GB per worker at most"
+        if budget
+        else f", no {RESOURCE} resource (runs placed by free threads only; start workers with "
+        f"--resources {RESOURCE}=<bytes>)"
+    )
+    return Where(client, budget / 2**20 if budget else None, text, threads)
+
+
+def _accepts_n_workers(client) -> bool:
+    import inspect
+
+    try:
+        return "n_workers" in inspect.signature(client.scheduler_info).parameters
+    except (TypeError, ValueError):  # pragma: no cover
+        return False
+
+
+# ---------------------------------------------------------------- progress
+
+
+class Progress:
+    """One bar over the runs with finished / failed counts: tqdm on a
+    terminal, else one line per finished run (logs)."""
+
+    def __init__(self, total: int, enabled: bool = True, stream=None):
+        self.total, self.enabled = total, enabled
+        self.out = stream or sys.stderr
+        self.done = self.ok = self.failed = self.cached = 0
+        self.t0 = time.perf_counter()
+        self.bar = None
+        if enabled and hasattr(self.out, "isatty") and self.out.isatty():
+            try:
+                from tqdm import tqdm
+
+                self.bar = tqdm(total=total, unit="run", file=self.out, dynamic_ncols=True)
+            except ImportError:
+                self.bar = None
+
+    def say(self, text: str) -> None:
+        if not self.enabled:
+            return
+        if self.bar is not None:
+            self.bar.write(text, file=self.out)
+        else:
+            self.out.write(text + "\n")
+            self.out.flush()
+
+    def update(self, label: str, res: dict) -> None:
+        self.done += 1
+        if res.get("status") == "ok":
+            self.ok += 1
+            self.cached += bool(res.get("cached"))
+            what = (
+                f"{res['nodes']} nodes, {res['wall_s']:.1f} s, {res['memory_mb']:.0f} MB"
+                f"{' (cache)' if res.get('cached') else ''}"
+            )
+        else:
+            self.failed += 1
+            what = f"FAILED: {res.get('reason', '')}"
+        if not self.enabled:
+            return
+        counts = f"ok {self.ok}, failed {self.failed}"
+        if self.bar is not None:
+            self.bar.set_postfix_str(counts, refresh=False)
+            self.bar.update(1)
+            if res.get("status") != "ok":
+                self.bar.write(f"{label}: {what}", file=self.out)
+            return
+        n = self.total
+        width = min(n, 40)
+        filled = round(width * self.done / n)
+        self.out.write(
+            f"[{'#' * filled}{'.' * (width - filled)}] {self.done}/{n} {counts} | {label}: {what}"
+            f"   elapsed {time.perf_counter() - self.t0:.0f} s\n"
+        )
+        self.out.flush()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+# ---------------------------------------------------------------- runs
+
+
+def plan_estimates(jobs, cache_dir: Path) -> tuple[list[str], list[bool], list[int], list[float]]:
+    """Cache keys, whether each run's FEA is cached, estimated nodes and memory (MB)."""
+    keys = [cache_key(j, resolve_route(j)) for j in jobs]
+    cached = [(cache_dir / f"{k}.npz").is_file() for k in keys]
+    nodes = [estimate_nodes(j) for j in jobs]
+    mem = [CACHED_MB if c else estimate_memory_mb(n) for c, n in zip(cached, nodes)]
+    return keys, cached, nodes, mem
+
+
+def run_jobs(
+    jobs: list,
+    labels: list[str],
+    cache_dir,
+    *,
+    client=None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    memory_mb: float | None = None,
+    progress: bool = True,
+    title: str = "sweep",
+    stream=None,
+) -> list[dict]:
+    """Run every LinkJob as a task; results in job order (dicts of table
+    fields, see :mod:`stiffkit.sweep.table`, plus ``memory_est_mb``,
+    ``start_s``, ``end_s``, ``task_s``)."""
+    cache = Path(cache_dir).expanduser().resolve()
+    cache.mkdir(parents=True, exist_ok=True)
+    _stopping.clear()
+    keys, cached, _nodes, mem = plan_estimates(jobs, cache)
+    bar = Progress(len(jobs), progress, stream)
+    with open_cluster(client, scheduler, workers, memory_mb, len(jobs)) as where:
+        cl = where.client
+        bar.say(f"{title}: {len(jobs)} runs ({sum(cached)} in the cache) on {where.text}; cache {cache}")
+        if where.budget_mb:
+            for lab, m in zip(labels, mem):
+                if m > where.budget_mb:
+                    bar.say(
+                        f"  {lab}: estimated {m / 1024:.1f} GB, more than the {where.budget_mb / 1024:.1f} GB "
+                        "budget: it runs alone"
+                    )
+        send_cad = bool(scheduler) or client is not None
+        token = uuid.uuid4().hex[:8]
+        t0 = time.time()
+        futs, first, needs = [], {}, []
+        for i, job in enumerate(jobs):
+            spec = {"job": job, "cache_dir": str(cache)}
+            step = job.geometry.get("step")
+            if send_cad and step and os.path.getsize(step) < 64 * 2**20:
+                spec["cad"] = Path(step).read_bytes()
+            after = first.get(keys[i])
+            need = CACHED_MB if after is not None else mem[i]
+            needs.append(need)
+            res = {RESOURCE: min(need, where.budget_mb) * 2**20} if where.budget_mb else None
+            f = cl.submit(
+                run_task,
+                spec,
+                *([after] if after is not None else []),
+                resources=res,
+                key=f"stiffkit-run-{i + 1}-{keys[i]}-{token}",
+                pure=False,
+                retries=0,
+            )
+            first.setdefault(keys[i], f)
+            futs.append(f)
+        index = {f.key: i for i, f in enumerate(futs)}
+        results: list[dict | None] = [None] * len(jobs)
+        from distributed import as_completed
+
+        try:
+            for f in as_completed(futs, loop=cl.loop):
+                i = index[f.key]
+                if f.status == "finished":
+                    r = f.result()
+                else:  # a lost worker, a cancelled task
+                    try:
+                        exc = f.exception()
+                    except (KeyboardInterrupt, SystemExit):
+                        raise
+                    except BaseException as e:  # cancelled: there is no exception to fetch
+                        exc = e
+                    r = failed_fields(f"the task failed on its worker ({type(exc).__name__}: {exc})")
+                r["memory_est_mb"] = needs[i]
+                if "t_start" in r:
+                    r["start_s"], r["end_s"] = r.pop("t_start") - t0, r.pop("t_end") - t0
+                    r["task_s"] = r["end_s"] - r["start_s"]
+                results[i] = r
+                bar.update(labels[i], r)
+        except BaseException:
+            stop_local_runs()  # runs of workers in this process
+            with _quiet_dask():
+                cl.cancel(futs, force=True)
+            raise
+        finally:
+            bar.close()
+    return results
+
+
+__all__ = [
+    "run_jobs",
+    "run_task",
+    "open_cluster",
+    "estimate_nodes",
+    "estimate_memory_mb",
+    "check_address",
+    "SchedulerError",
+    "Progress",
+    "RESOURCE",
+    "default_slots",
+    "default_memory_mb",
+]
