@@ -31,8 +31,9 @@ import time
 import numpy as np
 
 from stiffkit.fea.config import paper_beam, parse_link
-from stiffkit.fea.convergence import run_study, table
+from stiffkit.fea.convergence import table
 from stiffkit.fea.job import run_link
+from stiffkit.sweep.convergence import run_study
 
 BEAM = paper_beam(2.0)
 NAMES = [f"k{i + 1}{j + 1}" for i in range(6) for j in range(6)]

@@ -98,7 +98,8 @@ def main() -> None:
                 f"  {slots} run slot{'s' if slots > 1 else ' '}: wall {r['wall']:6.1f} s for {r['n']} runs "
                 f"({r['nodes']} nodes each, peak {r['mem']:.0f} MB, estimated {r['est']:.0f} MB); "
                 f"runs' own time {r['own']:.1f} s; CPU {r['cpu']:.1f} s ({r['cpu'] / r['n']:.1f} s per run, "
-                f"{r['cpu'] / r['wall']:.2f} cores on average; {r['busy']:.2f} runs in flight); load average {r['load'][0]:.1f} before, "
+                f"{r['cpu'] / r['wall']:.2f} cores on average; {r['busy']:.2f} runs in flight); "
+                f"load average {r['load'][0]:.1f} before, "
                 f"{r['load'][1]:.1f} after",
                 flush=True,
             )

@@ -16,8 +16,11 @@ import json
 
 from ..errors import InputError
 from ..fea.config import load_link
-from ..fea.convergence import plot, run_study, table, to_json
+from ..fea.convergence import plot, table, to_json
 from ..fea.job import atomic_write_text
+from ..sweep.convergence import run_study
+from ..sweep.runner import check_address
+from ..sweep.study import parse_memory
 
 HELP = """\
 examples:
@@ -81,10 +84,7 @@ def run(args) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise InputError(f"-j {args.jobs}: at least 1")
     if args.scheduler:
-        from .sweep.runner import check_address
-
         check_address(args.scheduler)
-    from ..sweep.study import parse_memory
 
     study = run_study(
         job,

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import argparse
 
+from ..sweep.study import command
+
 HELP = """\
 keys (dotted paths into LINK.toml; checked before anything runs):
   section.key            material.E, material.nu, mesh.size, mesh.order, mesh.mesher,
@@ -101,7 +103,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..sweep.study import command
 
     return command(
         args.link,

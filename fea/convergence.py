@@ -1,10 +1,8 @@
 """Mesh-convergence studies (the paper's Table 5).
 
-Every (order, size) pair is one LINK job run through the cache, so an
-interrupted study resumes from the runs already finished. Runs are tasks of
-the sweep machinery (:mod:`stiffkit.sweep.runner`, Dask): a LocalCluster of
-``jobs`` run slots placing runs by their estimated memory, or the cluster at
-``scheduler``; each run in a fresh process of its own. The error of a run is
+The runs themselves are tasks of the sweep machinery
+(:func:`stiffkit.sweep.convergence.run_study`); this module assesses
+finished runs and reports them. The error of a run is
 the largest relative error of the non-zero compliance elements against the
 closed form when the shape has one (eq. 22), else against a Richardson
 extrapolation of the finest meshes of the same order.
@@ -81,63 +79,18 @@ def _errors(records: list[RunRecord], reference: np.ndarray, nonzero: np.ndarray
         r.worst = ELEMENT_NAMES[idx]
 
 
-def run_study(
-    job: LinkJob,
-    orders,
-    sizes,
-    cache_dir: str,
-    jobs: int = 1,
-    progress=True,
-    scheduler: str | None = None,
-    client=None,
-    memory_mb: float | None = None,
-) -> dict:
-    """Run every (order, size) pair, return the table data (see module).
-    Runs that fail are left out of the table and listed in ``failed``."""
-    from ..sweep.runner import run_jobs
-
-    pairs = [(int(o), float(s)) for o in orders for s in sizes]
-    results = run_jobs(
-        [job.with_mesh(order=o, size=s) for o, s in pairs],
-        [f"order {o} size {s:g}" for o, s in pairs],
-        cache_dir,
-        client=client,
-        scheduler=scheduler,
-        workers=None if scheduler or client else jobs,
-        memory_mb=memory_mb,
-        progress=progress,
-        title="convergence",
-    )
-    records: list[RunRecord] = []
-    failed = []
-    for (o, s), r in zip(pairs, results):
-        if r["status"] != "ok":
-            failed.append({"order": o, "size": s, "reason": r["reason"]})
-            continue
-        records.append(
-            RunRecord(
-                order=o,
-                size=s,
-                nodes=r["nodes"],
-                elements=r["elements"],
-                seconds=r["wall_s"],
-                memory_mb=r["memory_mb"],
-                compliance=np.array(r["compliance"]),
-                significant=np.array(r["significant"], dtype=bool),
-                cached=r["cached"],
-                route=r["route"],
-            )
-        )
-    records.sort(key=lambda r: (r.order, -r.size))
+def assess(job: LinkJob, records: list[RunRecord], failed: list[dict] | None = None) -> dict:
+    """The study of finished runs: each run's error against the closed form
+    when the shape has one, else against a Richardson extrapolation of the
+    finest meshes of its order (see the module docstring)."""
+    records = sorted(records, key=lambda r: (r.order, -r.size))
     # a single-beam [approximation] is no reference: only a true closed form is
     cform = closed_form(job) if job.approximation is None else None
-    basis = ""
+    refs = {}
     if cform is not None:
         _errors(records, cform, cform != 0)
         basis = "closed form (eq. 22, Euler-Bernoulli)"
-        refs = {}
     else:
-        refs = {}
         for o in sorted({r.order for r in records}):
             rs = [r for r in records if r.order == o]
             k0, p, est = richardson(np.array([r.size for r in rs]), np.array([r.compliance for r in rs]))
@@ -151,7 +104,7 @@ def run_study(
         "richardson": refs,
         "units": job.units,
         "scale": job.scale,
-        "failed": failed,
+        "failed": failed or [],
     }
 
 
@@ -241,4 +194,4 @@ def plot(study: dict, path) -> Path:
     return path
 
 
-__all__ = ["run_study", "table", "to_json", "plot", "richardson", "atomic_write_text"]
+__all__ = ["RunRecord", "assess", "table", "to_json", "plot", "richardson", "atomic_write_text"]

@@ -184,7 +184,8 @@ def summary(rows: list[dict], varied: list[str]) -> str:
     """The table printed on the terminal (the full one is the CSV/JSON)."""
     vw = [max(len(k), *(len(_fmt(r[k])) for r in rows)) for k in varied]
     head = f"{'run':>4s} " + " ".join(f"{k:>{w}s}" for k, w in zip(varied, vw))
-    head += f" {'status':>6s} {'nodes':>8s} {'wall s':>7s} {'mem MB':>7s} {'cf err %':>9s} {'worst':>5s} {'k11':>11s} {'k44':>11s}"
+    head += f" {'status':>6s} {'nodes':>8s} {'wall s':>7s} {'mem MB':>7s} {'cf err %':>9s} {'worst':>5s}"
+    head += f" {'k11':>11s} {'k44':>11s}"
     lines = [head]
     for r in rows:
         s = f"{r['run']:4d} " + " ".join(f"{_fmt(r[k]):>{w}s}" for k, w in zip(varied, vw))

@@ -149,7 +149,6 @@ def _reap(proc, pids: Path) -> None:
         pass
 
 
-@pytest.mark.xfail(strict=False, reason="phase 2: convergence is being moved onto Dask")
 def test_convergence_interrupted_leaves_nothing_and_resumes(tmp_path, fake_ccx):
     (tmp_path / "beam.toml").write_text(BEAM)
     pids = tmp_path / "pids"
