@@ -310,6 +310,12 @@ def _adequacy(res: FitResult, pb: Problem, meas: Measurements):
             f"repeat measurements"
         )
     s2 = ss_pe / d_pe
+    if not s2 > 0:
+        raise InputError(
+            f"{meas.path}: the replicated rows (same posture, wrench and point) repeat each other exactly "
+            f"(pure error 0): they look copied, not measured again, so they tell nothing about the noise; "
+            f"declare sigma_position or remove the copies"
+        )
     d_lof = res.dof - d_pe
     if d_lof > 0:
         stat = ((res.chi2 - ss_pe) / d_lof) / s2

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._core import calib as core
+from ..errors import InputError
 from ..robot.model import LOAD_NONLINEAR, SYM
 from .fit import coupling_groups, fit, solve_wls
 
@@ -57,6 +58,11 @@ def _preference(name: str) -> int:
 
 
 def reduce_model(model, meas, sigma_position=None) -> Reduction:
+    if not np.any(meas.w):
+        raise InputError(
+            f"{meas.path}: every row's load (fx fy fz mx my mz) is zero: no spring is loaded, so no "
+            f"parameter can be identified and there is nothing to reduce"
+        )
     res = fit(model, meas, sigma_position=sigma_position)
     names = res.names
     terms = res.problem.terms

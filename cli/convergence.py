@@ -12,12 +12,12 @@ limits it, wall time and peak memory. A PNG plots error and time vs size.
 from __future__ import annotations
 
 import argparse
-import json
 
 from ..errors import InputError
 from ..fea.config import load_link
 from ..fea.convergence import plot, table, to_json
-from ..fea.job import atomic_write_text
+from ..io import validate as V
+from ..io.files import FIGURE_SUFFIXES, write_json
 from ..sweep.convergence import run_study
 from ..sweep.runner import check_address
 from ..sweep.study import parse_memory
@@ -73,6 +73,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    inputs = [args.link]
+    if args.json:
+        V.output_path(args.json, "--json", inputs)
+    if args.png:
+        V.output_path(args.png, "--png", inputs, FIGURE_SUFFIXES)
+    V.distinct_outputs({"--json": args.json, "--png": args.png})
 
     job = load_link(args.link)
     orders = _list(args.orders, int, "--orders")
@@ -98,7 +104,7 @@ def run(args) -> int:
     )
     print(table(study))
     if args.json:
-        atomic_write_text(args.json, json.dumps(to_json(study), indent=1))
+        write_json(args.json, to_json(study))
         print(f"wrote {args.json}")
     if args.png and study["records"]:
         print(f"wrote {plot(study, args.png)}")

@@ -43,7 +43,6 @@ when a compensator's shape reproduces the profile found.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from ..calib.absolute_diagnose import CV_FOLDS, diagnose_absolute, format_absolute_diagnosis
@@ -53,9 +52,11 @@ from ..calib.fit import format_table
 from ..calib.measure import read_measurements
 from ..calib.plots import candidates_plot, fit_plots, residual_plots
 from ..errors import InputError
+from ..io import validate as V
 from ..io.files import write_json
 from ..robot.model import KINDS, load_model
 from ..robot.tree_model import model_kind
+from . import args as A
 
 HELP = """\
 JSON (--json): the contract keys (verdict, sigma_position_m, rms_position_m,
@@ -93,15 +94,26 @@ def register(sub) -> None:
     p.add_argument("model", help="model TOML")
     p.add_argument("measurements", help="measurement CSV")
     p.add_argument("--json", help="write the diagnosis to this JSON file")
-    p.add_argument("--alpha", type=float, default=0.01, help="significance level of the adequacy test")
-    p.add_argument("--sigma", type=float, help="override sigma_position (m)")
-    p.add_argument("--top", type=int, default=10, help="candidates to print")
+    p.add_argument(
+        "--alpha",
+        type=A.number("--alpha", lo=0.0, hi=0.5, lo_open=True),
+        default=0.01,
+        help="significance level of the adequacy test, in (0, 0.5] (default 0.01)",
+    )
+    p.add_argument(
+        "--sigma", type=A.number("--sigma", "sigma_position", lo=0.0, lo_open=True), help="override sigma_position (m)"
+    )
+    p.add_argument("--top", type=A.count("--top", lo=1), default=10, help="candidates to print")
     p.add_argument(
         "--plots", metavar="DIR", help="PNGs: the candidates, the fit's residual figures, where the residual lives"
     )
     p.add_argument("--no-checks", action="store_true", help="skip the data checks (robust fit, gross errors, units)")
     p.add_argument(
-        "--cv", type=int, default=5, metavar="K", help="folds of the cross-validation by configuration (0: off)"
+        "--cv",
+        type=A.count("--cv", lo=0),
+        default=5,
+        metavar="K",
+        help="folds of the cross-validation by configuration (0: off)",
     )
     p.add_argument(
         "--kinds", help="comma-separated candidate kinds to score (default: every kind), e.g. joint,link,point_offset"
@@ -110,6 +122,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    if args.json:
+        V.output_path(args.json, "--json", [args.model, args.measurements])
+    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
+        raise InputError(f"--plots {args.plots}: a file, not a folder")
+    if args.cv == 1:
+        raise InputError("--cv 1: cross-validation needs at least 2 folds (0 switches it off)")
     if model_kind(args.model) == "absolute":
         return run_absolute(args)
     model = load_model(args.model)
@@ -133,8 +151,7 @@ def run(args) -> int:
     print()
     print(format_diagnosis(dg, top=args.top))
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(dg.to_json(), fh, indent=1)
+        write_json(args.json, dg.to_json())
         print(f"wrote {args.json}")
     if args.plots:
         Path(args.plots).mkdir(parents=True, exist_ok=True)

@@ -14,7 +14,7 @@ coupled sets are listed).
 from __future__ import annotations
 
 import argparse
-import json
+from pathlib import Path
 
 from ..calib.absolute_fit import fit_absolute
 from ..calib.absolute_report import format_absolute, format_absolute_parameters, load_absolute, residual_table
@@ -25,9 +25,11 @@ from ..calib.plots import fit_plots
 from ..calib.reduce import format_reduction, reduce_model, reduced_model
 from ..calib.robust import format_checks, robust_fit
 from ..errors import InputError
+from ..io import validate as V
 from ..io.files import write_json
 from ..robot.model import load_model
 from ..robot.tree_model import model_kind
+from . import args as A
 
 HELP = """\
 inputs:
@@ -97,7 +99,9 @@ def register(sub) -> None:
     p.add_argument(
         "--reduce", action="store_true", help="reduce the model (M1-M5), print Table 1, fit the independent subset"
     )
-    p.add_argument("--sigma", type=float, help="override sigma_position (m)")
+    p.add_argument(
+        "--sigma", type=A.number("--sigma", "sigma_position", lo=0.0, lo_open=True), help="override sigma_position (m)"
+    )
     p.add_argument(
         "--robust",
         action="store_true",
@@ -106,14 +110,29 @@ def register(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="table only, no parameter list")
     p.add_argument(
         "--cv",
-        type=int,
+        type=A.count("--cv", lo=2),
         metavar="K",
         help="absolute data: K-fold cross-validation with folds by config (a posture's points never split)",
     )
     p.set_defaults(func=run)
 
 
+def _outputs(args) -> None:
+    """Every output path checked before anything runs (not an input, not a folder, suffixes)."""
+    inputs = [args.model, args.measurements]
+    for opt, path, suffixes in (
+        ("--json", args.json, None),
+        ("--write-model", args.write_model, (".toml",)),
+    ):
+        if path:
+            V.output_path(path, opt, inputs, suffixes)
+    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
+        raise InputError(f"--plots {args.plots}: a file, not a folder")
+    V.distinct_outputs({"--json": args.json, "--write-model": args.write_model})
+
+
 def run(args) -> int:
+    _outputs(args)
     if model_kind(args.model) == "absolute":
         return run_absolute(args)
     if args.cv is not None:
@@ -155,8 +174,7 @@ def run(args) -> int:
     if red is not None:
         out["reduction"] = red.to_json()
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+        write_json(args.json, out)
         print(f"wrote {args.json}")
     if args.plots:
         for f in fit_plots(res, args.plots):

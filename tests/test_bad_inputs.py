@@ -22,8 +22,6 @@ from stiffkit.cli import main
 from stiffkit.errors import PlausibilityWarning, StiffkitError
 from stiffkit.field.synthetic import cantilever_fields, square_grid
 
-PHASE2 = pytest.mark.xfail(strict=False, reason="phase 2")
-
 # ---------------------------------------------------------------- workspace
 
 
@@ -1643,14 +1641,12 @@ ROWS = [
         lambda ws: ["fit", kr(ws, "model.toml"), kr(ws, "measurements.csv"), "--sigma", "0"],
         2,
         "--sigma",
-        PHASE2,
     ),
     cmd(
         "fit-sigma-negative",
         lambda ws: ["fit", kr(ws, "model.toml"), kr(ws, "measurements.csv"), "--sigma", "-1"],
         2,
         "--sigma",
-        PHASE2,
     ),
     cmd(
         "fit-reduce-zero-loads",
@@ -1662,14 +1658,12 @@ ROWS = [
         ],
         2,
         "load",
-        PHASE2,
     ),
     cmd(
         "fit-json-is-input",
         lambda ws: ["fit", *copies(ws, "fj"), "--json", copies(ws, "fj")[0]],
         2,
         "input file",
-        PHASE2,
     ),
     cmd(
         "diagnose-duplicated-rows",
@@ -1680,28 +1674,24 @@ ROWS = [
         ],
         2,
         "exact",
-        PHASE2,
     ),
     cmd(
         "diagnose-alpha-two",
         lambda ws: ["diagnose", kr(ws, "model.toml"), kr(ws, "measurements.csv"), "--alpha", "2"],
         2,
         "--alpha",
-        PHASE2,
     ),
     cmd(
         "diagnose-sigma-zero",
         lambda ws: ["diagnose", kr(ws, "model.toml"), kr(ws, "measurements.csv"), "--sigma", "0"],
         2,
         "--sigma",
-        PHASE2,
     ),
     cmd(
         "diagnose-top-negative",
         lambda ws: ["diagnose", kr(ws, "model.toml"), kr(ws, "measurements.csv"), "--top", "-1"],
         2,
         "--top",
-        PHASE2,
     ),
     cmd(
         "diagnose-kinds-unknown",
@@ -1714,7 +1704,6 @@ ROWS = [
         lambda ws: ["diagnose", *copies(ws, "dj"), "--json", copies(ws, "dj")[1]],
         2,
         "input file",
-        PHASE2,
     ),
     cmd(
         "convergence-sizes-zero",
@@ -1746,14 +1735,12 @@ ROWS = [
         lambda ws: ["convergence", link_with(ws, "cj.toml"), "--sizes", "-2", "--json", str(ws / "rows/cj.toml")],
         2,
         "input file",
-        PHASE2,
     ),
     cmd(
         "convergence-png-suffix",
         lambda ws: ["convergence", str(ws / "beam.toml"), "--sizes", "-2", "--png", str(ws / "c.txt")],
         2,
         "must end in",
-        PHASE2,
     ),
     # -- demo
     cmd("demo-size-tiny", lambda ws: ["demo", "--only", "fea", "--size", "0.1"], 2, "--size = 0.1 must be in [1, 10]"),
