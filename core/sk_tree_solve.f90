@@ -28,9 +28,10 @@
 !>   (J_q + J_delta Z) dq = e + J_delta y        (e: pose error),
 !> one frame evaluation per step, quadratic convergence of both; a row is
 !> done when the pose errors and the point motion of r are within tolerance.
-!> Once the pose error falls tenfold per step (steps below 1e-3), the LU
-!> factors of I - D G_ee are kept (chord in that matrix only: it moves with
-!> q by O(|dq| |D G|), far below what would slow Newton down).
+!> After a step shorter than 0.05 (rad or m), the LU factors of
+!> I - D G_ee are kept (chord in that matrix only: it moves with q by
+!> O(|dq| |D G|), far below what would slow Newton down). Newton starts
+!> from the command less the joint offsets, which that cancels exactly.
 module sk_tree_solve
     use sk_kinds, only: dp, ip
     use sk_errors
@@ -289,8 +290,10 @@ contains
         integer :: lawcol(nsym, m%nk)
         integer(ip) :: lvjp(size(lvj))
         real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof + 1), jq(6, m%ndof + 1), rf(3, 3), pf(3), ep(3), er(3), b(6), &
-            re(m%ne), eprev, erot, dqlast
+            re(m%ne), dqlast, qoff(m%ndof)
         real(dp), allocatable :: a(:, :), q(:), dq(:), dqn(:)
+        logical :: seen(m%ndof)
+        integer :: v, g
         logical :: done, coupled, reuse, factored
         integer(ip) :: sinfo
         integer, allocatable :: lsel(:)
@@ -304,13 +307,24 @@ contains
         allocate(a(nr, nd), q(nd), dq(nd), dqn(nd))
         call state_init(m, st, m%qcol > 0)
         coupled = eqit >= 2 .and. m%ne > 0
+        ! start: the command less the joint offsets (those of the first
+        ! joint each coordinate drives), which it cancels exactly
+        qoff = 0.0_dp
+        seen = .false.
+        do v = 1, m%nv
+            if (m%qcol(v) == 0 .or. m%vtype(v) == vj_fixed) cycle
+            if (seen(m%qcol(v)) .or. m%qcoef(v) == 0.0_dp) cycle
+            seen(m%qcol(v)) = .true.
+            do g = m%gstart(v), m%gstart(v + 1) - 1
+                qoff(m%qcol(v)) = qoff(m%qcol(v)) + m%gcoef(g)*theta(m%gpar(g))/m%qcoef(v)
+            end do
+        end do
         do i = 1, n
             f = frame(i)
-            q = qcmd(:, i)
+            q = qcmd(:, i) - qoff
             lsel = lidx(lstart(i):lstart(i + 1) - 1)
             done = .false.
             factored = .false.
-            eprev = huge(1.0_dp)
             dqlast = huge(1.0_dp)
             st%delta = 0.0_dp
             do it = 0, maxit
@@ -343,14 +357,10 @@ contains
                 done = st%conv .and. resp(i) <= ptol .and. (full6 == 0 .or. resr(i) <= rtol)
                 if ((done .and. nd <= nr) .or. it == maxit .or. k == 0) exit
                 ! total Jacobian J = J_q + J_delta Z; column nd + 1: J_delta y,
-                ! the frame motion of the equilibrium correction y. Once the pose
-                ! error fell tenfold in a step shorter than 1e-3, the factors of
-                ! I - D G_ee are kept (they change with q by far less than
-                ! Newton needs)
-                erot = 0.0_dp
-                if (nr == 6) erot = m%lscale*resr(i)
-                reuse = factored .and. resp(i) + erot <= 0.1_dp*eprev .and. dqlast <= 1.0e-3_dp
-                eprev = resp(i) + erot
+                ! the frame motion of the equilibrium correction y. After a step
+                ! shorter than 0.05, the factors of I - D G_ee are kept (they
+                ! change with q by O(|dq| |D G|), far less than Newton needs)
+                reuse = factored .and. dqlast <= 0.05_dp
                 call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, &
                     zq(:, 1:nd), sinfo, re, zq(:, nd + 1), reuse)
                 if (sinfo /= sk_ok) exit
