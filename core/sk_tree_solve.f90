@@ -234,15 +234,22 @@ contains
     !> errors only (size, NaN, out-of-range frame or rotation). eqit >= 2
     !> solves the equilibrium inside the Newton iteration (module header),
     !> to etol; eqit 0 or 1 evaluate the rigid or first-order model at each q.
+    !> Optional per-row law parameters: theta(prow(j)) = trow(j, i) for
+    !> row i (a compliance that depends on the posture, evaluated by the
+    !> caller); prow must name law parameters only (not geometric ones,
+    !> which the folding takes at theta): else sk_err_argument.
     subroutine compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, &
-            maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
+            maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info, prow, trow)
         type(tree_model), intent(in) :: m
         real(dp), intent(in) :: theta(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol
         integer(ip), intent(in) :: frame(:), lpost(:), lvj(:), full6, eqit, maxit
         real(dp), intent(out) :: qout(:, :), resp(:), resr(:)
         integer(ip), intent(out) :: nit(:), rinfo(:), info
+        integer(ip), intent(in), optional :: prow(:)
+        real(dp), intent(in), optional :: trow(:, :)
         type(tree_model) :: mf
-        integer, allocatable :: lstart(:), lidx(:)
+        integer, allocatable :: lstart(:), lidx(:), pr(:)
+        real(dp), allocatable :: tr(:, :)
         integer :: newidx(0:m%nv), i, n, nd
         n = size(qcmd, 2)
         nd = m%ndof
@@ -266,22 +273,39 @@ contains
         do i = 1, n
             if (.not. is_rotation(rtarget(:, :, i))) return
         end do
+        allocate(pr(0), tr(0, n))
+        if (present(prow) .neqv. present(trow)) return
+        if (present(prow)) then
+            info = sk_err_size
+            if (any(shape(trow) /= [size(prow), n])) return
+            info = sk_err_nonfinite
+            if (.not. all_finite(trow)) return
+            info = sk_err_argument
+            if (any(prow < 1) .or. any(prow > m%npar)) return
+            do i = 1, size(prow)
+                if (any(m%gpar == prow(i)) .or. any(m%tpar == prow(i)) .or. any(m%mpar == prow(i))) return
+            end do
+            pr = prow
+            tr = trow
+        end if
+        info = sk_err_argument
         call group_by(lpost, n, lstart, lidx, info)
         if (info /= sk_ok) return
         ! the frames of the rows and payloads stay; constant joints fold away
         call fold_for_frames(m, theta, frame, lvj, mf, newidx, info)
         if (info /= sk_ok) return
         call compensate_rows(mf, theta, newidx(frame), qcmd, rtarget, ptarget, lstart, lidx, newidx(lvj), lw, &
-            full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
+            full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, pr, tr)
         info = sk_ok
     end subroutine compensate_batch
 
     !> The rows of compensate_batch on a validated (folded) model.
-    subroutine compensate_rows(m, theta, frame, qcmd, rtarget, ptarget, lstart, lidx, lvj, lw, full6, eqit, etol, &
-            maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
+    subroutine compensate_rows(m, theta0, frame, qcmd, rtarget, ptarget, lstart, lidx, lvj, lw, full6, eqit, etol, &
+            maxit, ptol, rtol, qout, resp, resr, nit, rinfo, prow, trow)
         type(tree_model), intent(in) :: m
-        real(dp), intent(in) :: theta(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol
-        integer, intent(in) :: frame(:), lstart(:), lidx(:), lvj(:)
+        real(dp), intent(in) :: theta0(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol, &
+            trow(:, :)
+        integer, intent(in) :: frame(:), lstart(:), lidx(:), lvj(:), prow(:)
         integer(ip), intent(in) :: full6, eqit, maxit
         real(dp), intent(inout) :: qout(:, :), resp(:), resr(:)
         integer(ip), intent(inout) :: nit(:), rinfo(:)
@@ -292,6 +316,7 @@ contains
         real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof + 1), jq(6, m%ndof + 1), rf(3, 3), pf(3), ep(3), er(3), b(6), &
             re(m%ne), dqlast, qoff(m%ndof)
         real(dp), allocatable :: a(:, :), q(:), dq(:), dqn(:)
+        real(dp) :: theta(size(theta0))
         logical :: seen(m%ndof)
         integer :: v, g
         logical :: done, coupled, reuse, factored
@@ -300,6 +325,7 @@ contains
         n = size(qcmd, 2)
         nd = m%ndof
         lvjp = lvj
+        theta = theta0
         call q_drivers(m, ent_vj, ent_col, ent_coef, nent)
         lawcol = 0
         nr = merge(6, 3, full6 == 1)
@@ -322,6 +348,7 @@ contains
         do i = 1, n
             f = frame(i)
             q = qcmd(:, i) - qoff
+            if (size(prow) > 0) theta(prow) = trow(:, i)
             lsel = lidx(lstart(i):lstart(i + 1) - 1)
             done = .false.
             factored = .false.
