@@ -346,7 +346,10 @@ def relative_tree_model(model: Model, where: str = "model") -> tuple[TreeModel, 
                 f"compensation evaluates a model with values (section 5): identify it first "
                 f"(stiffkit fit --write-model)"
             )
-    eff: list[dict] = [{"kind": "tracker", "fixed": True}, {"kind": "marker", "target": chain.tool_frame, "fixed": True}]
+    eff: list[dict] = [
+        {"kind": "tracker", "fixed": True},
+        {"kind": "marker", "target": chain.tool_frame, "fixed": True},
+    ]
     linear = {}
     varying = set()
     for t in model.terms:
