@@ -421,3 +421,24 @@ def test_inputs_are_checked(upper, arm6, tmp_path):
 
 
 ADDED = ["residual_position_m", "residual_rotation_rad", "converged", "mode"]
+
+
+def test_row_parameters_must_be_law_parameters(upper):
+    """The core takes per-row values of law parameters only: a geometric
+    one (folded into the model at theta) is refused, a law one is used."""
+    d, truth, _ = upper
+    cm = load_compensation_model(truth)
+    m = cm.model
+    Q = np.array([CENTRE])
+    P = core.frame_jacobian(
+        0, cm.nominal.arrays, cm.nominal.theta0, [cm.nominal.vj_of_link["left_tcp"]], Q, None, 0, 1e-11
+    )
+    args = (m.ne, m.arrays, cm.theta, [m.vj_of_link["left_tcp"]], Q, P["R"], P["p"], None, False, m.eqit, 1e-11)
+    with pytest.raises(InputError, match="out of range"):
+        core.compensate(*args, row_params=([m.index("r4.dz")], [[0.0]]))
+    c = m.index("l2.c")
+    same = core.compensate(*args, row_params=([c], [[cm.theta[c]]]))
+    base = core.compensate(*args)
+    np.testing.assert_array_equal(same["q"], base["q"])
+    stiff = core.compensate(*args, row_params=([c], [[10 * cm.theta[c]]]))
+    assert np.abs(stiff["q"] - base["q"]).max() > 1e-6
