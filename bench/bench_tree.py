@@ -258,6 +258,8 @@ def bench_compensate(nrows=5000, nj=7):
                 rtarget=rt,
                 ptarget=pt,
                 **none,
+                prow=np.zeros(0, np.int32),
+                trow=np.zeros(0),
                 full6=full6,
                 eqit=100,
                 etol=1e-13,

@@ -226,10 +226,19 @@ def compensate(
     maxit: int = 50,
     ptol: float = 1e-12,
     rtol: float = 1e-12,
+    row_params: tuple | None = None,
 ) -> dict[str, np.ndarray]:
     """Joint commands ``q`` (nr, ndof) that put virtual joint frame[i] (1-based)
     at (rtarget[i], ptarget[i]) (base axes): the pose when ``full6``, else
-    the position; ``resp`` (m), ``resr`` (rad) left, ``nit``, ``rinfo`` per row."""
+    the position; ``resp`` (m), ``resr`` (rad) left, ``nit``, ``rinfo`` per row.
+    ``row_params``: (indices (k,) 0-based into theta, values (nr, k)), law
+    parameters that take a value per row (a posture-dependent compliance)."""
+    nr = np.shape(qcmd)[0]
+    if row_params is None:
+        prow, trow = np.zeros(0, np.int32), np.zeros(0)
+    else:
+        prow = _i(np.asarray(row_params[0]) + 1)
+        trow = _f(np.asarray(row_params[1], float).reshape(nr, prow.size).ravel())
     qout, resp, resr, nit, rinfo, info = _tree.sk_tree_compensate(
         int(ne),
         **model,
@@ -239,6 +248,8 @@ def compensate(
         rtarget=_f(np.transpose(np.asarray(rtarget, float), (1, 2, 0))),
         ptarget=_f(np.asarray(ptarget, float).T),
         **_loads(loads),
+        prow=prow,
+        trow=trow,
         full6=int(bool(full6)),
         eqit=int(eqit),
         etol=float(etol),

@@ -46,6 +46,7 @@ COMMANDS = [
     ("stiffkit.cli.stiffness", "stiffness: tool compliance/stiffness of a robot model with values"),
     ("stiffkit.cli.fit", "fit: identify elastostatic parameters from measured deflections"),
     ("stiffkit.cli.diagnose", "diagnose: is the residual noise? rank the missing effects"),
+    ("stiffkit.cli.compensate", "compensate: joint commands that make the identified robot reach the nominal targets"),
     ("stiffkit.cli.compare", "compare: two fit results side by side"),
     ("stiffkit.cli.synth", "synth: calibration data with a known truth and hidden effects"),
     ("stiffkit.cli.link", "link: a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)"),
@@ -63,6 +64,7 @@ examples:
   stiffkit synth kr270 --out kr270    calibration data of a KR-270-like robot
   stiffkit fit kr270/model.toml kr270/measurements.csv
   stiffkit diagnose kr270/model.toml kr270/measurements.csv
+  stiffkit compensate identified.toml targets.csv --out commands.csv
   stiffkit COMMAND --help             what a command does, its inputs and outputs
 
 All files are SI (m, N, N m, rad). Bad input gives one line naming the file,

@@ -177,24 +177,25 @@ end subroutine sk_tree_frame_jacobian
 !> Compensation of nr rows: qout[ndof,nr] puts frame(i) of the model at
 !> rtarget[3,3,nr], ptarget[3,nr] (base); full6 1: pose, 0: position;
 !> remaining errors resp[nr] (m), resr[nr] (rad), Newton steps nit[nr],
-!> rinfo[nr] (sk_tree_solve%compensate_batch). Payload rows lpost.
-subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, &
+!> rinfo[nr] (sk_tree_solve%compensate_batch). Payload rows lpost; law
+!> parameters theta(prow(j)) = trow(j, i) for row i (per-row values).
+subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, npr, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, &
-        full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
+        prow, trow, full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_setup
     use sk_tree_solve, only: compensate_batch
     implicit none
-    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl
+    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, npr
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
         kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm)
     real(c_double), intent(in) :: vaxis(3, nv), vrot(3, 3, nv), vpos(3, nv), qcoef(nv), qconst(nv), gcoef(ng), &
         kw0(nk), bmass(nb), bcom(3, nb), grav(3), rref(3, 3)
     real(c_double), intent(in) :: theta(npar), qcmd(ndof, nr), rtarget(3, 3, nr), ptarget(3, nr), lw(6, nl), &
-        etol, ptol, rtol
-    integer(c_int), intent(in) :: frame(nr), lpost(nl), lvj(nl), full6, eqit, maxit
+        trow(npr, nr), etol, ptol, rtol
+    integer(c_int), intent(in) :: frame(nr), lpost(nl), lvj(nl), prow(npr), full6, eqit, maxit
     real(c_double), intent(out) :: qout(ndof, nr), resp(nr), resr(nr)
     integer(c_int), intent(out) :: nit(nr), rinfo(nr), info
     type(tree_model) :: m
@@ -207,5 +208,5 @@ subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
     if (info /= sk_ok) return
     call compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, maxit, &
-        ptol, rtol, qout, resp, resr, nit, rinfo, info)
+        ptol, rtol, qout, resp, resr, nit, rinfo, info, prow, trow)
 end subroutine sk_tree_compensate

@@ -28,9 +28,10 @@
 !>   (J_q + J_delta Z) dq = e + J_delta y        (e: pose error),
 !> one frame evaluation per step, quadratic convergence of both; a row is
 !> done when the pose errors and the point motion of r are within tolerance.
-!> Once the pose error falls tenfold per step (steps below 1e-3), the LU
-!> factors of I - D G_ee are kept (chord in that matrix only: it moves with
-!> q by O(|dq| |D G|), far below what would slow Newton down).
+!> After a step shorter than 0.05 (rad or m), the LU factors of
+!> I - D G_ee are kept (chord in that matrix only: it moves with q by
+!> O(|dq| |D G|), far below what would slow Newton down). Newton starts
+!> from the command less the joint offsets, which that cancels exactly.
 module sk_tree_solve
     use sk_kinds, only: dp, ip
     use sk_errors
@@ -233,15 +234,22 @@ contains
     !> errors only (size, NaN, out-of-range frame or rotation). eqit >= 2
     !> solves the equilibrium inside the Newton iteration (module header),
     !> to etol; eqit 0 or 1 evaluate the rigid or first-order model at each q.
+    !> Optional per-row law parameters: theta(prow(j)) = trow(j, i) for
+    !> row i (a compliance that depends on the posture, evaluated by the
+    !> caller); prow must name law parameters only (not geometric ones,
+    !> which the folding takes at theta): else sk_err_argument.
     subroutine compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, &
-            maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
+            maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info, prow, trow)
         type(tree_model), intent(in) :: m
         real(dp), intent(in) :: theta(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol
         integer(ip), intent(in) :: frame(:), lpost(:), lvj(:), full6, eqit, maxit
         real(dp), intent(out) :: qout(:, :), resp(:), resr(:)
         integer(ip), intent(out) :: nit(:), rinfo(:), info
+        integer(ip), intent(in), optional :: prow(:)
+        real(dp), intent(in), optional :: trow(:, :)
         type(tree_model) :: mf
-        integer, allocatable :: lstart(:), lidx(:)
+        integer, allocatable :: lstart(:), lidx(:), pr(:)
+        real(dp), allocatable :: tr(:, :)
         integer :: newidx(0:m%nv), i, n, nd
         n = size(qcmd, 2)
         nd = m%ndof
@@ -265,22 +273,39 @@ contains
         do i = 1, n
             if (.not. is_rotation(rtarget(:, :, i))) return
         end do
+        allocate(pr(0), tr(0, n))
+        if (present(prow) .neqv. present(trow)) return
+        if (present(prow)) then
+            info = sk_err_size
+            if (any(shape(trow) /= [size(prow), n])) return
+            info = sk_err_nonfinite
+            if (.not. all_finite(trow)) return
+            info = sk_err_argument
+            if (any(prow < 1) .or. any(prow > m%npar)) return
+            do i = 1, size(prow)
+                if (any(m%gpar == prow(i)) .or. any(m%tpar == prow(i)) .or. any(m%mpar == prow(i))) return
+            end do
+            pr = prow
+            tr = trow
+        end if
+        info = sk_err_argument
         call group_by(lpost, n, lstart, lidx, info)
         if (info /= sk_ok) return
         ! the frames of the rows and payloads stay; constant joints fold away
         call fold_for_frames(m, theta, frame, lvj, mf, newidx, info)
         if (info /= sk_ok) return
         call compensate_rows(mf, theta, newidx(frame), qcmd, rtarget, ptarget, lstart, lidx, newidx(lvj), lw, &
-            full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
+            full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, pr, tr)
         info = sk_ok
     end subroutine compensate_batch
 
     !> The rows of compensate_batch on a validated (folded) model.
-    subroutine compensate_rows(m, theta, frame, qcmd, rtarget, ptarget, lstart, lidx, lvj, lw, full6, eqit, etol, &
-            maxit, ptol, rtol, qout, resp, resr, nit, rinfo)
+    subroutine compensate_rows(m, theta0, frame, qcmd, rtarget, ptarget, lstart, lidx, lvj, lw, full6, eqit, etol, &
+            maxit, ptol, rtol, qout, resp, resr, nit, rinfo, prow, trow)
         type(tree_model), intent(in) :: m
-        real(dp), intent(in) :: theta(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol
-        integer, intent(in) :: frame(:), lstart(:), lidx(:), lvj(:)
+        real(dp), intent(in) :: theta0(:), qcmd(:, :), rtarget(:, :, :), ptarget(:, :), lw(:, :), etol, ptol, rtol, &
+            trow(:, :)
+        integer, intent(in) :: frame(:), lstart(:), lidx(:), lvj(:), prow(:)
         integer(ip), intent(in) :: full6, eqit, maxit
         real(dp), intent(inout) :: qout(:, :), resp(:), resr(:)
         integer(ip), intent(inout) :: nit(:), rinfo(:)
@@ -289,14 +314,18 @@ contains
         integer :: lawcol(nsym, m%nk)
         integer(ip) :: lvjp(size(lvj))
         real(dp) :: ent_coef(m%nv), zq(m%ne, m%ndof + 1), jq(6, m%ndof + 1), rf(3, 3), pf(3), ep(3), er(3), b(6), &
-            re(m%ne), eprev, erot, dqlast
+            re(m%ne), dqlast, qoff(m%ndof)
         real(dp), allocatable :: a(:, :), q(:), dq(:), dqn(:)
+        real(dp) :: theta(size(theta0))
+        logical :: seen(m%ndof)
+        integer :: v, g
         logical :: done, coupled, reuse, factored
         integer(ip) :: sinfo
         integer, allocatable :: lsel(:)
         n = size(qcmd, 2)
         nd = m%ndof
         lvjp = lvj
+        theta = theta0
         call q_drivers(m, ent_vj, ent_col, ent_coef, nent)
         lawcol = 0
         nr = merge(6, 3, full6 == 1)
@@ -304,13 +333,25 @@ contains
         allocate(a(nr, nd), q(nd), dq(nd), dqn(nd))
         call state_init(m, st, m%qcol > 0)
         coupled = eqit >= 2 .and. m%ne > 0
+        ! start: the command less the joint offsets (those of the first
+        ! joint each coordinate drives), which it cancels exactly
+        qoff = 0.0_dp
+        seen = .false.
+        do v = 1, m%nv
+            if (m%qcol(v) == 0 .or. m%vtype(v) == vj_fixed) cycle
+            if (seen(m%qcol(v)) .or. m%qcoef(v) == 0.0_dp) cycle
+            seen(m%qcol(v)) = .true.
+            do g = m%gstart(v), m%gstart(v + 1) - 1
+                qoff(m%qcol(v)) = qoff(m%qcol(v)) + m%gcoef(g)*theta(m%gpar(g))/m%qcoef(v)
+            end do
+        end do
         do i = 1, n
             f = frame(i)
-            q = qcmd(:, i)
+            q = qcmd(:, i) - qoff
+            if (size(prow) > 0) theta(prow) = trow(:, i)
             lsel = lidx(lstart(i):lstart(i + 1) - 1)
             done = .false.
             factored = .false.
-            eprev = huge(1.0_dp)
             dqlast = huge(1.0_dp)
             st%delta = 0.0_dp
             do it = 0, maxit
@@ -343,14 +384,10 @@ contains
                 done = st%conv .and. resp(i) <= ptol .and. (full6 == 0 .or. resr(i) <= rtol)
                 if ((done .and. nd <= nr) .or. it == maxit .or. k == 0) exit
                 ! total Jacobian J = J_q + J_delta Z; column nd + 1: J_delta y,
-                ! the frame motion of the equilibrium correction y. Once the pose
-                ! error fell tenfold in a step shorter than 1e-3, the factors of
-                ! I - D G_ee are kept (they change with q by far less than
-                ! Newton needs)
-                erot = 0.0_dp
-                if (nr == 6) erot = m%lscale*resr(i)
-                reuse = factored .and. resp(i) + erot <= 0.1_dp*eprev .and. dqlast <= 1.0e-3_dp
-                eprev = resp(i) + erot
+                ! the frame motion of the equilibrium correction y. After a step
+                ! shorter than 0.05, the factors of I - D G_ee are kept (they
+                ! change with q by O(|dq| |D G|), far less than Newton needs)
+                reuse = factored .and. dqlast <= 0.05_dp
                 call elastic_sensitivity(m, st, ent_vj(1:nent), ent_col(1:nent), ent_coef(1:nent), lawcol, &
                     zq(:, 1:nd), sinfo, re, zq(:, nd + 1), reuse)
                 if (sinfo /= sk_ok) exit

@@ -7,7 +7,7 @@ diagnosis against measurements. The numbers are computed in a Fortran core
 pipeline: ``meshing`` -> ``fea`` -> ``field`` -> ``robot`` -> ``springs`` /
 ``calib``, and ``cli`` is the command line. The commands of the calibration
 contract are callable from Python with the same names (``fit``,
-``diagnose``, ``compare``, ``load_model``).
+``diagnose``, ``compare``, ``compensate``, ``load_model``).
 """
 
 from .calib import compare, diagnose, fit
@@ -33,6 +33,7 @@ from .field import (
     section_properties,
 )
 from .robot import load_model
+from .robot.compensate import compensate
 from .version import __version__
 
 __all__ = [
@@ -54,6 +55,7 @@ __all__ = [
     "beam_stiffness",
     "normal_quantile",
     "load_model",
+    "compensate",
     "fit",
     "diagnose",
     "compare",

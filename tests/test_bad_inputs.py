@@ -182,6 +182,20 @@ def api(id, call, exc, fragment, *marks):
     return pytest.param(Row(id, call, exc, fragment, list(marks)), id=id, marks=list(marks))
 
 
+T_HEAD = "config,q1,q2,q3,q4,q5,q6"
+T_ROW = "c1,0,-0.5,0.3,0,1.2,0"
+
+
+def targets(ws: Path, name: str, head: str = T_HEAD, row: str = T_ROW) -> str:
+    """A TARGETS.csv of this row (compensate)."""
+    return put(ws, name, f"{head}\n{row}\n")
+
+
+def comp(ws: Path, target: str, *extra) -> list:
+    """stiffkit compensate on the KR model with values."""
+    return ["compensate", kr(ws, "values.toml"), target, "--out", str(ws / "rows" / "commands.csv"), *extra]
+
+
 # ---------------------------------------------------------------- the table
 
 ROWS = [
@@ -1742,6 +1756,102 @@ ROWS = [
         2,
         "must end in",
     ),
+    # -- compensate
+    cmd(
+        "compensate-missing-out", lambda ws: ["compensate", kr(ws, "values.toml"), targets(ws, "t0.csv")], 2, "required"
+    ),
+    cmd(
+        "compensate-missing-joint-column",
+        lambda ws: comp(ws, targets(ws, "t1.csv", head="config,q1,q2,q4,q5,q6", row="c1,0,-0.5,0,1.2,0")),
+        2,
+        "missing joint column(s) joint_a1",
+    ),
+    cmd(
+        "compensate-nan",
+        lambda ws: comp(ws, targets(ws, "t2.csv", row="c1,0,nan,0.3,0,1.2,0")),
+        2,
+        "line 2: field 'q2' is nan (must be finite)",
+    ),
+    cmd(
+        "compensate-not-a-number",
+        lambda ws: comp(ws, targets(ws, "t3.csv", row="c1,0,-0.5,x,0,1.2,0")),
+        2,
+        "field 'q3' = 'x' is not a number",
+    ),
+    cmd(
+        "compensate-unknown-frame",
+        lambda ws: comp(ws, targets(ws, "t4.csv", head=T_HEAD + ",frame", row=T_ROW + ",nowhere")),
+        2,
+        "line 2: unknown frame 'nowhere'; frames of the model: link_1",
+    ),
+    cmd(
+        "compensate-base-frame",
+        lambda ws: comp(ws, targets(ws, "t5.csv"), "--frame", "base_link"),
+        2,
+        "--frame: unknown frame 'base_link'",
+    ),
+    cmd(
+        "compensate-empty-frame",
+        lambda ws: comp(ws, targets(ws, "t6.csv", head=T_HEAD + ",frame", row=T_ROW + ",")),
+        2,
+        "line 2: field 'frame' is empty",
+    ),
+    cmd(
+        "compensate-frame-twice",
+        lambda ws: comp(ws, targets(ws, "t7.csv", head=T_HEAD + ",frame", row=T_ROW + ",tool0"), "--frame", "tool0"),
+        2,
+        "has a frame column",
+    ),
+    cmd(
+        "compensate-partial-payload",
+        lambda ws: comp(ws, targets(ws, "t8.csv", head=T_HEAD + ",fx,fy,fz", row=T_ROW + ",1,2,3")),
+        2,
+        "payload columns must be all of fx fy fz mx my mz or none; missing mx, my, mz",
+    ),
+    cmd(
+        "compensate-payload-overflow",
+        lambda ws: comp(ws, targets(ws, "t9.csv", head=T_HEAD + ",fx,fy,fz,mx,my,mz", row=T_ROW + ",1e300,0,0,0,0,0")),
+        2,
+        "field 'fx' = 1e300 is out of range for a force",
+    ),
+    cmd(
+        "compensate-degrees",
+        lambda ws: comp(ws, targets(ws, "t10.csv", row="c1,0,-30,20,0,70,0")),
+        0,
+        "looks like deg",
+        warns=True,
+    ),
+    cmd(
+        "compensate-names-and-q-columns-mixed",
+        lambda ws: comp(ws, targets(ws, "t11.csv", head="config,joint_a1,q2,q3,q4,q5,q6")),
+        2,
+        "missing joint column(s) joint_a2",
+    ),
+    cmd(
+        "compensate-model-without-values",
+        lambda ws: ["compensate", kr(ws, "model.toml"), targets(ws, "t12.csv"), "--out", str(ws / "rows" / "c.csv")],
+        2,
+        "has no value; compensation evaluates a model with values",
+    ),
+    cmd(
+        "compensate-out-is-input",
+        lambda ws: ["compensate", kr(ws, "values.toml"), targets(ws, "t13.csv"), "--out", str(ws / "rows" / "t13.csv")],
+        2,
+        "is an input file",
+    ),
+    cmd(
+        "compensate-out-is-folder",
+        lambda ws: ["compensate", kr(ws, "values.toml"), targets(ws, "t14.csv"), "--out", str(ws)],
+        2,
+        "is a folder",
+    ),
+    cmd("compensate-header-only", lambda ws: comp(ws, put(ws, "t15.csv", T_HEAD + "\n")), 2, "no data rows"),
+    cmd(
+        "compensate-missing-targets",
+        lambda ws: comp(ws, str(ws / "rows" / "none.csv")),
+        2,
+        "no such targets file",
+    ),
     # -- demo
     cmd("demo-size-tiny", lambda ws: ["demo", "--only", "fea", "--size", "0.1"], 2, "--size = 0.1 must be in [1, 10]"),
     cmd("demo-seed-negative", lambda ws: ["demo", "--only", "field", "--seed", "-1"], 2, "--seed = -1 must be >= 0"),
@@ -2198,6 +2308,7 @@ def test_the_table_is_large_and_covers_every_command():
         "link",
         "fit",
         "diagnose",
+        "compensate",
         "convergence",
         "demo",
         "api",
