@@ -214,22 +214,29 @@ def reduce_parameters(model: TreeModel, jac: np.ndarray, free: np.ndarray) -> Re
     keep_tight = core_calib.select_independent(scaled, np.array(order), DROP_TOL) & ~zero
     red = Reduction(kept=free[keep_loose])
     kept_cols = np.flatnonzero(keep_loose)
+    dep = np.flatnonzero(~keep_loose & ~zero)
+    # one least-squares solve for every dependent column (one per column costs minutes on big trees)
+    coef = np.linalg.lstsq(scaled[:, kept_cols], scaled[:, dep], rcond=None)[0] if kept_cols.size and dep.size else None
+    kept_names = [names[free[k]] for k in kept_cols]
     for c in np.flatnonzero(~keep_loose):
         name = names[free[c]]
         if zero[c]:
             red.dropped.append((name, "the measurements do not depend on it (its column is zero)"))
             continue
-        why = _duplicates(scaled, c, kept_cols, [names[free[k]] for k in kept_cols])
+        k = int(np.searchsorted(dep, c))
+        why = _duplicates(scaled, c, kept_cols, kept_names, None if coef is None else coef[:, k])
         (red.merged if keep_tight[c] else red.dropped).append((name, why))
     return red
 
 
-def _duplicates(A: np.ndarray, c: int, kept: np.ndarray, kept_names: list[str]) -> str:
+def _duplicates(A: np.ndarray, c: int, kept: np.ndarray, kept_names: list[str], coef=None) -> str:
     """Words for a dependent column: the kept parameters whose combination
-    reproduces it, largest contributions first."""
+    (``coef``, the least-squares one when not given) reproduces it, largest
+    contributions first."""
     if kept.size == 0:
         return "no other parameter is identified"
-    coef, *_ = np.linalg.lstsq(A[:, kept], A[:, c], rcond=None)
+    if coef is None:
+        coef, *_ = np.linalg.lstsq(A[:, kept], A[:, c], rcond=None)
     share = np.abs(coef) * np.linalg.norm(A[:, kept], axis=0)
     total = share.sum()
     if total == 0:
