@@ -186,10 +186,15 @@ def tracker_start(model: TreeModel, data: AbsoluteData, theta: np.ndarray) -> np
     rms = float(np.sqrt(np.mean(np.sum((base @ R.T + t - data.xyz) ** 2, axis=1))))
     reach = float(np.sqrt(np.mean(np.sum((base - base.mean(axis=0)) ** 2, axis=1)))) or 1.0
     if not math.isfinite(rms) or rms > 0.25 * reach:
+        spread = float(np.sqrt(np.mean(np.sum((data.xyz - data.xyz.mean(axis=0)) ** 2, axis=1))))
+        ratio = spread / reach
+        unit = ""
+        if 300 < ratio < 3000:
+            unit = f" The measured points spread {ratio:.0f} times wider than the model's: in mm? (files are in m)"
         raise InputError(
             f"{data.path}: the tracker start failed: the best rigid motion of the nominal model's points onto "
-            f"the measured ones leaves {rms * 1e3:.4g} mm RMS ({rms / reach:.0%} of the points' spread). Check the "
-            f"units (m, rad), the joint columns and the frame names, or give the tracker a start pose "
+            f"the measured ones leaves {rms * 1e3:.4g} mm RMS ({rms / reach:.3g} times the points' spread).{unit} "
+            f"Check the units (m, rad), the joint columns and the frame names, or give the tracker a start pose "
             f"(xyz, rpy in the tracker effect)"
         )
     return th
@@ -382,6 +387,8 @@ def fit_absolute(
     missing = sorted(set(data.frames) - set(model.frames))
     if missing:
         raise InputError(f"{data.path}: frame(s) {', '.join(missing)} have no marker in the model")
+    if cv:
+        _check_folds(data, cv)  # before the fit, not after it
     theta = model.theta0
     set_deadzone_scales(model, data, theta)
     theta = tracker_start(model, data, theta)
@@ -502,6 +509,16 @@ def _robust(
     return m, sol, w, info
 
 
+def _check_folds(data: AbsoluteData, k: object) -> None:
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 2:
+        raise InputError(f"--cv needs a whole number of folds >= 2, got {k!r}")
+    if data.n_postures < k:
+        raise InputError(
+            f"{data.path}: {data.n_postures} configurations for {k} cross-validation folds "
+            "(folds hold whole configurations: give at least one per fold)"
+        )
+
+
 def cross_validate(
     model: TreeModel,
     data: AbsoluteData,
@@ -514,10 +531,7 @@ def cross_validate(
 ) -> dict:
     """K-fold cross-validation by configuration: each fold's postures are
     predicted by the model fitted on the others (from the full fit's values)."""
-    if isinstance(k, bool) or not isinstance(k, int) or k < 2:
-        raise InputError(f"--cv needs a whole number of folds >= 2, got {k!r}")
-    if data.n_postures < k:
-        raise InputError(f"{data.path}: {data.n_postures} configurations for {k} cross-validation folds")
+    _check_folds(data, k)
     rng = np.random.default_rng(seed)
     fold_of = np.empty(data.n_postures, int)
     fold_of[rng.permutation(data.n_postures)] = np.arange(data.n_postures) % k
