@@ -37,7 +37,7 @@ from .._core import calib as core_calib
 from .._core import field as core_field
 from .._core import tree as core
 from ..errors import InputError
-from ..robot.tree_model import DEADZONE_TAU0_FRACTION, LAW_DEADZONE, TreeModel, rpy_from_matrix
+from ..robot.tree_model import DEADZONE_TAU0_FRACTION, EQ_TOL, LAW_DEADZONE, TreeModel, rpy_from_matrix
 from .absolute_data import AbsoluteData
 
 __all__ = ["AbsoluteFit", "Reduction", "fit_absolute", "position_stats", "predict", "DROP_TOL", "MERGE_TOL"]
@@ -152,7 +152,7 @@ def predict(
         data.weight if weight is None else weight,
         free,
         model.eqit,
-        1e-9,
+        EQ_TOL,
     )
 
 
@@ -163,7 +163,9 @@ def set_deadzone_scales(model: TreeModel, data: AbsoluteData, theta: np.ndarray)
     todo = [k for k in range(len(kw0)) if model.arrays["ktype"][k] == LAW_DEADZONE and not kw0[k] > 0]
     if not todo:
         return
-    P = core.poses(model.ne, model.arrays, theta, data.Q, _loads(model, data), 1 if model.eqit else 0, 1e-9)
+    # the torques at zero deflection do not depend on tau0; the core refuses a dead zone without one
+    arrays = {**model.arrays, "kw0": np.where(np.isin(np.arange(len(kw0)), todo), 1.0, kw0)}
+    P = core.poses(model.ne, arrays, theta, data.Q, _loads(model, data), 1 if model.eqit else 0, EQ_TOL)
     for k in todo:
         vj = model.arrays["kvj"][0, k]
         rms = float(np.sqrt(np.mean(P["wv"][:, vj - 1] ** 2)))
@@ -357,7 +359,7 @@ def _lm(
         weight,
         free,
         model.eqit,
-        1e-9,
+        EQ_TOL,
         maxit=maxit,
     )
 
