@@ -245,7 +245,7 @@ def _motion(joint: TreeJoint, value: float) -> np.ndarray:
 
 def folded_origins(model: TreeModel, theta: np.ndarray) -> dict[str, np.ndarray]:
     """joint name -> its new origin (4, 4) for every joint with a frame
-    error or a (total) zero offset (module docstring)."""
+    error or a (total) zero offset other than 0 (module docstring)."""
     theta = np.asarray(theta, float)
     val = {p.name: float(theta[i]) for i, p in enumerate(model.params)}
     out = {}
@@ -261,8 +261,8 @@ def folded_origins(model: TreeModel, theta: np.ndarray) -> dict[str, np.ndarray]
                 break
             coef *= mimic[1]
             name = mimic[0]
-        if not has and frame[0] is None:
-            continue
+        if (not has or dq == 0.0) and (frame[0] is None or not any(frame)):
+            continue  # nothing to fold: the origin stays as written
         T = j.origin.copy()
         if frame[0] is not None:
             F = np.eye(4)
