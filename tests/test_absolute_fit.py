@@ -151,31 +151,34 @@ def test_noise_free_recovery_of_every_identifiable_parameter(small):
     assert fit.model.index("pitch_m.dq0") in fit.reduction.kept
 
 
-def _rank(A: np.ndarray, tol: float = 1e-9) -> int:
-    s = np.linalg.svd(A, compute_uv=False)
-    return int(np.sum(s > tol * s[0]))
-
-
 def test_dropped_parameters_are_exactly_the_non_identifiable_ones(small):
+    """The kept columns span the full scaled Jacobian: as many as its
+    numerical rank (SVD, with a clean gap), and each dropped column lies in
+    their span (adding it back does not raise the rank)."""
     fit, jac, free = small["fit"], small["jac"], small["free"]
     assert not fit.reduction.merged
     norms = np.linalg.norm(jac, axis=0)
     live = norms > 1e-9 * norms.max()
-    A = jac[:, live] / norms[live]
-    s = np.linalg.svd(A, compute_uv=False) / np.linalg.svd(A, compute_uv=False)[0]
-    rank = _rank(A)
-    # a clean gap: the numerical rank does not hang on the tolerance
-    assert s[rank - 1] > 1e-6 and (rank == s.size or s[rank] < 1e-12)
+    s = np.linalg.svd(jac[:, live] / norms[live], compute_uv=False)
+    s = s / s[0]
+    rank = int(np.sum(s > 1e-9))
+    assert s[rank - 1] > 1e-6 and (rank == s.size or s[rank] < 1e-12)  # the rank does not hang on 1e-9
     col = {int(i): k for k, i in enumerate(free)}
     kept = [col[int(i)] for i in fit.reduction.kept]
-    assert len(kept) == rank == _rank(jac[:, kept] / norms[kept])
-    for name, _why in fit.reduction.dropped:
-        c = col[fit.model.index(name)]
-        if live[c]:
-            assert _rank(np.column_stack([jac[:, kept], jac[:, c]]) / norms[kept + [c]]) == rank, name
+    U, sk, _ = np.linalg.svd(jac[:, kept] / norms[kept], full_matrices=False)
+    assert len(kept) == rank and sk[-1] / sk[0] > 1e-6
+    names = [n for n, _why in fit.reduction.dropped if live[col[fit.model.index(n)]]]
+    a = np.column_stack([jac[:, c] / norms[c] for c in (col[fit.model.index(n)] for n in names)])
+    off_span = np.linalg.norm(a - U @ (U.T @ a), axis=0)  # what a dropped column would add to the rank
+    assert off_span.max() < 1e-9, [n for n, o in zip(names, off_span) if o >= 1e-9]
 
 
 # -- the dual-arm story
+
+
+def rows_and_header(path):
+    lines = path.read_text().splitlines()
+    return len(lines) - 1, lines[0].split(",")
 
 
 def test_dualarm_story_falls_to_the_noise_floor(tmp_path):
@@ -187,8 +190,7 @@ def test_dualarm_story_falls_to_the_noise_floor(tmp_path):
     mimic = {j.name: j.mimic[0] for j in start.tree.joints if j.mimic}
     data = read_absolute(out / "measurements.csv", start.actuated, start.frames, mimic)
     assert data.n_postures == D.DEFAULT_CONFIGS and data.n == 2 * D.DEFAULT_CONFIGS
-    targets = read_absolute_targets(out / "targets.csv")
-    assert targets == (2 * D.DEFAULT_TARGETS, ["config", *start.actuated, "frame"])
+    assert rows_and_header(out / "targets.csv") == (2 * D.DEFAULT_TARGETS, ["config", *start.actuated, "frame"])
     effects, rms = list(start.effects), []
     for kind in (None, *D.STORY):
         if kind:
@@ -201,11 +203,6 @@ def test_dualarm_story_falls_to_the_noise_floor(tmp_path):
     assert 15e-3 < rms[0] < 25e-3 and 2e-3 < rms[3] < 4e-3, rms  # the story: ~20 mm ... ~3 mm
     assert abs(rms[-1] / floor - 1) < 0.1
     assert abs(fit.cv["rms_position_m"] / rms[-1] - 1) < 0.1
-
-
-def read_absolute_targets(path):
-    lines = path.read_text().splitlines()
-    return len(lines) - 1, lines[0].split(",")
 
 
 # -- writers
