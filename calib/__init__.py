@@ -12,6 +12,7 @@ from ..robot.model import Model, load_model, model_from_tables
 from ..robot.urdf import Chain, load_chain
 from .compare import compare
 from .diagnose import Candidate, Diagnosis, diagnose, format_diagnosis
+from .dualarm import synth_dualarm
 from .fit import FitResult, Problem, error_stats, fit, format_parameters, format_table, identified_model, write_model
 from .measure import Measurements, read_measurements, write_measurements
 from .reduce import Reduction, format_reduction, reduce_model
@@ -45,5 +46,6 @@ __all__ = [
     "synthesize",
     "write_synth",
     "kr270_truth",
+    "synth_dualarm",
     "write_model",
 ]

@@ -37,7 +37,7 @@ from .._core import calib as core_calib
 from .._core import field as core_field
 from .._core import tree as core
 from ..errors import InputError
-from ..robot.tree_model import DEADZONE_TAU0_FRACTION, LAW_DEADZONE, TreeModel, rpy_from_matrix
+from ..robot.tree_model import DEADZONE_TAU0_FRACTION, EQ_TOL, LAW_DEADZONE, TreeModel, rpy_from_matrix
 from .absolute_data import AbsoluteData
 from .crossval import config_folds
 
@@ -153,7 +153,7 @@ def predict(
         data.weight if weight is None else weight,
         free,
         model.eqit,
-        1e-9,
+        EQ_TOL,
     )
 
 
@@ -164,7 +164,9 @@ def set_deadzone_scales(model: TreeModel, data: AbsoluteData, theta: np.ndarray)
     todo = [k for k in range(len(kw0)) if model.arrays["ktype"][k] == LAW_DEADZONE and not kw0[k] > 0]
     if not todo:
         return
-    P = core.poses(model.ne, model.arrays, theta, data.Q, _loads(model, data), 1 if model.eqit else 0, 1e-9)
+    # the torques at zero deflection do not depend on tau0; the core refuses a dead zone without one
+    arrays = {**model.arrays, "kw0": np.where(np.isin(np.arange(len(kw0)), todo), 1.0, kw0)}
+    P = core.poses(model.ne, arrays, theta, data.Q, _loads(model, data), 1 if model.eqit else 0, EQ_TOL)
     for k in todo:
         vj = model.arrays["kvj"][0, k]
         rms = float(np.sqrt(np.mean(P["wv"][:, vj - 1] ** 2)))
@@ -187,10 +189,15 @@ def tracker_start(model: TreeModel, data: AbsoluteData, theta: np.ndarray) -> np
     rms = float(np.sqrt(np.mean(np.sum((base @ R.T + t - data.xyz) ** 2, axis=1))))
     reach = float(np.sqrt(np.mean(np.sum((base - base.mean(axis=0)) ** 2, axis=1)))) or 1.0
     if not math.isfinite(rms) or rms > 0.25 * reach:
+        spread = float(np.sqrt(np.mean(np.sum((data.xyz - data.xyz.mean(axis=0)) ** 2, axis=1))))
+        ratio = spread / reach
+        unit = ""
+        if 300 < ratio < 3000:
+            unit = f" The measured points spread {ratio:.0f} times wider than the model's: in mm? (files are in m)"
         raise InputError(
             f"{data.path}: the tracker start failed: the best rigid motion of the nominal model's points onto "
-            f"the measured ones leaves {rms * 1e3:.4g} mm RMS ({rms / reach:.0%} of the points' spread). Check the "
-            f"units (m, rad), the joint columns and the frame names, or give the tracker a start pose "
+            f"the measured ones leaves {rms * 1e3:.4g} mm RMS ({rms / reach:.3g} times the points' spread).{unit} "
+            f"Check the units (m, rad), the joint columns and the frame names, or give the tracker a start pose "
             f"(xyz, rpy in the tracker effect)"
         )
     return th
@@ -215,22 +222,29 @@ def reduce_parameters(model: TreeModel, jac: np.ndarray, free: np.ndarray) -> Re
     keep_tight = core_calib.select_independent(scaled, np.array(order), DROP_TOL) & ~zero
     red = Reduction(kept=free[keep_loose])
     kept_cols = np.flatnonzero(keep_loose)
+    dep = np.flatnonzero(~keep_loose & ~zero)
+    # one least-squares solve for every dependent column (one per column costs minutes on big trees)
+    coef = np.linalg.lstsq(scaled[:, kept_cols], scaled[:, dep], rcond=None)[0] if kept_cols.size and dep.size else None
+    kept_names = [names[free[k]] for k in kept_cols]
     for c in np.flatnonzero(~keep_loose):
         name = names[free[c]]
         if zero[c]:
             red.dropped.append((name, "the measurements do not depend on it (its column is zero)"))
             continue
-        why = _duplicates(scaled, c, kept_cols, [names[free[k]] for k in kept_cols])
+        k = int(np.searchsorted(dep, c))
+        why = _duplicates(scaled, c, kept_cols, kept_names, None if coef is None else coef[:, k])
         (red.merged if keep_tight[c] else red.dropped).append((name, why))
     return red
 
 
-def _duplicates(A: np.ndarray, c: int, kept: np.ndarray, kept_names: list[str]) -> str:
+def _duplicates(A: np.ndarray, c: int, kept: np.ndarray, kept_names: list[str], coef=None) -> str:
     """Words for a dependent column: the kept parameters whose combination
-    reproduces it, largest contributions first."""
+    (``coef``, the least-squares one when not given) reproduces it, largest
+    contributions first."""
     if kept.size == 0:
         return "no other parameter is identified"
-    coef, *_ = np.linalg.lstsq(A[:, kept], A[:, c], rcond=None)
+    if coef is None:
+        coef, *_ = np.linalg.lstsq(A[:, kept], A[:, c], rcond=None)
     share = np.abs(coef) * np.linalg.norm(A[:, kept], axis=0)
     total = share.sum()
     if total == 0:
@@ -346,7 +360,7 @@ def _lm(
         weight,
         free,
         model.eqit,
-        1e-9,
+        EQ_TOL,
         maxit=maxit,
     )
 
@@ -375,6 +389,8 @@ def fit_absolute(
     missing = sorted(set(data.frames) - set(model.frames))
     if missing:
         raise InputError(f"{data.path}: frame(s) {', '.join(missing)} have no marker in the model")
+    if cv:
+        _check_folds(data, cv)  # before the fit, not after it
     theta = model.theta0
     set_deadzone_scales(model, data, theta)
     theta = tracker_start(model, data, theta)
@@ -495,6 +511,16 @@ def _robust(
     return m, sol, w, info
 
 
+def _check_folds(data: AbsoluteData, k: object) -> None:
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 2:
+        raise InputError(f"--cv needs a whole number of folds >= 2, got {k!r}")
+    if data.n_postures < k:
+        raise InputError(
+            f"{data.path}: {data.n_postures} configurations for {k} cross-validation folds "
+            "(folds hold whole configurations: give at least one per fold)"
+        )
+
+
 def cross_validate(
     model: TreeModel,
     data: AbsoluteData,
@@ -507,10 +533,7 @@ def cross_validate(
     """K-fold cross-validation by configuration (crossval.config_folds: the
     configurations dealt to the folds in turn): each fold's postures are
     predicted by the model fitted on the others, from the full fit's values."""
-    if isinstance(k, bool) or not isinstance(k, int) or k < 2:
-        raise InputError(f"--cv needs a whole number of folds >= 2, got {k!r}")
-    if data.n_postures < k:
-        raise InputError(f"{data.path}: {data.n_postures} configurations for {k} cross-validation folds")
+    _check_folds(data, k)
     labels = [data.configs[p] for p in data.posture]
     folds = config_folds(labels, k)
     held = np.full((data.n, 3), np.nan)

@@ -5,8 +5,14 @@ truth.toml (the truth, with values) and measurements.csv into --out.
 
 ROBOT is ``kr270`` (a built-in KR-270-like 6R robot: approximate KUKA
 KR 270 R2700 datasheet dimensions; joint compliances of klimchik's
-magnitude; aluminium-tube links 2-4; a gravity compensator on A2) or a truth
-model TOML whose effects carry values (its URDF is copied).
+magnitude; aluminium-tube links 2-4; a gravity compensator on A2), a truth
+model TOML whose effects carry values (its URDF is copied), or ``dualarm``:
+a humanoid upper body (torso with a coupled pitch, two 7-joint arms)
+measured by a laser tracker (docs/calibration.md section 6): absolute
+positions of a reflector on each hand, the truth's zero offsets, frame
+errors, joint and lateral compliances under the robot's weight hidden in
+them; model.toml holds only the tracker and the two markers, and
+targets.csv a held-out trajectory for ``stiffkit compensate``.
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..calib import dualarm as DA
 from ..calib import synth as S
 from ..errors import InputError
 from ..robot.model import load_model
@@ -25,10 +32,14 @@ examples:
   stiffkit synth kr270 --out g --loads gravity      # forces along -z only
   stiffkit synth kr270 --out o --offset 0.01,0,0.02 # plus an unknown marker offset
   stiffkit synth truth.toml --out d --configs 50 --sigma 1e-5
+  stiffkit synth dualarm --out da                   # tracker data of a dual-arm robot
+  stiffkit synth dualarm --out dg --truth geometric --configs 200 --seed 7
 
 loads:   random = 2.5 kN in a random direction plus moments up to 300 N m;
          gravity = a weight (0, 0, -F) hung 0.2 m along the tool z axis.
 markers: points on the tool (tool frame), each measured for every load.
+dualarm: 400 postures, sigma 1e-4 m by default; --loads, --markers, --force,
+         --moment, --replicates, --fit and the kr270 options do not apply.
 """
 
 
@@ -40,10 +51,13 @@ def register(sub) -> None:
         epilog=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("robot", help="kr270 or a truth model TOML with values")
+    p.add_argument("robot", help="kr270, dualarm or a truth model TOML with values")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument(
-        "--configs", type=A.count("--configs", 1, S.MAX_ROWS), default=30, help="number of robot configurations"
+        "--configs",
+        type=A.count("--configs", 1, S.MAX_ROWS),
+        default=None,
+        help=f"number of robot configurations (default 30; dualarm {DA.DEFAULT_CONFIGS})",
     )
     p.add_argument("--loads", choices=["random", "gravity"], default="random")
     p.add_argument(
@@ -59,8 +73,9 @@ def register(sub) -> None:
     p.add_argument(
         "--sigma",
         type=A.number("--sigma", "sigma_position", lo=0.0),
-        default=2e-5,
-        help="noise std of each coordinate (m); 0: noise-free data (then not declared in model.toml)",
+        default=None,
+        help=f"noise std of each coordinate (m; default 2e-5, dualarm {DA.DEFAULT_SIGMA:g}); "
+        "0: noise-free data (then not declared in model.toml)",
     )
     p.add_argument(
         "--replicates", type=A.count("--replicates", 1, 100), default=1, help="repeat each measurement (pure error)"
@@ -76,6 +91,13 @@ def register(sub) -> None:
         default="joints",
         help="effects of model.toml: joints only (J1) or the truth's effects",
     )
+    p.add_argument("--truth", choices=DA.TRUTHS, default="full", help="dualarm: the truth's effects (geometric: rigid)")
+    p.add_argument(
+        "--targets",
+        type=A.count("--targets", 1, 10**5),
+        default=DA.DEFAULT_TARGETS,
+        help="dualarm: postures of the held-out trajectory (targets.csv)",
+    )
     p.set_defaults(func=run)
 
 
@@ -83,6 +105,20 @@ MARKERS = [(0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2), (-0.1, -0.1, 0.
 
 
 def run(args) -> int:
+    if args.robot == "dualarm":
+        configs = DA.DEFAULT_CONFIGS if args.configs is None else args.configs
+        out = DA.synth_dualarm(
+            args.out,
+            configs=configs,
+            seed=args.seed,
+            sigma=DA.DEFAULT_SIGMA if args.sigma is None else args.sigma,
+            truth=args.truth,
+            targets=args.targets,
+        )
+        print(DA.summary(out, configs, args.targets))
+        return 0
+    args.configs = 30 if args.configs is None else args.configs
+    args.sigma = 2e-5 if args.sigma is None else args.sigma
     n = args.configs * args.loads_per_config * args.markers * args.replicates
     if n > S.MAX_ROWS:
         raise InputError(f"--configs x --loads-per-config x --markers x --replicates = {n} rows; at most {S.MAX_ROWS}")

@@ -22,9 +22,11 @@ Every effect becomes virtual joints or parameters of the core's model:
   gravity force (moment about the axis of the weight beyond the joint and
   the row's payloads).
 - ``lateral`` (target: a revolute joint or ``all``): ``<joint>.cx cy``,
-  rotations about x' and y' of the joint frame (z' the axis; x' the joint
-  frame's axis least aligned with z', made orthogonal; y' = z' x x')
-  driven by the moment components about them.
+  rotations about x' and y' of the joint frame after the joint's motion
+  (z' the axis; x' the joint frame's axis least aligned with z', made
+  orthogonal; y' = z' x x'; they turn with the joint, so a zero offset
+  folded into the joint's origin changes nothing) driven by the moment
+  components about them.
 - ``joint_cubic`` / ``joint_deadzone`` (target: a joint with a ``joint``
   effect): the law becomes ``c tau + c3 tau^3`` (``<joint>.cubic``) or
   ``c tau + b tanh(tau / tau0)`` (``<joint>.backlash``, ``tau0`` a key in N m;
@@ -533,22 +535,6 @@ def tree_model_from_tables(
                 start = 0.0 if val is None else val[k]
                 pi = b.add_param(f"{j.name}.{FRAME_NAMES[k]}", "frame", j.name, i, start, val is None)
                 b.g.append((vj, pi, 1.0))
-        if "lateral" in slot and j.type != "prismatic":
-            i, table, w = slot["lateral"]
-            val = table.get("value")
-            if val is not None:
-                if isinstance(val, (int, float)) and not isinstance(val, bool):
-                    val = np.array([float(val)] * 2)
-                else:
-                    val = _vec(table, "value", 2, w)
-                if np.any(val < 0):
-                    raise InputError(f"{w}: lateral compliances must be >= 0 rad/(N m), got {list(val)}")
-            for k, ax in enumerate(_lateral_axes(j.axis)):
-                vj = cur.add(1, ax)
-                start = 0.0 if val is None else val[k]
-                pi = b.add_param(f"{j.name}.c{'xy'[k]}", "lateral", j.name, i, start, val is None)
-                b.k.append((LAW_LINEAR, [vj], [pi] + [0] * 20, 1.0))
-                b.blocks.append(("lateral", j.name))
         if j.moving:
             vj = cur.add(1 if j.type != "prismatic" else 2, j.axis)
             lead, mult, off = tree.leader(j.name)
@@ -567,6 +553,24 @@ def tree_model_from_tables(
                 b.k.append(_joint_law(b, j.name, slot, vj))
                 b.blocks.append(("joint", j.name))
             vj_of_joint[j.name] = vj
+            # the bearing's tilt: after the motion, so the axes x', y' turn with the
+            # joint and a zero offset folded into the origin leaves the model unchanged
+            if "lateral" in slot and j.type != "prismatic":
+                i, table, w = slot["lateral"]
+                val = table.get("value")
+                if val is not None:
+                    if isinstance(val, (int, float)) and not isinstance(val, bool):
+                        val = np.array([float(val)] * 2)
+                    else:
+                        val = _vec(table, "value", 2, w)
+                    if np.any(val < 0):
+                        raise InputError(f"{w}: lateral compliances must be >= 0 rad/(N m), got {list(val)}")
+                for k, ax in enumerate(_lateral_axes(j.axis)):
+                    vj = cur.add(1, ax)
+                    start = 0.0 if val is None else val[k]
+                    pi = b.add_param(f"{j.name}.c{'xy'[k]}", "lateral", j.name, i, start, val is None)
+                    b.k.append((LAW_LINEAR, [vj], [pi] + [0] * 20, 1.0))
+                    b.blocks.append(("lateral", j.name))
         else:
             vj_of_joint[j.name] = cur.add() if cur.first else cur.vj
         vj_of_link[j.child] = cur.vj

@@ -1105,6 +1105,37 @@ ROWS = [
     ),
     cmd("synth-out-is-file", lambda ws: ["synth", "kr270", "--out", str(ws / "fit.json")], 2, "a file, not a folder"),
     cmd(
+        "synth-dualarm-sigma-negative",
+        lambda ws: ["synth", "dualarm", "--out", str(ws / "s"), "--sigma", "-1"],
+        2,
+        "--sigma = -1 m must be >= 0",
+    ),
+    cmd(
+        "synth-dualarm-sigma-mm-warns",
+        lambda ws: ["synth", "dualarm", "--out", str(ws / "dmm"), "--configs", "2", "--targets", "1", "--sigma", "0.1"],
+        0,
+        "it looks like mm",
+        warns=True,
+    ),
+    cmd(
+        "synth-dualarm-truth-unknown",
+        lambda ws: ["synth", "dualarm", "--out", str(ws / "s"), "--truth", "elastic"],
+        2,
+        "invalid choice: 'elastic'",
+    ),
+    cmd(
+        "synth-dualarm-targets-zero",
+        lambda ws: ["synth", "dualarm", "--out", str(ws / "s"), "--targets", "0"],
+        2,
+        "--targets = 0",
+    ),
+    cmd(
+        "synth-dualarm-out-is-file",
+        lambda ws: ["synth", "dualarm", "--out", str(ws / "fit.json")],
+        2,
+        "a file, not a folder",
+    ),
+    cmd(
         "synth-truth-missing",
         lambda ws: ["synth", str(ws / "truth.toml"), "--out", str(ws / "s")],
         2,
@@ -1862,6 +1893,24 @@ ROWS = [
         "a file, not a folder",
     ),
     # -- the Python API
+    api(
+        "api-synth-dualarm-sigma-nan",
+        lambda ws: sk.calib.synth_dualarm(ws / "da", sigma=float("nan")),
+        sk.InputError,
+        "sigma = nan must be a finite number",
+    ),
+    api(
+        "api-synth-dualarm-configs-bool",
+        lambda ws: sk.calib.synth_dualarm(ws / "da", configs=True),
+        sk.InputError,
+        "configs = True must be an integer",
+    ),
+    api(
+        "api-synth-dualarm-truth-unknown",
+        lambda ws: sk.calib.synth_dualarm(ws / "da", truth="soft"),
+        sk.InputError,
+        "truth = 'soft': choose one of full, geometric",
+    ),
     api(
         "api-fit-field-text",
         lambda ws: sk.fit_field([["a", "b", "c"]] * 4, np.zeros((4, 3)), [0, 0, 0]),

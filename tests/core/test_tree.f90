@@ -123,12 +123,14 @@ contains
         end do
     end subroutine add_marker
 
-    !> A URDF joint expanded as the Python side does: [origin] -> optional
+    !> A URDF joint expanded much as the Python side does: [origin] -> optional
     !> 6-dof spring (3 prismatic x y z, 3 revolute x y z; compliance c6) ->
     !> optional frame error (same screws, parameters fr) -> optional two
     !> lateral revolutes (compliances clat) -> the joint itself (revolute
-    !> about axis on column qcol, or fixed when qcol < 0). Returns the
-    !> joint's virtual joint. ljoint: law of the joint (0 none).
+    !> about axis on column qcol, or fixed when qcol < 0); robot/tree_model.py
+    !> puts the lateral revolutes after the joint's motion instead, which
+    !> these tests of the numerics do not depend on. Returns the joint's
+    !> virtual joint. ljoint: law of the joint (0 none).
     integer function add_joint(b, parent, rot, pos, axis, qcol, qcoef, qconst, c6, fr, clat, ljoint, lpar, w0) &
             result(v)
         type(builder), intent(inout) :: b
