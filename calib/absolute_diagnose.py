@@ -46,9 +46,14 @@ ALPHA = 0.01
 #: are not Gaussian): a stricter level than the tests of the effects
 OUTLIER_ALPHA = 1e-4
 CV_FOLDS = 5
+#: held-out errors of this many leading candidates (each one CV of the linearised model)
+CV_TOP = 6
 ZTOL = 1e-6
 #: a candidate must lower the held-out RMS by this fraction at least (beyond noise)
 CV_GAIN = 0.02
+#: a smaller candidate contained in the best one is proposed first when it achieves this share of
+#: the best one's held-out improvement (joint offsets before the frame errors that contain them)
+NESTED_SHARE = 0.5
 #: per joint kinds, and the template of link / base springs among the candidates
 JOINT_KINDS = ("joint_offset", "frame", "joint", "lateral")
 SPRING_TEMPLATE = "beam"
@@ -93,7 +98,7 @@ class AbsoluteDiagnosis:
             "cv_rms_position_m": self.cv_rms_position_m,
             "cv_folds": self.cv_folds,
             "test": self.test,
-            "statistic": self.statistic,
+            "statistic": self.statistic if math.isfinite(self.statistic) else None,
             "dof": self.dof,
             "log10_p_value": self.log_p / math.log(10),
             "data_checks": self.data_checks,
@@ -276,7 +281,7 @@ def diagnose_absolute(
         cand.rms_after_m = math.sqrt(max(rss - st[k], 0.0) / max(np.sum(w > 0), 1))
         ranked.append((cand, cols))
     ranked.sort(key=lambda x: x[0].log_p)
-    top = ranked[:12]
+    top = ranked[:CV_TOP]
     for cand, cols in top:
         Ac = np.hstack([A, J[:, [col[x] for x in cols]]])
         cand.cv_rms_position_m = _cv_rms(Ac, r, obs_rows, folds, w)
@@ -304,6 +309,7 @@ def diagnose_absolute(
     ]
     if useful:
         best = min(useful, key=lambda c: c.cv_rms_position_m)
+        best = _smaller_first(best, useful, {id(c): cols for c, cols in top}, A, r, J, col, cv_base)
         margin = best.cv_rms_position_m * CV_GAIN
         rivals = [
             c
@@ -339,6 +345,41 @@ def diagnose_absolute(
     if nres < 30:
         dg.warnings.append(f"only {nres} residual degrees of freedom: the tests have little power")
     return dg
+
+
+def _smaller_first(
+    best: Candidate,
+    useful: list[Candidate],
+    cols: dict,
+    A: np.ndarray,
+    r: np.ndarray,
+    J: np.ndarray,
+    col: dict,
+    cv_base: float,
+) -> Candidate:
+    """A useful candidate with fewer parameters whose columns lie in the span
+    of the model and the best candidate (the best one contains it, e.g. joint
+    offsets inside frame errors) and that gets NESTED_SHARE of the best one's
+    held-out improvement: the simpler effect first; the rest of the best one
+    remains a candidate of the next step."""
+    gain = cv_base - best.cv_rms_position_m
+    Zb = J[:, [col[x] for x in cols[id(best)]]]
+    inner = []
+    for c in useful:
+        if c is best or c.kind == best.kind or c.dof >= best.dof or cv_base - c.cv_rms_position_m < NESTED_SHARE * gain:
+            continue
+        Zc = J[:, [col[x] for x in cols[id(c)]]]
+        _st, dof, _pr = core_calib.score(np.hstack([A, Zb]), r, Zc, np.array([1, Zc.shape[1] + 1]), 1e-10, ZTOL)
+        if int(dof[0]) == 0:
+            inner.append(c)
+    if not inner:
+        return best
+    pick = min(inner, key=lambda c: c.cv_rms_position_m)
+    pick.hint = (
+        f"{pick.label} is contained in {best.label} (which would bring the held-out RMS to "
+        f"{best.cv_rms_position_m * 1e3:.4g} mm): the simpler effect first"
+    )
+    return pick
 
 
 def _nested(a: Candidate, b: Candidate) -> bool:
@@ -409,6 +450,8 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
         lines.append(f"no proposal: {r}")
     if dg.proposal is not None:
         lines.append("")
+        if dg.proposal.hint:
+            lines.append(f"note: {dg.proposal.hint}")
         lines.append("proposal: append to the model and fit again:")
         lines.append("[[effect]]")
         for k, v in dg.proposal.effect.items():

@@ -346,7 +346,13 @@ class AbsoluteFit:
 
 
 def _lm(
-    model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, weight: np.ndarray, maxit: int
+    model: TreeModel,
+    data: AbsoluteData,
+    theta: np.ndarray,
+    free: np.ndarray,
+    weight: np.ndarray,
+    maxit: int,
+    eqit: int | None = None,
 ) -> dict:
     return core.lm(
         model.ne,
@@ -359,17 +365,24 @@ def _lm(
         data.xyz,
         weight,
         free,
-        model.eqit,
+        model.eqit if eqit is None else eqit,
         EQ_TOL,
         maxit=maxit,
     )
 
 
 def _solve(
-    model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, weight: np.ndarray, maxit: int
+    model: TreeModel,
+    data: AbsoluteData,
+    theta: np.ndarray,
+    free: np.ndarray,
+    weight: np.ndarray,
+    maxit: int,
+    eqit: int | None = None,
 ) -> tuple[TreeModel, dict]:
-    """LM from theta; the model returned carries the re-centred tracker rotation."""
-    r = _lm(model, data, theta, free, weight, maxit)
+    """LM from theta (``eqit`` overrides the model's equilibrium mode); the
+    model returned carries the re-centred tracker rotation."""
+    r = _lm(model, data, theta, free, weight, maxit, eqit)
     m = model.copy()
     m.arrays["rref"] = np.asfortranarray(r["rref"])
     return m, r
@@ -403,7 +416,8 @@ def fit_absolute(
     # hide that joint's parameters)
     frames_only = np.array([i for i in free if model.params[i].kind in ("tracker", "marker")], dtype=int)
     if frames_only.size:
-        model, sol0 = _solve(model, data, theta, frames_only, w, maxit)
+        # the start only: the rigid model is enough and much cheaper than the equilibrium
+        model, sol0 = _solve(model, data, theta, frames_only, w, maxit, eqit=0)
         theta = sol0["theta"]
     ev = predict(model, data, theta, free, w)
     before = data.xyz - ev["pred"]

@@ -18,6 +18,8 @@ from pathlib import Path
 
 from ..calib.absolute_fit import fit_absolute
 from ..calib.absolute_report import format_absolute, format_absolute_parameters, load_absolute, residual_table
+from ..calib.absolute_write import write_model as write_model_absolute
+from ..calib.absolute_write import write_urdf
 from ..calib.compare import compare
 from ..calib.fit import fit, format_parameters, format_table, write_model
 from ..calib.measure import read_measurements
@@ -95,6 +97,12 @@ def register(sub) -> None:
     p.add_argument("--json", help="write the results to this JSON file")
     p.add_argument("--plots", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--write-model", metavar="OUT.toml", help="write the model with identified values")
+    p.add_argument(
+        "--write-urdf",
+        metavar="OUT.urdf",
+        help="absolute data: the URDF with the identified joint offsets and frame errors folded into the joint "
+        "origins (with --write-model, the model then names it and leaves those effects out)",
+    )
     p.add_argument("--compare", metavar="OLD.json", help="print a comparison with an earlier fit")
     p.add_argument(
         "--reduce", action="store_true", help="reduce the model (M1-M5), print Table 1, fit the independent subset"
@@ -123,18 +131,24 @@ def _outputs(args) -> None:
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--write-model", args.write_model, (".toml",)),
+        ("--write-urdf", args.write_urdf, (".urdf", ".xml")),
     ):
         if path:
             V.output_path(path, opt, inputs, suffixes)
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
         raise InputError(f"--plots {args.plots}: a file, not a folder")
-    V.distinct_outputs({"--json": args.json, "--write-model": args.write_model})
+    V.distinct_outputs({"--json": args.json, "--write-model": args.write_model, "--write-urdf": args.write_urdf})
 
 
 def run(args) -> int:
     _outputs(args)
     if model_kind(args.model) == "absolute":
         return run_absolute(args)
+    if args.write_urdf:
+        raise InputError(
+            "--write-urdf: a model of deflections under known loads (section 3) has no geometric effects to fold "
+            'into a URDF; it is for absolute data ([measurements] kind = "absolute")'
+        )
     if args.cv is not None:
         raise InputError(
             "--cv: cross-validation of a fit is for absolute data; `stiffkit diagnose --cv K` "
@@ -205,6 +219,14 @@ def run_absolute(args) -> int:
         print()
         print(residual_table(fit))
     out = fit.to_json()
+    if args.write_urdf:
+        for note in write_urdf(fit, args.write_urdf):
+            print(f"note: {note}")
+        print(f"wrote {args.write_urdf}")
+    if args.write_model:
+        for note in write_model_absolute(fit, args.write_model, folded_urdf=args.write_urdf):
+            print(f"note: {note}")
+        print(f"wrote {args.write_model}")
     if args.json:
         write_json(args.json, out)
         print(f"wrote {args.json}")

@@ -437,14 +437,24 @@ def tree_model_from_tables(
         ("joint_cubic", True),
         ("joint_deadzone", True),
     ):
-        for i, table, w in by_kind[kind]:
+        # a table naming one joint takes precedence over target = "all" (which
+        # then means every other joint); two tables naming one joint, or two
+        # "all", are an error
+        tables = sorted(by_kind[kind], key=lambda e: e[1].get("target", "all") == "all")
+        alls = [e for e in tables if e[1].get("target", "all") == "all"]
+        if len(alls) > 1:
+            raise InputError(f"{alls[1][2]}: a second {kind} effect with target 'all' ({alls[0][2]})")
+        for i, table, w in tables:
+            every = table.get("target", "all") == "all"
             for jn in _targets(tree, table, w, kind, moving):
                 if kind == "lateral" and tree.joint(jn).type == "prismatic":
-                    if table.get("target", "all") == "all":
+                    if every:
                         continue
                     raise InputError(f"{w}: lateral compliance needs a revolute joint; {jn!r} is prismatic")
                 slot = per_joint.setdefault(jn, {})
                 if kind in slot:
+                    if every:
+                        continue
                     raise InputError(f"{w}: joint {jn!r} already has a {kind} effect ({slot[kind][2]})")
                 slot[kind] = (i, table, w)
     for jn, slot in per_joint.items():
