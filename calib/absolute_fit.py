@@ -76,10 +76,12 @@ class Reduction:
     kept: np.ndarray
     dropped: list[tuple[str, str]] = field(default_factory=list)
     merged: list[tuple[str, str]] = field(default_factory=list)
+    bounded: list[tuple[str, str]] = field(default_factory=list)
 
     def lines(self) -> list[str]:
         out = [f"not identifiable, held at its start value: {n}: {why}" for n, why in self.dropped]
         out += [f"near-redundant, merged (held at its start value): {n}: {why}" for n, why in self.merged]
+        out += [f"at its bound: {n}: {why}" for n, why in self.bounded]
         return out
 
 
@@ -237,6 +239,15 @@ def reduce_parameters(model: TreeModel, jac: np.ndarray, free: np.ndarray) -> Re
     return red
 
 
+def _nonnegative(p: object) -> bool:
+    """Parameters that are >= 0 by their physics: joint and lateral
+    compliances, the backlash of a dead zone, the diagonal of 6-dof springs."""
+    tail = p.name.rsplit(".", 1)[-1]
+    if p.kind in ("joint", "lateral") or p.kind == "joint_deadzone":
+        return True
+    return p.kind in ("link", "base") and len(tail) == 3 and tail[0] == "c" and tail[1] == tail[2]
+
+
 def _duplicates(A: np.ndarray, c: int, kept: np.ndarray, kept_names: list[str], coef=None) -> str:
     """Words for a dependent column: the kept parameters whose combination
     (``coef``, the least-squares one when not given) reproduces it, largest
@@ -334,6 +345,7 @@ class AbsoluteFit:
             stop_reason=self.reason,
             dropped=[{"name": n, "reason": r} for n, r in self.reduction.dropped],
             merged=[{"name": n, "reason": r} for n, r in self.reduction.merged],
+            at_bound=[{"name": n, "reason": r} for n, r in self.reduction.bounded],
             model=str(self.model.path) if self.model.path else None,
             measurements=self.data.path,
             notes=self.notes,
@@ -433,6 +445,20 @@ def fit_absolute(
     else:
         model, sol = _solve(model, data, theta, red.kept, w, maxit)
     theta = sol["theta"]
+    # compliances cannot be negative: one identified below 0 (a weakly determined
+    # direction) is held at 0 and the others fitted again (an active set), so the
+    # model written from this fit is the model fitted
+    for _ in range(5):
+        neg = [i for i in red.kept if _nonnegative(model.params[i]) and theta[i] < 0]
+        if not neg:
+            break
+        for i in neg:
+            red.bounded.append((model.names[i], f"identified {theta[i]:.4g} < 0: held at 0 (a compliance is >= 0)"))
+        theta = theta.copy()
+        theta[neg] = 0.0
+        red.kept = np.array([i for i in red.kept if i not in neg], dtype=int)
+        model, sol = _solve(model, data, theta, red.kept, w, maxit)
+        theta = sol["theta"]
     ev = predict(model, data, theta, red.kept, w)
     resid = data.xyz - ev["pred"]
     chi2 = float(ev["res"] @ ev["res"])
@@ -456,6 +482,8 @@ def fit_absolute(
             std[i] = stdu[k] * scale
     for n, _why in red.merged:
         groups[model.index(n)] = "near-redundant"
+    for n, _why in red.bounded:
+        groups[model.index(n)] = "at bound"
     fit = AbsoluteFit(
         model=model,
         data=data,

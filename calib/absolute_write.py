@@ -216,8 +216,14 @@ def write_model(fit, path: str | Path, folded_urdf: str | Path | None = None) ->
     )
     sigma = fit.sigma if getattr(fit, "sigma_declared", False) else model.sigma_position
     header = f"# written by stiffkit from the fit of {model.path or 'a model'} on {fit.data.path}"
+    robot = dict(model.robot_table)
     if folded_urdf is not None:
         header += f"\n# joint offsets and frame errors are folded into {Path(folded_urdf).name}"
+        # the nominal robot stays the one the commands refer to (compensation's targets)
+        nominal = Path(model.tree.urdf)
+        if isinstance(robot.get("nominal_urdf"), str) and model.path is not None:
+            nominal = Path(model.path).parent / robot["nominal_urdf"]
+        robot["nominal_urdf"] = _relative(nominal, path.parent)
     text = model_text(
         effects,
         urdf=_relative(urdf, path.parent),
@@ -225,7 +231,7 @@ def write_model(fit, path: str | Path, folded_urdf: str | Path | None = None) ->
         sigma_position=sigma,
         gravity=model.gravity,
         iterations=model.iterations if model.iterations != EQ_ITERATIONS else None,
-        robot=model.robot_table,
+        robot=robot,
         header=header,
     )
     atomic_write_text(path, text)

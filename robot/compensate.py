@@ -303,6 +303,22 @@ def _nominal(tree: Tree, frame: str, where: str) -> TreeModel:
     return tree_model_from_tables(tree, eff, (0.0, 0.0, 0.0), 1, where)
 
 
+def _nominal_tree(m: TreeModel, path: Path) -> Tree:
+    """The robot the commands refer to: the model's URDF, or ``[robot]
+    nominal_urdf`` when the model's URDF already holds the corrections
+    (``stiffkit fit --write-urdf`` with ``--write-model``)."""
+    nom = m.robot_table.get("nominal_urdf")
+    if nom is None:
+        return m.tree
+    if not isinstance(nom, str):
+        raise InputError(f"{path}: [robot] nominal_urdf must be a file name")
+    p = Path(nom) if Path(nom).is_absolute() else path.parent / nom
+    tree = load_tree(p, m.tree.root)
+    if [j.name for j in tree.joints] != [j.name for j in m.tree.joints]:
+        raise InputError(f"{path}: [robot] nominal_urdf {p} is not the same robot as {m.tree.urdf} (other joints)")
+    return tree
+
+
 def _absolute(path: Path) -> CompensationModel:
     m = load_tree_model(path)
     _check_values(m, str(path))
@@ -322,7 +338,7 @@ def _absolute(path: Path) -> CompensationModel:
         path=path,
         model=m,
         theta=m.theta0,
-        nominal=_nominal(tree, frames[0], str(path)),
+        nominal=_nominal(_nominal_tree(m, path), frames[0], str(path)),
         joints=tree.actuated,
         frames=frames,
         default_frame=default,
