@@ -293,7 +293,9 @@ def logsf_f(f: float, d1: float, d2: float) -> float:
     return core.f_logsf(f, d1, d2)
 
 
-def _adequacy(res: FitResult, pb: Problem, meas: Measurements) -> tuple[str, float, int, float, float, str, float, int]:
+def _adequacy(
+    res: FitResult, pb: Problem, meas: Measurements
+) -> tuple[str, float, int, float, float, str, float, int | None]:
     """(test, statistic, dof, log p, sigma, source, scale2, d_pe)."""
     if pb.sigma_declared:
         stat, dof = res.chi2, res.dof

@@ -92,7 +92,7 @@ def kr270_truth(
     return eff
 
 
-def random_postures(n: int, ranges: Sequence[Sequence[float]], rng: np.random.Generator) -> np.ndarray:
+def random_postures(n: int, ranges: Sequence[Sequence[float]] | np.ndarray, rng: np.random.Generator) -> np.ndarray:
     lo = np.array([r[0] for r in ranges])
     hi = np.array([r[1] for r in ranges])
     return lo + (hi - lo) * rng.random((n, len(ranges)))

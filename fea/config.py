@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import copy
 import difflib
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -481,7 +481,7 @@ def part_dims(geometry: dict) -> list[float] | None:
     return None
 
 
-def check_mesh_size(size: float, geometry: dict, units: str, name: str, dims: Sequence[float] | None = None) -> None:
+def check_mesh_size(size: float, geometry: dict, units: str, name: str, dims: list[float] | None = None) -> None:
     """An element size larger than the whole part is an error; larger than
     its smallest side (less than one element across) a warning. ``dims``:
     the part's bounding box (geometry units) when it is not a built-in shape."""

@@ -20,11 +20,14 @@ import tomllib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
 from ..errors import InputError
 from . import validate as V
+
+_T = TypeVar("_T")
 
 __all__ = [
     "Table",
@@ -239,9 +242,9 @@ def _document(
     where: str,
     error: type[InputError],
     kind: str,
-    parse: Callable[[str], object],
+    parse: Callable[[str], _T],
     errors: tuple[type[Exception], ...],
-) -> object:
+) -> _T:
     path = Path(path)
     at = f"{where}: {path}" if where else str(path)
     text = read_text(path, what, where, error)

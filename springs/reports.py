@@ -8,11 +8,12 @@ results (SI), and ``write_json`` / ``write_png`` the files.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
 from ..io.files import write_json
@@ -152,7 +153,7 @@ class OrthoglideReport:
 
 
 def orthoglide_report(
-    point_mm: Sequence[float] = (0.0, 0.0, 0.0),
+    point_mm: npt.ArrayLike = (0.0, 0.0, 0.0),
     links: str = "beam",
     link_files: dict | None = None,
     actuator_compliance: float = 0.0,
