@@ -9,7 +9,12 @@ checked against the Fortran and C definitions by tests/test_architecture.py.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TypeVar
+
 from ..errors import ConvergenceError, DegenerateError, InputError, SingularError, StiffkitError
+
+_T = TypeVar("_T")
 
 #: code -> (exception class, generic explanation)
 INFO: dict[int, tuple[type[StiffkitError], str]] = {
@@ -68,7 +73,7 @@ def check(info: int, routine: str, details: dict[int, str] | None = None) -> Non
     raise exc
 
 
-def call(fn, routine: str, *args, **kwargs):
+def call(fn: Callable[..., _T], routine: str, *args: object, **kwargs: object) -> _T:
     """``fn(*args, **kwargs)`` of an f2py extension, with the extension's
     own argument errors (ValueError, TypeError: an array that does not
     convert, a wrong size) raised as InputError naming ``routine``."""

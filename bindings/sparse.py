@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
 from . import _sparse
@@ -18,7 +19,7 @@ _IO = {
 }
 
 
-def read_triplets(path) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+def read_triplets(path: Path | str) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """rows, cols (1-based, upper triangle), values and the equation count
     of a CalculiX .sti/.mas file."""
     path = str(Path(path))
@@ -31,7 +32,7 @@ def read_triplets(path) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     return rows, cols, vals, int(neq)
 
 
-def read_dofs(path) -> tuple[np.ndarray, np.ndarray]:
+def read_dofs(path: Path | str) -> tuple[np.ndarray, np.ndarray]:
     """node and direction (1-3) of every equation of a CalculiX .dof file."""
     path = str(Path(path))
     neq, info = call(_sparse.sk_dof_count, "sk_dof_count", path)
@@ -43,7 +44,9 @@ def read_dofs(path) -> tuple[np.ndarray, np.ndarray]:
     return node, direction
 
 
-def cholmod_solve(rows, cols, vals, b) -> tuple[np.ndarray, dict]:
+def cholmod_solve(
+    rows: npt.ArrayLike, cols: npt.ArrayLike, vals: npt.ArrayLike, b: npt.ArrayLike
+) -> tuple[np.ndarray, dict]:
     """x = K^-1 b for every column of b (n, nrhs), one factorisation."""
     b = np.asfortranarray(np.atleast_2d(np.asarray(b, dtype=float).T).T)
     x, times, lnz, info = call(
@@ -71,7 +74,9 @@ def cholmod_solve(rows, cols, vals, b) -> tuple[np.ndarray, dict]:
     }
 
 
-def rigid_solve(rows, cols, vals, n: int, ceq, offsets) -> tuple[np.ndarray, np.ndarray, dict]:
+def rigid_solve(
+    rows: npt.ArrayLike, cols: npt.ArrayLike, vals: npt.ArrayLike, n: int, ceq: npt.ArrayLike, offsets: npt.ArrayLike
+) -> tuple[np.ndarray, np.ndarray, dict]:
     """Rigid coupling on the assembled K (one CHOLMOD factorisation of
     T^T K T): ``ceq`` (nc, 3) 1-based equations of the coupled nodes (0 =
     constrained), ``offsets`` (nc, 3) node - reference point. Returns u
@@ -121,7 +126,7 @@ def face_weights(nodes: np.ndarray, face_conn: np.ndarray) -> tuple[np.ndarray, 
     return w, float(area)
 
 
-def distributing_loads(points: np.ndarray, weights: np.ndarray, reference) -> np.ndarray:
+def distributing_loads(points: np.ndarray, weights: np.ndarray, reference: npt.ArrayLike) -> np.ndarray:
     """(6, nf, 3) nodal forces of the six unit wrenches at ``reference``
     spread like CalculiX's *DISTRIBUTING over ``points`` (nf, 3)."""
     g, info = call(

@@ -31,9 +31,11 @@ factor removes most of its misfit.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from .._core import calib as core
 
@@ -77,7 +79,7 @@ class RowFlag:
     log10_p: float  # its tail probability (one row)
     norm_sigma: float  # |residual| / sigma
 
-    def to_json(self, line=None) -> dict:
+    def to_json(self, line: int | None = None) -> dict:
         d = {
             "row": self.row,
             "config": self.config,
@@ -137,20 +139,20 @@ class UnitSlip:
         }
 
 
-def _sig(sigma, k) -> np.ndarray:
+def _sig(sigma: npt.ArrayLike | None, k: int) -> np.ndarray:
     s = np.broadcast_to(np.asarray(1.0 if sigma is None else sigma, float), (k,))
     if not np.all(s > 0):
         raise ValueError("sigma must be positive")
     return s
 
 
-def row_statistics(residuals, sigma=None) -> np.ndarray:
+def row_statistics(residuals: npt.ArrayLike, sigma: npt.ArrayLike | None = None) -> np.ndarray:
     """Squared standardised residual of every row (n,): sum_k (r_ik / sigma_k)^2."""
     r = np.atleast_2d(np.asarray(residuals, float))
     return np.sum((r / _sig(sigma, r.shape[1])) ** 2, axis=1)
 
 
-def robust_sigma(residuals, sigma=None) -> float:
+def robust_sigma(residuals: npt.ArrayLike, sigma: npt.ArrayLike | None = None) -> float:
     """Robust noise scale of standardised residuals (1.4826 x the median
     absolute coordinate): about 1 when the rows are noise at sigma, larger
     when a model error spreads over the rows; not moved by a few gross
@@ -177,7 +179,7 @@ def _erfinv(y: float) -> float:
     return x
 
 
-def row_weights(stat, k: int, kind: str = "huber", c: float | None = None) -> np.ndarray:
+def row_weights(stat: npt.ArrayLike, k: int, kind: str = "huber", c: float | None = None) -> np.ndarray:
     """IRLS weights of rows from their squared standardised residuals.
 
     d = sqrt(stat) is the row's residual norm in sigma; c defaults to the
@@ -193,7 +195,16 @@ def row_weights(stat, k: int, kind: str = "huber", c: float | None = None) -> np
     raise ValueError(f"unknown robust weight {kind!r}; choose huber or cauchy")
 
 
-def irls(A, b, obs_rows, n_rows: int, kind: str = "huber", max_iter: int = 30, rcond: float = 1e-10, tol=1e-6):
+def irls(
+    A: np.ndarray,
+    b: np.ndarray,
+    obs_rows: npt.ArrayLike,
+    n_rows: int,
+    kind: str = "huber",
+    max_iter: int = 30,
+    rcond: float = 1e-10,
+    tol: float = 1e-6,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Robust least squares A x ~ b (observations already divided by their
     sigma) by iteratively reweighted least squares around the core's
     weighted least squares (one weight per row, shared by its
@@ -230,13 +241,13 @@ def irls(A, b, obs_rows, n_rows: int, kind: str = "huber", max_iter: int = 30, r
 
 
 def outlier_rows(
-    residuals,
-    sigma=None,
-    labels=None,
+    residuals: npt.ArrayLike,
+    sigma: npt.ArrayLike | None = None,
+    labels: Sequence[object] | None = None,
     alpha: float = 0.01,
     scale: float | None = None,
     local_ratio: float = LOCAL_RATIO,
-    groups=None,
+    groups: Sequence[object] | None = None,
 ) -> list[RowFlag]:
     """Rows whose residual is a gross error. Largest first.
 
@@ -298,7 +309,7 @@ def outlier_rows(
     return out
 
 
-def _groups(labels) -> dict[str, list[int]]:
+def _groups(labels: Iterable[object]) -> dict[str, list[int]]:
     out: dict[str, list[int]] = {}
     for i, c in enumerate(labels):
         out.setdefault(str(c), []).append(i)
@@ -306,7 +317,12 @@ def _groups(labels) -> dict[str, list[int]]:
 
 
 def outlying_configs(
-    residuals, labels, sigma=None, alpha: float = 0.01, scale: float | None = None, skip=()
+    residuals: npt.ArrayLike,
+    labels: Iterable[object],
+    sigma: npt.ArrayLike | None = None,
+    alpha: float = 0.01,
+    scale: float | None = None,
+    skip: Collection[int] = (),
 ) -> list[ConfigFlag]:
     """Configurations whose rows together are far outside the noise: the sum
     of their squared standardised residuals against chi-square(k n_c),
@@ -333,12 +349,12 @@ def outlying_configs(
 
 
 def unit_slips(
-    measured,
-    predicted,
-    labels,
-    sigma=None,
-    load=None,
-    factors=LENGTH_FACTORS,
+    measured: npt.ArrayLike,
+    predicted: npt.ArrayLike,
+    labels: Iterable[object],
+    sigma: npt.ArrayLike | None = None,
+    load: npt.ArrayLike | None = None,
+    factors: Iterable[tuple[float, str, str]] = LENGTH_FACTORS,
     tol: float = 0.15,
     min_removed: float = 0.9,
 ) -> list[UnitSlip]:
@@ -391,7 +407,9 @@ def unit_slips(
     return out
 
 
-def angle_units(q, labels=None, limit: float = 2 * math.pi + 1e-6) -> list[dict]:
+def angle_units(
+    q: npt.ArrayLike, labels: Sequence[object] | None = None, limit: float = 2 * math.pi + 1e-6
+) -> list[dict]:
     """Joint values beyond one turn (|q| > 2 pi) are very likely degrees:
     per configuration, the columns concerned."""
     q = np.atleast_2d(np.asarray(q, float))

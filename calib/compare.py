@@ -9,14 +9,14 @@ from ..io import validate as V
 from ..io.tables import read_json
 
 
-def load_result(path) -> dict:
+def load_result(path: Path | str) -> dict:
     """A fit result (JSON of ``stiffkit fit --json``), checked by :func:`check_result`."""
     if not isinstance(path, (str, Path)):
         raise InputError(f"a fit result is a JSON file name or the dict of fit --json, got {type(path).__name__}")
     return check_result(read_json(path, "fit result"), str(path))
 
 
-def _num(d: dict, key: str, where: str, optional: bool = False):
+def _num(d: dict, key: str, where: str, optional: bool = False) -> float | None:
     if key not in d:
         if optional:
             return None
@@ -24,7 +24,7 @@ def _num(d: dict, key: str, where: str, optional: bool = False):
     return V.number(d[key], f"{where}: {key!r}", lo=0.0 if key != "compensated_fraction" else None)
 
 
-def check_result(d, where: str = "fit result") -> dict:
+def check_result(d: object, where: str = "fit result") -> dict:
     """The keys compare reads, each of the right type: numbers (finite,
     residuals >= 0), the three axes, the parameters (name and value)."""
     if not isinstance(d, dict):
@@ -53,14 +53,16 @@ def check_result(d, where: str = "fit result") -> dict:
     return d
 
 
-def compare(a, b, names=("A", "B"), parameters: bool = True) -> str:
+def compare(
+    a: Path | str | dict, b: Path | str | dict, names: tuple[str, str] = ("A", "B"), parameters: bool = True
+) -> str:
     """Table of the residuals and parameters of two fits, before/after."""
     A = load_result(a) if not isinstance(a, dict) else check_result(a, str(names[0]))
     B = load_result(b) if not isinstance(b, dict) else check_result(b, str(names[1]))
     w = 14
     lines = [f"{'':30s}{names[0]:>{w}s}{names[1]:>{w}s}{'change':>{w}s}"]
 
-    def row(label, va, vb, scale=1e3, fmt="{:.4f}"):
+    def row(label: str, va: float, vb: float, scale: float = 1e3, fmt: str = "{:.4f}") -> None:
         ch = f"{100 * (vb / va - 1):+.1f} %" if va else "-"
         lines.append(f"{label:30s}{fmt.format(va * scale):>{w}s}{fmt.format(vb * scale):>{w}s}{ch:>{w}s}")
 

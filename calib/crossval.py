@@ -12,14 +12,17 @@ step from there (exact for models linear in their parameters).
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 from .._core import calib as core
 
 __all__ = ["config_folds", "held_out_residuals", "rms_rows"]
 
 
-def config_folds(labels, k: int = 5) -> list[np.ndarray]:
+def config_folds(labels: Iterable[object], k: int = 5) -> list[np.ndarray]:
     """Row indices of the test set of each fold: the configurations, in the
     order they first appear, dealt to min(k, #configurations) folds in
     turn (deterministic; neighbouring configurations land in different
@@ -35,7 +38,9 @@ def config_folds(labels, k: int = 5) -> list[np.ndarray]:
     return [np.array(sorted(f), dtype=int) for f in folds if f]
 
 
-def held_out_residuals(A, b, obs_rows, folds, rcond: float = 1e-10) -> np.ndarray:
+def held_out_residuals(
+    A: npt.ArrayLike, b: npt.ArrayLike, obs_rows: npt.ArrayLike, folds: Iterable[np.ndarray], rcond: float = 1e-10
+) -> np.ndarray:
     """Residual of every observation predicted by a fit to the other folds
     (the core's weighted least squares, minimum-norm when a fold leaves a
     parameter undetermined). NaN for a fold whose training set has fewer
@@ -56,7 +61,7 @@ def held_out_residuals(A, b, obs_rows, folds, rcond: float = 1e-10) -> np.ndarra
     return out
 
 
-def rms_rows(e, n_rows: int, coords=None, scale: float = 1.0) -> float:
+def rms_rows(e: np.ndarray, n_rows: int, coords: Sequence[int] | None = None, scale: float = 1.0) -> float:
     """RMS over rows of the norm of each row's residual (observations laid
     out coordinate-major, e[c * n_rows + i]), using the coordinates
     ``coords`` (default all), times ``scale`` (e.g. sigma, to get metres)."""

@@ -23,7 +23,7 @@ MARKERS = ((0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2))
 
 
 def calibration_demo(
-    out="stiffkit-demo",
+    out: Path | str = "stiffkit-demo",
     seed: int = 1,
     sigma: float = 2e-5,
     n_configs: int = 30,

@@ -44,7 +44,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -56,6 +58,10 @@ from . import residual_map as RM
 from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
 from .robust import DataChecks, check_data, format_checks
+
+if TYPE_CHECKING:
+    from ..robot.model import Term
+    from ..robot.urdf import Chain
 
 ALPHA = 0.01
 ZTOL = 1e-6  # a projected unit column shorter than this adds nothing
@@ -279,15 +285,17 @@ def pure_error(pb: Problem, meas: Measurements) -> tuple[float, int]:
     return ss, dof
 
 
-def logsf_chi2(x, k) -> float:
+def logsf_chi2(x: float, k: float) -> float:
     return core.chi2_logsf(x, k)
 
 
-def logsf_f(f, d1, d2) -> float:
+def logsf_f(f: float, d1: float, d2: float) -> float:
     return core.f_logsf(f, d1, d2)
 
 
-def _adequacy(res: FitResult, pb: Problem, meas: Measurements):
+def _adequacy(
+    res: FitResult, pb: Problem, meas: Measurements
+) -> tuple[str, float, int, float, float, str, float, int | None]:
     """(test, statistic, dof, log p, sigma, source, scale2, d_pe)."""
     if pb.sigma_declared:
         stat, dof = res.chi2, res.dof
@@ -328,9 +336,9 @@ def _adequacy(res: FitResult, pb: Problem, meas: Measurements):
 def diagnose(
     model: Model,
     meas: Measurements,
-    sigma_position=None,
+    sigma_position: float | None = None,
     alpha: float = ALPHA,
-    kinds=None,
+    kinds: Iterable[str] | None = None,
     checks: bool = True,
     cv_folds: int = CV_FOLDS,
     nsim: int = NSIM,
@@ -516,7 +524,7 @@ def diagnose(
     return dg
 
 
-def residual_shape(pb, res, f: RM.Feature, bins: int = 6) -> dict:
+def residual_shape(pb: Problem, res: FitResult, f: RM.Feature, bins: int = 6) -> dict:
     """The residual binned along a feature's variable: the joint rotation
     that best explains each row against the joint's torque or angle, the
     positional residual along the row order, or per configuration."""
@@ -563,7 +571,7 @@ def _shape_lines(sh: dict) -> list[str]:
     ]
 
 
-def _nested(A, Zs, Zb) -> bool:
+def _nested(A: np.ndarray, Zs: np.ndarray, Zb: np.ndarray) -> bool:
     """Do the columns Zb span Zs off the model A (the smaller candidate is
     part of the bigger one, e.g. a joint's column in the next link's
     spring)?"""
@@ -572,12 +580,20 @@ def _nested(A, Zs, Zb) -> bool:
     return int(dof[0]) == 0
 
 
-def _cos(a, b) -> float:
+def _cos(a: np.ndarray, b: np.ndarray) -> float:
     na, nb = np.linalg.norm(a), np.linalg.norm(b)
     return float(a @ b) / (na * nb) if na > 0 and nb > 0 else 0.0
 
 
-def _cv(A, r, obs_rows, folds, npts, wp, labels):
+def _cv(
+    A: np.ndarray,
+    r: np.ndarray,
+    obs_rows: np.ndarray,
+    folds: list[np.ndarray],
+    npts: int,
+    wp: float,
+    labels: Sequence[object],
+) -> tuple[float | None, np.ndarray | None]:
     """Held-out positional RMS (m) and the mean squared held-out error of
     each configuration (for paired comparisons); (None, None) when no fold
     can be fitted."""
@@ -593,7 +609,7 @@ def _cv(A, r, obs_rows, folds, npts, wp, labels):
     return CV.rms_rows(e, npts, coords=(0, 1, 2), scale=1.0 / wp), per
 
 
-def _cv_better(a, b) -> bool:
+def _cv_better(a: np.ndarray | None, b: np.ndarray | None) -> bool:
     """Paired comparison over configurations: is b's held-out error
     significantly below a's (t < -2)?"""
     if a is None or b is None or a.size < 3:
@@ -606,7 +622,16 @@ def _cv_better(a, b) -> bool:
     return bool(se > 0 and d.mean() / se < -2.0)
 
 
-def _rank_honestly(dg: Diagnosis, pb, res, A, model, cterms, cands, sig) -> None:
+def _rank_honestly(
+    dg: Diagnosis,
+    pb: Problem,
+    res: FitResult,
+    A: np.ndarray,
+    model: Model,
+    cterms: list[list[Term]],
+    cands: list[tuple[dict, str]],
+    sig: float,
+) -> None:
     """Ties, nothing-fits, the proposal and the compensator hint."""
     ranked = dg.candidates
     if not ranked:
@@ -727,7 +752,15 @@ def _warnings(dg: Diagnosis, nobs: int) -> None:
             )
 
 
-def separating_measurements(pb, res, model, cterms, group, n_random: int = 60, seed: int = 7) -> list[dict]:
+def separating_measurements(
+    pb: Problem,
+    res: FitResult,
+    model: Model,
+    cterms: list[list[Term]],
+    group: list[Candidate],
+    n_random: int = 60,
+    seed: int = 7,
+) -> list[dict]:
     """For each candidate of a tie after the first: the posture and load
     where its fit and the leader's fit to these data predict most
     differently (probes: the data's configurations and random postures in
@@ -794,7 +827,7 @@ def separating_measurements(pb, res, model, cterms, group, n_random: int = 60, s
     return out
 
 
-def compensator_shape_match(pb, res, cand: Candidate, scale2: float = 1.0) -> float:
+def compensator_shape_match(pb: Problem, res: FitResult, cand: Candidate, scale2: float = 1.0) -> float:
     """How much of what a joint_profile candidate explains a gravity
     compensator on that joint would explain: the best ratio, over
     compensator shapes, of the residual explained by the joint's spring
@@ -831,7 +864,7 @@ def compensator_shape_match(pb, res, cand: Candidate, scale2: float = 1.0) -> fl
     return float(max(st.max() / scale2 - 1.0, 0.0) / denom)
 
 
-def _unit_joint(chain, k):
+def _unit_joint(chain: Chain, k: int) -> Term:
     """A known joint term of unit compliance on chain joint k (its spring column)."""
     from ..robot.model import SPRING_JOINT, Term
 

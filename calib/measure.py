@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
 from ..io import validate as V
@@ -43,7 +44,7 @@ class Measurements:
     def n(self) -> int:
         return self.q.shape[0]
 
-    def subset(self, idx) -> Measurements:
+    def subset(self, idx: npt.ArrayLike) -> Measurements:
         idx = np.asarray(idx)
         return Measurements(
             self.q[idx],
@@ -57,7 +58,7 @@ class Measurements:
         )
 
 
-def read_measurements(path, dof: int) -> Measurements:
+def read_measurements(path: Path | str, dof: int) -> Measurements:
     """Read and check a measurement CSV for a robot with ``dof`` joints.
 
     The table rules of stiffkit.io.tables hold (UTF-8, distinct header
@@ -89,7 +90,7 @@ def read_measurements(path, dof: int) -> Measurements:
     return Measurements(q=q, w=w, p=p, d=d, r=r, config=configs, lines=list(table.lines), path=str(path))
 
 
-def _warn_copies(rows: np.ndarray, lines: list[int], path) -> None:
+def _warn_copies(rows: np.ndarray, lines: list[int], path: Path | str) -> None:
     """One warning when rows repeat each other exactly (every number equal)."""
     _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
     inverse = np.ravel(inverse)
@@ -103,7 +104,7 @@ def _warn_copies(rows: np.ndarray, lines: list[int], path) -> None:
         )
 
 
-def write_measurements(path, meas: Measurements) -> None:
+def write_measurements(path: Path | str, meas: Measurements) -> None:
     """Write rows in the contract format (17 significant digits)."""
     dof = meas.q.shape[1]
     header = ["config"] + [f"q{i}" for i in range(1, dof + 1)] + WRENCH + POINT + DEFL

@@ -3,12 +3,19 @@ histograms per axis with the noise level, measured vs predicted."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from .diagnose import Diagnosis
+    from .results import FitResult
 
-def _plt():
+
+def _plt() -> ModuleType:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -17,7 +24,7 @@ def _plt():
     return plt
 
 
-def point_positions(res) -> np.ndarray:
+def point_positions(res: FitResult) -> np.ndarray:
     """Measured points in base coordinates (n, 3)."""
     ch = res.model.chain
     meas = res.problem.meas
@@ -32,7 +39,7 @@ def point_positions(res) -> np.ndarray:
     return out
 
 
-def fit_plots(res, outdir, label: str = "fit") -> list[str]:
+def fit_plots(res: FitResult, outdir: Path | str, label: str = "fit") -> list[str]:
     """Write the three figures of a fit into outdir; returns the file names."""
     plt = _plt()
     out = Path(outdir)
@@ -125,7 +132,7 @@ def fit_plots(res, outdir, label: str = "fit") -> list[str]:
     return files
 
 
-def error_fall_plot(steps, path, noise_floor=None) -> str:
+def error_fall_plot(steps: Sequence[tuple[str, dict]], path: Path | str, noise_floor: float | None = None) -> str:
     """Bar chart of positional RMS / MAX per calibration step [(label, stats)]."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9, 4.5))
@@ -149,7 +156,7 @@ def error_fall_plot(steps, path, noise_floor=None) -> str:
     return str(path)
 
 
-def candidates_plot(dg, path, top: int = 12) -> str:
+def candidates_plot(dg: Diagnosis, path: Path | str, top: int = 12) -> str:
     """Horizontal bars of the leading candidates: -log10 p (statistic
     against its dof) and the fraction of the residual each explains."""
     plt = _plt()
@@ -178,7 +185,7 @@ def candidates_plot(dg, path, top: int = 12) -> str:
     return str(path)
 
 
-def residual_plots(dg, outdir, label: str = "diagnose") -> list[str]:
+def residual_plots(dg: Diagnosis, outdir: Path | str, label: str = "diagnose") -> list[str]:
     """Where the residual lives (diagnose --plots): the residual as the
     rotation of each joint that would best explain it, against the joint's
     angle and against its torque (with binned means), and the positional

@@ -15,13 +15,17 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
-from ..robot.model import LOAD_NONLINEAR, SYM
+from ..robot.model import LOAD_NONLINEAR, SYM, Model
 from .fit import coupling_groups, fit, solve_wls
+
+if TYPE_CHECKING:
+    from .measure import Measurements
 
 
 @dataclass
@@ -57,7 +61,7 @@ def _preference(name: str) -> int:
     return 3
 
 
-def reduce_model(model, meas, sigma_position=None) -> Reduction:
+def reduce_model(model: Model, meas: Measurements, sigma_position: float | None = None) -> Reduction:
     if not np.any(meas.w):
         raise InputError(
             f"{meas.path}: every row's load (fx fy fz mx my mz) is zero: no spring is loaded, so no "
@@ -164,7 +168,7 @@ def format_reduction(r: Reduction) -> str:
     return "\n".join(lines)
 
 
-def reduced_model(model, red: Reduction):
+def reduced_model(model: Model, red: Reduction) -> Model:
     """The model with only the parameters M5 selected left free: 6-dof
     springs keep their selected elements, joint compliances not selected
     (merged into their links by M3, or fixed by M5c) are dropped, i.e. fixed

@@ -24,9 +24,15 @@ torque.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+import numpy.typing as npt
 
 from .._core import calib as core
+
+if TYPE_CHECKING:
+    from .problem import Problem
 
 __all__ = ["Feature", "features", "score_features", "joint_residuals", "binned"]
 
@@ -34,7 +40,7 @@ KNOTS = 6  # hat functions per piecewise-linear shape
 
 
 class Feature:
-    def __init__(self, name: str, kind: str, target: str, cols: np.ndarray):
+    def __init__(self, name: str, kind: str, target: str, cols: np.ndarray) -> None:
         self.name = name
         self.kind = kind  # torque | angle | order | configuration
         self.target = target
@@ -70,7 +76,7 @@ def hats(x: np.ndarray, k: int = KNOTS) -> np.ndarray:
     return out
 
 
-def features(pb, order=None) -> list[Feature]:
+def features(pb: Problem, order: npt.ArrayLike | None = None) -> list[Feature]:
     """The feature blocks of a Problem's rows (see the module text);
     ``order`` (n,) is the time order of the rows (default: as given)."""
     meas = pb.meas
@@ -108,7 +114,9 @@ def features(pb, order=None) -> list[Feature]:
     return out
 
 
-def score_features(pb, A, r, feats: list[Feature], scale2: float, excess: float, ztol: float = 1e-6) -> list[Feature]:
+def score_features(
+    pb: Problem, A: np.ndarray, r: np.ndarray, feats: list[Feature], scale2: float, excess: float, ztol: float = 1e-6
+) -> list[Feature]:
     """Score every feature against the model (A, weighted residual r) in
     one core call; fill statistic, dof, log p (chi-square, statistic over
     scale2) and the fraction of the excess it takes. Best first."""
@@ -129,7 +137,7 @@ def score_features(pb, A, r, feats: list[Feature], scale2: float, excess: float,
     return sorted([f for f in feats if f.dof > 0], key=lambda f: f.log_p)
 
 
-def joint_residuals(pb, residuals: np.ndarray) -> dict:
+def joint_residuals(pb: Problem, residuals: np.ndarray) -> dict:
     """Per actuated joint: the joint rotation that best explains each row's
     point residual (n,), with the rows' angles and torques:
     {joint: {"q": (n,), "tau": (n,), "dq": (n,)}}."""
@@ -148,7 +156,7 @@ def joint_residuals(pb, residuals: np.ndarray) -> dict:
     return out
 
 
-def binned(x, y, bins: int = 8) -> dict:
+def binned(x: npt.ArrayLike, y: npt.ArrayLike, bins: int = 8) -> dict:
     """Mean and standard error of y in bins of x (equal counts)."""
     x = np.asarray(x, float)
     y = np.asarray(y, float)

@@ -144,7 +144,7 @@ def format_table(res: FitResult, unit: float = 1e-3, label: str = "") -> str:
         f"{'MAX':>7s}{'RMS':>8s}" for _ in range(4)
     )
 
-    def row(name, st):
+    def row(name: str, st: dict) -> str:
         cells = [(st["axes"][a]["max_m"], st["axes"][a]["rms_m"]) for a in "xyz"]
         cells.append((st["max_position_m"], st["rms_position_m"]))
         return f"{name:34s}" + "".join(f"{m / unit:7.3f}{r / unit:8.3f}" for m, r in cells)
@@ -210,7 +210,7 @@ def model_tables_with_values(res: FitResult) -> list[dict]:
     return out
 
 
-def write_model(res: FitResult, path) -> None:
+def write_model(res: FitResult, path: Path | str) -> None:
     """Write the identified model (URDF reference, sigma, effects with values)."""
     path = Path(path)
     model = res.model

@@ -14,12 +14,19 @@ bad rows). ``robust_fit`` refits the model without them.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import checks as C
 from .fit import FitResult, as_inputs, fit
+
+if TYPE_CHECKING:
+    from ..robot.model import Model
+    from .measure import Measurements
 
 __all__ = ["DataChecks", "check_data", "robust_fit", "MAX_SET_ASIDE", "format_checks"]
 
@@ -56,11 +63,11 @@ class DataChecks:
     def clean(self) -> bool:
         return not (self.outliers or self.unit_slips or self.angle_units)
 
-    def line(self, row: int):
+    def line(self, row: int) -> int | None:
         return self.lines[row] if self.lines and row < len(self.lines) else None
 
     def to_json(self) -> dict:
-        def rows_lines(rows):
+        def rows_lines(rows: Iterable[int]) -> dict:
             return {"rows": list(rows), "lines": [self.line(i) for i in rows]}
 
         return {
@@ -126,7 +133,13 @@ def check_data(
     return out
 
 
-def robust_fit(model, meas, sigma_position=None, alpha: float = 0.01, kind: str = "huber"):
+def robust_fit(
+    model: Model | Path | str,
+    meas: Measurements | Path | str,
+    sigma_position: float | None = None,
+    alpha: float = 0.01,
+    kind: str = "huber",
+) -> tuple[FitResult, DataChecks, FitResult]:
     """Fit, check the data, and refit without the rows set aside.
 
     Returns (FitResult on the kept rows, DataChecks, plain FitResult on

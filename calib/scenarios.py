@@ -34,7 +34,9 @@ the truth and what was done (``info``).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -43,6 +45,9 @@ from ..robot.model import Model, model_from_tables
 from .measure import Measurements
 from .problem import Problem
 from .synth import KR270_COMPENSATOR, KR270_JOINTS, KR270_RANGES, kr270_links, kr270_truth, synthesize
+
+if TYPE_CHECKING:
+    from ..robot.urdf import Chain
 
 __all__ = ["Scenario", "make_scenario", "SCENARIOS", "base_effects", "hidden_size"]
 
@@ -79,7 +84,7 @@ class Scenario:
         return math.sqrt(3) * self.sigma
 
 
-def base_effects(links=(2, 3, 4), compensator=True) -> list[dict]:
+def base_effects(links: Iterable[int] = (2, 3, 4), compensator: bool = True) -> list[dict]:
     """The user's model of the KR-270-like truth: joints, beam links, the
     compensator with its datasheet geometry."""
     eff = [{"kind": "joint", "target": "all"}]
@@ -89,14 +94,14 @@ def base_effects(links=(2, 3, 4), compensator=True) -> list[dict]:
     return eff
 
 
-def _truth(links=(2, 3, 4)) -> list[dict]:
+def _truth(links: Iterable[int] = (2, 3, 4)) -> list[dict]:
     lk = kr270_links()
     out = [e for e in kr270_truth(links=False)]
     out += [{"kind": "link", "target": f"link_{i}", "value": lk[f"link_{i}"].tolist()} for i in links]
     return out
 
 
-def hidden_size(chain, meas, model: Model, extra: list[dict], sigma: float) -> float:
+def hidden_size(chain: Chain, meas: Measurements, model: Model, extra: list[dict], sigma: float) -> float:
     """Norm, in units of sigma, of the part of the deflection of the effects
     ``extra`` (tables with values) that the model's columns cannot absorb
     (the non-centrality of its score test is this squared)."""
@@ -116,7 +121,7 @@ def make_scenario(
     sigma: float = 2e-5,
     n_configs: int = 30,
     loads_per_config: int = 3,
-    markers=MARKERS,
+    markers: Sequence[Sequence[float]] = MARKERS,
     strength: float | None = None,
     noise: bool = True,
     fresh: bool = False,

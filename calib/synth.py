@@ -18,18 +18,20 @@ from __future__ import annotations
 
 import math
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
 from ..field import cantilever_compliance, section_properties
 from ..io import validate as V
 from ..io.files import atomic_write_text
 from ..io.tables import read_text
-from ..robot.model import model_from_tables
+from ..robot.model import Model, model_from_tables
 from ..robot.model_file import model_toml
-from ..robot.urdf import load_chain, urdf_text
+from ..robot.urdf import Chain, load_chain, urdf_text
 from .measure import Measurements, write_measurements
 from .problem import Problem
 
@@ -56,7 +58,7 @@ MAX_ROWS = 10**6
 OUTPUT_FILES = ("robot.urdf", "model.toml", "truth.toml", "measurements.csv")
 
 
-def beam_compliance(length, E, nu, outer, inner) -> np.ndarray:
+def beam_compliance(length: float, E: float, nu: float, outer: float, inner: float) -> np.ndarray:
     """Tip compliance of a tube cantilever along x (eq. 22, Euler-Bernoulli)."""
     return cantilever_compliance(length, E, nu, section_properties("tube", [outer, inner], nu))
 
@@ -72,7 +74,9 @@ def kr270_links() -> dict[str, np.ndarray]:
     }
 
 
-def kr270_truth(joints=True, links=True, compensator=True, offset=None) -> list[dict]:
+def kr270_truth(
+    joints: bool = True, links: bool = True, compensator: bool = True, offset: Sequence[float] | None = None
+) -> list[dict]:
     """Effect tables (with values) of the KR-270-like truth."""
     eff = []
     if joints:
@@ -88,13 +92,21 @@ def kr270_truth(joints=True, links=True, compensator=True, offset=None) -> list[
     return eff
 
 
-def random_postures(n, ranges, rng) -> np.ndarray:
+def random_postures(n: int, ranges: Sequence[Sequence[float]] | np.ndarray, rng: np.random.Generator) -> np.ndarray:
     lo = np.array([r[0] for r in ranges])
     hi = np.array([r[1] for r in ranges])
     return lo + (hi - lo) * rng.random((n, len(ranges)))
 
 
-def make_loads(kind, n, rng, force=2500.0, moment=300.0, Rtool=None, mass_offset=(0.0, 0.0, 0.2)):
+def make_loads(
+    kind: str,
+    n: int,
+    rng: np.random.Generator,
+    force: float = 2500.0,
+    moment: float = 300.0,
+    Rtool: np.ndarray | None = None,
+    mass_offset: Sequence[float] = (0.0, 0.0, 0.2),
+) -> np.ndarray:
     """n wrenches (n, 6) at the tool origin, base axes.
 
     kind ``random``: force of magnitude ``force`` in a random direction and a
@@ -115,22 +127,22 @@ def make_loads(kind, n, rng, force=2500.0, moment=300.0, Rtool=None, mass_offset
 
 
 def synthesize(
-    joints,
+    joints: list[dict] | Path | str,
     truth: list[dict],
     n_configs: int = 30,
     loads: str = "random",
     loads_per_config: int = 3,
-    markers=((0.0, 0.0, 0.25),),
+    markers: npt.ArrayLike = ((0.0, 0.0, 0.25),),
     sigma: float = 2e-5,
     sigma_rotation: float | None = None,
     replicates: int = 1,
-    ranges=None,
+    ranges: npt.ArrayLike | None = None,
     force: float = 2500.0,
     moment: float = 300.0,
-    seed=0,
-    workdir=None,
+    seed: int | np.random.Generator = 0,
+    workdir: Path | str | None = None,
     tool_frame: str = "tool0",
-):
+) -> tuple[Chain, Model, Measurements]:
     """Measurement rows of ``truth`` on the robot ``joints``.
 
     Returns (chain, truth_model, measurements). Each configuration gets
@@ -212,7 +224,14 @@ def strip_values(effects: list[dict]) -> list[dict]:
     return out
 
 
-def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):
+def write_synth(
+    outdir: Path | str,
+    joints: list[dict] | Path | str,
+    truth: list[dict],
+    fit_effects: list[dict],
+    declare_sigma: bool = True,
+    **kw: object,
+) -> Path:
     """Write robot.urdf, model.toml, truth.toml and measurements.csv to outdir."""
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -231,7 +250,14 @@ def write_synth(outdir, joints, truth, fit_effects, declare_sigma=True, **kw):
     return out
 
 
-def synth_kr270(out, links=True, compensator=True, offset=None, fit_effects=None, **kw):
+def synth_kr270(
+    out: Path | str,
+    links: bool = True,
+    compensator: bool = True,
+    offset: Sequence[float] | None = None,
+    fit_effects: list[dict] | None = None,
+    **kw: object,
+) -> Path:
     """Python face of ``stiffkit synth kr270``: the KR-270-like truth, data
     and files in ``out`` (fit_effects default: joints only, the paper's J1)."""
     kw.setdefault("ranges", KR270_RANGES)

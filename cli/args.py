@@ -6,6 +6,7 @@ stops the command before any work with one line naming the option."""
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable, Collection
 
 import numpy as np
 
@@ -22,7 +23,7 @@ def _float(text: str, option: str) -> float:
         raise argparse.ArgumentTypeError(f"{option} {text!r} is not a number") from None
 
 
-def number(option: str, q: str | None = None, **limits):
+def number(option: str, q: str | None = None, **limits: object) -> Callable[[str], float]:
     """A float option checked as ``validate.number(value, option, q, **limits)``."""
 
     def parse(text: str) -> float:
@@ -35,7 +36,7 @@ def number(option: str, q: str | None = None, **limits):
     return parse
 
 
-def count(option: str, lo: int = 1, hi: int | None = None):
+def count(option: str, lo: int = 1, hi: int | None = None) -> Callable[[str], int]:
     """An integer option in [lo, hi]."""
 
     def parse(text: str) -> int:
@@ -64,7 +65,9 @@ def vector(text: str, n: int, option: str, q: str | None = None) -> np.ndarray:
     return V.array(vals, option, (n,), q)
 
 
-def numbers_list(text: str, option: str, kind=float, q: str | None = None, **limits) -> list:
+def numbers_list(
+    text: str, option: str, kind: type[int] | type[float] = float, q: str | None = None, **limits: object
+) -> list:
     """'5,3,2' -> a non-empty list of checked numbers (ints with kind=int)."""
     parts = [x.strip() for x in str(text).split(",") if x.strip()]
     if not parts:
@@ -80,7 +83,7 @@ def numbers_list(text: str, option: str, kind=float, q: str | None = None, **lim
     return out
 
 
-def choice_list(text: str, option: str, choices) -> list[str]:
+def choice_list(text: str, option: str, choices: Collection[str]) -> list[str]:
     """'a,b' -> names, each one of ``choices``."""
     items = [x.strip() for x in str(text).split(",") if x.strip()]
     if not items:

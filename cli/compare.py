@@ -7,7 +7,7 @@ import argparse
 from ..calib.compare import compare
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "compare",
         help="compare two fit results (JSON of stiffkit fit --json)",
@@ -20,6 +20,6 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     print(compare(args.a, args.b, names=(args.a, args.b)))
     return 0

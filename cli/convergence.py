@@ -12,6 +12,7 @@ limits it, wall time and peak memory. A PNG plots error and time vs size.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 
 from ..errors import InputError
 from ..fea.config import load_link
@@ -40,7 +41,7 @@ and the exit status is 3.
 """
 
 
-def _list(text, kind, what):
+def _list(text: str, kind: Callable[[str], object], what: str) -> list:
     try:
         vals = [kind(x) for x in text.split(",") if x.strip()]
     except ValueError:
@@ -50,7 +51,7 @@ def _list(text, kind, what):
     return vals
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "convergence",
         help="mesh-convergence study of a link (orders x sizes)",
@@ -72,7 +73,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     inputs = [args.link]
     if args.json:
         V.output_path(args.json, "--json", inputs)

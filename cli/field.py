@@ -37,7 +37,7 @@ example:
 """
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "field",
         help="fit node displacement fields; compliance from load cases",
@@ -69,7 +69,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if args.json:
         V.output_path(args.json, "--json", [args.nodes, *args.fields, args.wrenches])
     reference = A.vector(args.reference, 3, "--reference (m)", "position")

@@ -59,7 +59,7 @@ examples:
 """
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "link",
         help="a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)",
@@ -82,7 +82,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     inputs = [args.link]
     for opt, path, suffixes in (
         ("--json", args.json, None),

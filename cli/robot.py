@@ -13,13 +13,15 @@ Three jobs, all evaluated by the Fortran core in one call for every posture:
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterable
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from ..io import validate as V
 from ..io.files import FIGURE_SUFFIXES
-from ..springs.reports import orthoglide_report, smg_report, tree_report
+from ..springs.reports import OrthoglideReport, SMGReport, TreeReport, orthoglide_report, smg_report, tree_report
 from . import args as A
 
 #: the largest workspace map: N^3 postures in one core call, about 6 KB each
@@ -93,7 +95,7 @@ example: a beam behind a passive hinge (rank 5)
 """
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "robot",
         help="manipulator stiffness: Orthoglide, McGill SMG, your spring tree",
@@ -175,17 +177,19 @@ def register(sub) -> None:
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
 
-def _command(rs, name: str, help: str, description: str, epilog: str):
+def _command(
+    rs: argparse._SubParsersAction[argparse.ArgumentParser], name: str, help: str, description: str, epilog: str
+) -> argparse.ArgumentParser:
     return rs.add_parser(
         name, help=help, description=description, epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter
     )
 
 
-def _add_link_file(parser, text: str) -> None:
+def _add_link_file(parser: argparse.ArgumentParser, text: str) -> None:
     parser.add_argument("--link-file", action="append", default=[], metavar="NAME=PATH", help=text)
 
 
-def _link_files(items) -> dict:
+def _link_files(items: Iterable[str]) -> dict:
     """--link-file NAME=PATH (repeatable) -> {NAME: PATH}; the model checks the names."""
     out = {}
     for it in items:
@@ -198,7 +202,7 @@ def _link_files(items) -> dict:
     return out
 
 
-def _check_outputs(args, inputs=()) -> None:
+def _check_outputs(args: argparse.Namespace, inputs: Iterable[Path | str | None] = ()) -> None:
     """Output names checked before the work: files, not folders, not an
     input, not the same file twice, a figure suffix for --png."""
     png = getattr(args, "png", None)
@@ -209,7 +213,7 @@ def _check_outputs(args, inputs=()) -> None:
     V.distinct_outputs({"--png": png, "--json": args.json})
 
 
-def _write_files(rep, args) -> None:
+def _write_files(rep: OrthoglideReport | SMGReport | TreeReport, args: argparse.Namespace) -> None:
     """The files asked for (--png, --json), each announced once written."""
     if getattr(args, "png", None):
         rep.write_png(args.png)
@@ -219,7 +223,7 @@ def _write_files(rep, args) -> None:
         print(f"wrote {args.json}")
 
 
-def run_orthoglide(args) -> int:
+def run_orthoglide(args: argparse.Namespace) -> int:
     if args.png and not args.map:
         raise InputError("--png needs --map N")
     files = _link_files(args.link_file)
@@ -239,7 +243,7 @@ def run_orthoglide(args) -> int:
     return 0
 
 
-def run_smg(args) -> int:
+def run_smg(args: argparse.Namespace) -> int:
     files = _link_files(args.link_file)
     _check_outputs(args, files.values())
     rep = smg_report(args.postures, files, args.pi_joints, args.lscale)
@@ -248,7 +252,7 @@ def run_smg(args) -> int:
     return 0
 
 
-def run_tree(args) -> int:
+def run_tree(args: argparse.Namespace) -> int:
     _check_outputs(args, [args.tree])
     rep = tree_report(args.tree, args.rcond)
     print(rep.text())

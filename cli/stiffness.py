@@ -40,7 +40,7 @@ chain length, follows the URDF). --lscale 1 is the paper's literal formula in SI
 """
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "stiffness",
         help="tool compliance and stiffness of a model with values",
@@ -65,7 +65,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     inputs = [args.model, args.trajectory]
     for opt, path, suffixes in (
         ("--json", args.json, None),

@@ -14,6 +14,7 @@ import json
 import shutil
 import tempfile
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -157,7 +158,11 @@ def load_solution(path: Path, key: str | None = None) -> FeaSolution | None:
 
 
 def fea_cached(
-    job: LinkJob, cache_dir: Path | None, route: str | None = None, progress=None, workdir: Path | None = None
+    job: LinkJob,
+    cache_dir: Path | None,
+    route: str | None = None,
+    progress: Callable[[str], None] | None = None,
+    workdir: Path | None = None,
 ) -> tuple[FeaSolution, bool, str]:
     """FEA solution from the cache when present, else solved and stored:
     (solution, cached, key)."""

@@ -15,13 +15,19 @@ import shutil
 import signal
 import subprocess
 import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import StiffkitError
 from ..io.files import atomic_open
+
+if TYPE_CHECKING:
+    from ..meshing import Mesh
 
 LOAD_LABELS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
@@ -42,7 +48,7 @@ def ccx_executable() -> str:
 # ---------------------------------------------------------------- decks
 
 
-def _write_mesh(fh, nodes: np.ndarray, elements: np.ndarray, ccx_type: str) -> None:
+def _write_mesh(fh: IO[str], nodes: np.ndarray, elements: np.ndarray, ccx_type: str) -> None:
     fh.write("*NODE, NSET=NALL\n")
     ids = np.arange(1, nodes.shape[0] + 1)
     np.savetxt(fh, np.column_stack([ids, nodes]), fmt=["%d", "%.12e", "%.12e", "%.12e"], delimiter=", ")
@@ -51,14 +57,14 @@ def _write_mesh(fh, nodes: np.ndarray, elements: np.ndarray, ccx_type: str) -> N
     np.savetxt(fh, np.column_stack([eids, elements]), fmt="%d", delimiter=", ")
 
 
-def _write_set(fh, kind: str, name: str, items) -> None:
+def _write_set(fh: IO[str], kind: str, name: str, items: npt.ArrayLike) -> None:
     fh.write(f"*{kind}, {kind}={name}\n")
     items = np.asarray(items, dtype=np.int64)
     for k in range(0, items.size, 12):
         fh.write(", ".join(str(int(v)) for v in items[k : k + 12]) + "\n")
 
 
-def _write_material(fh, E: float, nu: float, density: float | None) -> None:
+def _write_material(fh: IO[str], E: float, nu: float, density: float | None) -> None:
     fh.write(f"*MATERIAL, NAME=MAT\n*ELASTIC\n{E:.10e}, {nu:.10g}\n")
     if density is not None:
         fh.write(f"*DENSITY\n{density:.10e}\n")
@@ -77,16 +83,16 @@ class StaticDeck:
 
 
 def write_static_deck(
-    path,
-    mesh,
+    path: Path | str,
+    mesh: Mesh,
     E: float,
     nu: float,
-    fixed_nodes,
-    load_faces,
-    load_nodes,
-    reference_point,
+    fixed_nodes: npt.ArrayLike,
+    load_faces: Iterable[Sequence[int]] | np.ndarray,
+    load_nodes: npt.ArrayLike,
+    reference_point: Sequence[float] | np.ndarray,
     coupling: str,
-    amplitudes,
+    amplitudes: npt.ArrayLike,
     print_all: bool = True,
 ) -> StaticDeck:
     """Six *STATIC steps, one unit-direction wrench each (scaled by
@@ -130,7 +136,9 @@ def write_static_deck(
     return StaticDeck(path=path, ref_node=ref, rot_node=rot, amplitudes=amps)
 
 
-def write_matrix_deck(path, mesh, E: float, nu: float, density: float, fixed_nodes) -> Path:
+def write_matrix_deck(
+    path: Path | str, mesh: Mesh, E: float, nu: float, density: float, fixed_nodes: npt.ArrayLike
+) -> Path:
     """Deck whose only step writes the assembled stiffness (and mass)
     matrices: *FREQUENCY, SOLVER=MATRIXSTORAGE (needs *DENSITY)."""
     path = Path(path)
@@ -146,7 +154,7 @@ def write_matrix_deck(path, mesh, E: float, nu: float, density: float, fixed_nod
 # ---------------------------------------------------------------- runs
 
 
-def peak_rss_mb(pid="self") -> float:
+def peak_rss_mb(pid: int | str = "self") -> float:
     """High-water resident memory (VmHWM) of a live process, MB; 0 if unknown.
     (getrusage's ru_maxrss of a child includes its parent's memory at fork
     on Linux, so children are sampled here instead.)"""
@@ -180,7 +188,9 @@ def _error_text(log: str, limit: int = 6) -> str:
 _FACTOR = re.compile(rb"Factoring the system of equations")
 
 
-def run_ccx(deck: Path, timeout: float = 3600.0, threads: int = 1, progress=None) -> CcxRun:
+def run_ccx(
+    deck: Path, timeout: float = 3600.0, threads: int = 1, progress: Callable[[str], None] | None = None
+) -> CcxRun:
     """Run ``ccx -i job`` in the deck's folder; raise CcxError with ccx's
     own error text on failure (exit 201: input error) or after ``timeout``.
     ``progress(msg)`` is told when ccx starts each *STEP."""
@@ -231,7 +241,9 @@ def _kill_group(proc: subprocess.Popen) -> None:
         pass
 
 
-def _wait(proc, logf: Path, t0: float, timeout: float, progress, deck: Path) -> tuple[int, float]:
+def _wait(
+    proc: subprocess.Popen, logf: Path, t0: float, timeout: float, progress: Callable[[str], None] | None, deck: Path
+) -> tuple[int, float]:
     """Wait for ccx, sampling its peak memory and telling ``progress`` of
     each step; CcxError after ``timeout``. Returns (exit status, peak MB)."""
     rss = 0.0
@@ -309,7 +321,7 @@ def parse_dat(text: str, source: str = ".dat") -> list[DatBlock]:
     cur = None
     rows: list = []
 
-    def close():
+    def close() -> None:
         if cur is not None:
             ncomp = len(rows[0]) - 1 if rows else 0
             arr = np.array(rows, dtype=float).reshape(-1, ncomp + 1) if rows else np.zeros((0, 1))
@@ -355,7 +367,7 @@ def parse_dat(text: str, source: str = ".dat") -> list[DatBlock]:
     return blocks
 
 
-def displacements_from_dat(path, n_nodes: int, deck: StaticDeck) -> tuple[np.ndarray, np.ndarray]:
+def displacements_from_dat(path: Path | str, n_nodes: int, deck: StaticDeck) -> tuple[np.ndarray, np.ndarray]:
     """(6, n, 3) displacements of all nodes per load case, and the (6, 6)
     motion of the REF (translations) and ROT (rotations, rigid body) nodes."""
     path = Path(path)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import difflib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -105,7 +106,7 @@ class LinkJob:
             job.size = size
         return job
 
-    def closed_form_shape(self):
+    def closed_form_shape(self) -> tuple[float, str, list[float]] | None:
         """(length m, section name, dims m) of the beam to compare with: the
         [approximation] given in LINK.toml (a single-beam approximation), or
         the built-in straight cantilever loaded at its free end centre; else None."""
@@ -155,12 +156,12 @@ SHAPE_KEYS = {
 PART_EXTENT_M = (1e-3, 50.0)
 
 
-def _suggest(word, choices) -> str:
+def _suggest(word: object, choices: Iterable[str]) -> str:
     close = difflib.get_close_matches(str(word), list(choices), n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
-def _get(tbl: dict, key: str, where: str, path: str, kind=None, default=...):
+def _get(tbl: dict, key: str, where: str, path: str, kind: type | None = None, default: object = ...) -> object:
     if key not in tbl:
         if default is ...:
             raise ConfigError(f"{path}: [{where}] {key} is missing")
@@ -188,7 +189,7 @@ def _get(tbl: dict, key: str, where: str, path: str, kind=None, default=...):
     return v
 
 
-def _num(v, name, q=None, **limits) -> float:
+def _num(v: object, name: str, q: str | None = None, **limits: object) -> float:
     """validate.number raising ConfigError (the LINK.toml reader's class)."""
     try:
         return V.number(v, name, q, **limits)
@@ -196,7 +197,7 @@ def _num(v, name, q=None, **limits) -> float:
         raise ConfigError(str(exc)) from None
 
 
-def _choice(v, choices, where, key, path):
+def _choice(v: object, choices: Iterable[object], where: str, key: str, path: str) -> object:
     if v not in choices:
         raise ConfigError(
             f"{path}: [{where}] {key} = {v!r}{_suggest(v, map(str, choices))}: "
@@ -205,7 +206,7 @@ def _choice(v, choices, where, key, path):
     return v
 
 
-def _positive(v, where, key, path):
+def _positive(v: float, where: str, key: str, path: str) -> float:
     if not v > 0:
         raise ConfigError(f"{path}: [{where}] {key} = {v!r} must be positive")
     return v
@@ -480,7 +481,7 @@ def part_dims(geometry: dict) -> list[float] | None:
     return None
 
 
-def check_mesh_size(size: float, geometry: dict, units: str, name: str, dims=None) -> None:
+def check_mesh_size(size: float, geometry: dict, units: str, name: str, dims: list[float] | None = None) -> None:
     """An element size larger than the whole part is an error; larger than
     its smallest side (less than one element across) a warning. ``dims``:
     the part's bounding box (geometry units) when it is not a built-in shape."""
@@ -505,7 +506,7 @@ def check_mesh_size(size: float, geometry: dict, units: str, name: str, dims=Non
         )
 
 
-def load_link(path) -> LinkJob:
+def load_link(path: Path | str) -> LinkJob:
     """Read and check LINK.toml (see the module docstring)."""
     if not isinstance(path, (str, Path)):
         raise ConfigError(f"load_link takes the path of a LINK.toml, got {type(path).__name__}")

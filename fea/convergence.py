@@ -163,7 +163,7 @@ def to_json(study: dict) -> dict:
     }
 
 
-def plot(study: dict, path) -> Path:
+def plot(study: dict, path: Path | str) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")

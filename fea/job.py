@@ -22,6 +22,7 @@ that determines them; fits are recomputed from the cache.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +38,7 @@ from .outputs import LinkResult
 from .solve import FeaSolution, resolve_route, solve_fea
 
 
-def select_field(job: LinkJob, mesh: Mesh, load_nodes: np.ndarray, fixed_nodes=None) -> np.ndarray:
+def select_field(job: LinkJob, mesh: Mesh, load_nodes: np.ndarray, fixed_nodes: np.ndarray | None = None) -> np.ndarray:
     """1-based node numbers of the field around the reference point (s4.4):
     ``face`` the load face; ``cube`` nodes inside a cube of edge
     ``field.size`` centred on the reference point; ``layer`` nodes within
@@ -89,7 +90,13 @@ def fit_solution(job: LinkJob, sol: FeaSolution) -> tuple:
     return field_nodes, fits, comp, ref_c, time.perf_counter() - t0
 
 
-def run_link(job: LinkJob, cache_dir=None, route: str | None = None, progress=None, workdir=None) -> LinkResult:
+def run_link(
+    job: LinkJob,
+    cache_dir: Path | str | None = None,
+    route: str | None = None,
+    progress: Callable[[str], None] | None = None,
+    workdir: Path | str | None = None,
+) -> LinkResult:
     """Run (or resume from the cache) one LINK job and fit its compliance."""
     cache_dir = Path(cache_dir) if cache_dir else None
     if cache_dir:

@@ -168,11 +168,11 @@ class LinkResult:
             f"time: mesh {self.timing['mesh']:.1f} s, FEA {self.timing['fea']:.1f} s, fit {self.timing['fit']:.3f} s"
         )
 
-    def write_json(self, path) -> Path:
+    def write_json(self, path: Path | str) -> Path:
         """The results under the contract keys (docs/link.md), atomically."""
         return write_json(path, self.to_json())
 
-    def write_vtu(self, path) -> Path:
+    def write_vtu(self, path: Path | str) -> Path:
         """Mesh with the six displacement fields (ParaView, via meshio)."""
         import meshio
 
@@ -187,7 +187,7 @@ class LinkResult:
             meshio.write(tmp, m, file_format="vtu")
         return path
 
-    def write_residual_png(self, path) -> Path:
+    def write_residual_png(self, path: Path | str) -> Path:
         """Histograms of the fit residuals per load case (paper Fig. 3)."""
         plt = pyplot()
         path = Path(path)

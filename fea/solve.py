@@ -12,6 +12,7 @@ node's own motion, the independent check of the field fit.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -84,7 +85,7 @@ def mesh_job(job: LinkJob) -> Mesh:
     return mesh
 
 
-def support_and_load(job: LinkJob, mesh: Mesh):
+def support_and_load(job: LinkJob, mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(clamped nodes, loaded nodes, loaded element faces) of the job's
     [support] and [load] planes; MeshError when they touch each other or
     select nodes but no element face."""
@@ -111,12 +112,21 @@ def support_and_load(job: LinkJob, mesh: Mesh):
     return fixed, load, faces
 
 
-def _amplitudes(job: LinkJob, estimate) -> np.ndarray:
+def _amplitudes(job: LinkJob, estimate: Callable[[], np.ndarray]) -> np.ndarray:
     """The [load] amplitudes, or the automatic ones from ``estimate()``."""
     return auto_amplitudes(estimate()) if job.amplitudes == "auto" else np.asarray(job.amplitudes, dtype=float)
 
 
-def _solve_matrix(job, mesh, workdir, fixed, load, coupled, g, say) -> tuple:
+def _solve_matrix(
+    job: LinkJob,
+    mesh: Mesh,
+    workdir: Path,
+    fixed: np.ndarray,
+    load: np.ndarray,
+    coupled: np.ndarray,
+    g: np.ndarray,
+    say: Callable[[str], None],
+) -> tuple:
     """Matrix route: ccx assembles K, the core factorises it once (CHOLMOD)
     and solves the six unit cases; returns (U, ref, amplitudes, timing, stats)
     with the route's own timings."""
@@ -158,7 +168,18 @@ def _solve_matrix(job, mesh, workdir, fixed, load, coupled, g, say) -> tuple:
     return Uunit * amps[:, None, None], unit_ref * amps[None, :], amps, timing, stats
 
 
-def _solve_ccx(job, mesh, workdir, fixed, load, faces, coupled, g, say, progress) -> tuple:
+def _solve_ccx(
+    job: LinkJob,
+    mesh: Mesh,
+    workdir: Path,
+    fixed: np.ndarray,
+    load: np.ndarray,
+    faces: np.ndarray,
+    coupled: np.ndarray,
+    g: np.ndarray,
+    say: Callable[[str], None],
+    progress: Callable[[str], None] | None,
+) -> tuple:
     """Six-step route: ccx solves the six scaled cases; returns (U, ref,
     amplitudes, timing, stats) with the route's own timings."""
     p0 = np.asarray(job.reference_point)
@@ -176,7 +197,7 @@ def _solve_ccx(job, mesh, workdir, fixed, load, faces, coupled, g, say, progress
     return U, ref, amps, timing, {"ccx_max_rss_mb": run.max_rss_mb}
 
 
-def solve_fea(job: LinkJob, workdir: Path, route: str, progress=None) -> FeaSolution:
+def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str], None] | None = None) -> FeaSolution:
     """Mesh and solve the six load cases (no cache)."""
     say = progress or (lambda msg: None)
     t0 = time.perf_counter()

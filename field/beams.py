@@ -6,6 +6,7 @@ compliance (Pashkevich et al. 2009 eq. 22, optionally Timoshenko) and the
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from .._core import field as core
 from ..errors import InputError
@@ -16,7 +17,7 @@ __all__ = ["section_properties", "cantilever_compliance", "beam_stiffness"]
 _SECTIONS = {"rectangle": 1, "square": 1, "tube": 2, "circle": 2}
 
 
-def section_properties(shape: str, dims, nu: float = 0.3) -> dict:
+def section_properties(shape: str, dims: npt.ArrayLike, nu: float = 0.3) -> dict:
     """Section properties of a straight beam along x.
 
     shape ``"square"`` (dims = [a]), ``"rectangle"`` ([b along y, h along z]),
@@ -55,7 +56,7 @@ def _props(section: dict) -> np.ndarray:
     return np.array([V.number(section[k], f"section[{k!r}]", lo=0.0, lo_open=True) for k in _PROPS])
 
 
-def _beam(length, E, nu) -> tuple[float, float, float]:
+def _beam(length: float, E: float, nu: float) -> tuple[float, float, float]:
     """(length, E, G) checked: positive, finite, nu in (-1, 0.5). The beam
     formulas are unit-agnostic (any consistent units), so no plausibility."""
     length = V.number(length, "length", lo=0.0, lo_open=True)

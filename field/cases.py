@@ -3,7 +3,11 @@ positions, one displacement field per case, and the wrench of each case."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from pathlib import Path
+
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
 from ..io import validate as V
@@ -12,7 +16,7 @@ from ..io.tables import read_columns
 __all__ = ["read_fields", "axis_wrenches", "read_wrenches"]
 
 
-def read_fields(nodes_path, field_paths) -> tuple[np.ndarray, np.ndarray]:
+def read_fields(nodes_path: Path | str, field_paths: Iterable[Path | str]) -> tuple[np.ndarray, np.ndarray]:
     """(nodes (n, 3), displacements (m, n, 3)): NODES.csv with header x,y,z and
     one DISP.csv with header ux,uy,uz per case, same nodes in the same order."""
     nodes = read_columns(nodes_path, ["x", "y", "z"], "node", "position")
@@ -32,7 +36,7 @@ def read_fields(nodes_path, field_paths) -> tuple[np.ndarray, np.ndarray]:
     return nodes, np.array(disp)
 
 
-def axis_wrenches(loads, n_cases: int) -> np.ndarray:
+def axis_wrenches(loads: npt.ArrayLike, n_cases: int) -> np.ndarray:
     """The paper's six axis-aligned experiments (eq. 3): case j carries only
     component j of ``loads`` (Fx, Fy, Fz, Mx, My, Mz)."""
     if n_cases != 6:
@@ -40,7 +44,7 @@ def axis_wrenches(loads, n_cases: int) -> np.ndarray:
     return np.diag(np.asarray(loads, dtype=float))
 
 
-def read_wrenches(path, n_cases: int) -> np.ndarray:
+def read_wrenches(path: Path | str, n_cases: int) -> np.ndarray:
     """(m, 6) wrenches, one row per case, from a CSV with header fx,fy,fz,mx,my,mz."""
     w = np.hstack(
         [

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from .._core import field as core
 from ..errors import InputError
@@ -66,7 +67,11 @@ class Compliance:
 
 
 def compliance_from_experiments(
-    wrenches, fits, confidence: float = 0.99, symmetrize: bool = False, covariances=None
+    wrenches: npt.ArrayLike,
+    fits: Sequence[FieldFit] | np.ndarray,
+    confidence: float = 0.99,
+    symmetrize: bool = False,
+    covariances: npt.ArrayLike | None = None,
 ) -> Compliance:
     """Compliance k = D W^+ (eq. 2; eq. 3 for six axis loads) with statistics.
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from .._core import field as core
 from ..errors import InputError
@@ -74,7 +75,7 @@ class FieldFit:
         return "\n".join(rows)
 
 
-def _points(points, name="points") -> np.ndarray:
+def _points(points: npt.ArrayLike, name: str = "points") -> np.ndarray:
     """(n, 3) finite floats in any one unit (the fit does not depend on it)."""
     return V.array(points, name, (None, 3))
 
@@ -86,14 +87,14 @@ def _method_code(method: str, trim: float) -> int:
     return METHODS[method]
 
 
-def _reference(reference) -> np.ndarray:
+def _reference(reference: npt.ArrayLike) -> np.ndarray:
     ref = V.array(reference, "reference").reshape(-1)
     if ref.shape != (3,):
         raise InputError(f"reference must be a point (3,), got shape {np.shape(reference)}")
     return ref
 
 
-def _fit(p, d_f, ref, method, trim, pooled) -> list[FieldFit]:
+def _fit(p: np.ndarray, d_f: np.ndarray, ref: np.ndarray, method: str, trim: float, pooled: bool) -> list[FieldFit]:
     """Core call on p (n,3) and d_f (3,n,m) Fortran-ordered; results are
     views into the arrays the core filled (no copies)."""
     t, phi, cov, res, used, sigma, niter, sigma_pooled = core.fit_fields(
@@ -116,7 +117,12 @@ def _fit(p, d_f, ref, method, trim, pooled) -> list[FieldFit]:
 
 
 def fit_fields(
-    points, displacements, reference, method: str = "lin", trim: float = 0.0, pooled: bool = True
+    points: npt.ArrayLike,
+    displacements: npt.ArrayLike,
+    reference: npt.ArrayLike,
+    method: str = "lin",
+    trim: float = 0.0,
+    pooled: bool = True,
 ) -> list[FieldFit]:
     """Fit m displacement fields (m, n, 3) that share node positions (n, 3).
 
@@ -136,7 +142,13 @@ def fit_fields(
     )
 
 
-def fit_field(points, displacements, reference, method: str = "lin", trim: float = 0.0) -> FieldFit:
+def fit_field(
+    points: npt.ArrayLike,
+    displacements: npt.ArrayLike,
+    reference: npt.ArrayLike,
+    method: str = "lin",
+    trim: float = 0.0,
+) -> FieldFit:
     """Rigid motion of one displacement field about ``reference``.
 
     Parameters

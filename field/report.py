@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from ..io.files import write_json
 from .compliance import Compliance, compliance_from_experiments
@@ -57,17 +58,17 @@ class FieldReport:
             )
         return out
 
-    def write_json(self, path) -> Path:
+    def write_json(self, path: Path | str) -> Path:
         return write_json(path, self.to_json())
 
 
 def field_report(
-    nodes,
-    displacements,
-    reference,
+    nodes: npt.ArrayLike,
+    displacements: npt.ArrayLike,
+    reference: npt.ArrayLike,
     method: str = "lin",
     trim: float = 0.0,
-    wrenches=None,
+    wrenches: npt.ArrayLike | None = None,
     confidence: float = 0.99,
     symmetrize: bool = False,
 ) -> FieldReport:

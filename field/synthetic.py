@@ -6,10 +6,13 @@ estimate is computed by the core.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 
-def cubic_grid(edge: float = 10.0, step: float = 1.0, centre=(0.0, 0.0, 0.0)) -> np.ndarray:
+def cubic_grid(edge: float = 10.0, step: float = 1.0, centre: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
     """Nodes of a cubic field edge^3 with the given step (paper: 10 mm, 1 mm, 1331 nodes)."""
     k = int(round(edge / step)) + 1
     g = (np.arange(k) * step) - edge / 2.0
@@ -25,17 +28,17 @@ def square_grid(edge: float, step: float, x: float = 0.0) -> np.ndarray:
     return np.column_stack([np.full(y.size, x), y.ravel(), z.ravel()])
 
 
-def rot_x(a):
+def rot_x(a: float) -> np.ndarray:
     c, s = np.cos(a), np.sin(a)
     return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
 
 
-def rot_y(a):
+def rot_y(a: float) -> np.ndarray:
     c, s = np.cos(a), np.sin(a)
     return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
 
-def rot_z(a):
+def rot_z(a: float) -> np.ndarray:
     c, s = np.cos(a), np.sin(a)
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
@@ -54,7 +57,7 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
     return v * (th / s) if s > 0 else v
 
 
-def rot_exp(phi) -> np.ndarray:
+def rot_exp(phi: npt.ArrayLike) -> np.ndarray:
     """Rodrigues' formula."""
     phi = np.asarray(phi, float)
     th = np.linalg.norm(phi)
@@ -64,15 +67,22 @@ def rot_exp(phi) -> np.ndarray:
     return np.eye(3) + np.sin(th) / th * K + (1 - np.cos(th)) / th**2 * K @ K
 
 
-def rigid_displacements(points, reference, t, R) -> np.ndarray:
+def rigid_displacements(points: npt.ArrayLike, reference: npt.ArrayLike, t: npt.ArrayLike, R: np.ndarray) -> np.ndarray:
     """Displacements of nodes moved rigidly: p + dp = R (p - p0) + p0 + t."""
     q = np.asarray(points, float) - np.asarray(reference, float)
     return q @ (R.T - np.eye(3)) + np.asarray(t, float)
 
 
 def cantilever_fields(
-    compliance, wrenches, points, reference, sigma=0.0, outlier_fraction=0.0, outlier_scale=50.0, rng=None
-):
+    compliance: npt.ArrayLike,
+    wrenches: npt.ArrayLike,
+    points: npt.ArrayLike,
+    reference: npt.ArrayLike,
+    sigma: float = 0.0,
+    outlier_fraction: float = 0.0,
+    outlier_scale: float = 50.0,
+    rng: np.random.Generator | int | None = None,
+) -> np.ndarray:
     """Displacement fields of m load cases: the rigid motion k W_j of the
     reference point applied to the nodes, plus i.i.d. noise (eq. 18) and,
     optionally, gross outliers on a fraction of the nodes (s3.4)."""

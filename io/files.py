@@ -16,9 +16,14 @@ import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from types import ModuleType
+from typing import IO, TYPE_CHECKING
 
 from ..errors import InputError
 from .validate import json_ready
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "atomic_path",
@@ -49,7 +54,7 @@ def _named(exc: OSError, path: Path, tmp: Path | None) -> OSError:
 
 
 @contextmanager
-def atomic_path(path) -> Iterator[Path]:
+def atomic_path(path: Path | str) -> Iterator[Path]:
     """Yield the path of a fresh temporary beside ``path``; when the block
     ends without an error the temporary replaces ``path``, otherwise it is
     removed. For writers that want a file name (meshio, numpy). A file
@@ -72,7 +77,7 @@ def atomic_path(path) -> Iterator[Path]:
 
 
 @contextmanager
-def atomic_open(path, mode: str = "w", **kwargs):
+def atomic_open(path: Path | str, mode: str = "w", **kwargs: object) -> Iterator[IO]:
     """``open`` for writing, atomically: the handle writes a temporary that
     replaces ``path`` when the block ends without an error."""
     if not any(m in mode for m in "wx"):
@@ -83,19 +88,19 @@ def atomic_open(path, mode: str = "w", **kwargs):
             yield fh
 
 
-def atomic_write_bytes(path, data: bytes) -> Path:
+def atomic_write_bytes(path: Path | str, data: bytes) -> Path:
     with atomic_open(path, "wb") as fh:
         fh.write(data)
     return Path(path)
 
 
-def atomic_write_text(path, text: str) -> Path:
+def atomic_write_text(path: Path | str, text: str) -> Path:
     with atomic_open(path, "w") as fh:
         fh.write(text)
     return Path(path)
 
 
-def write_json(path, data, **kwargs) -> Path:
+def write_json(path: Path | str, data: object, **kwargs: object) -> Path:
     """``data`` as indented JSON (``json.dumps`` keywords pass through).
     Numpy scalars and arrays become plain numbers and lists; a NaN or Inf
     anywhere is refused (StiffkitError naming the file and the key): JSON
@@ -109,7 +114,7 @@ def write_json(path, data, **kwargs) -> Path:
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".pgf")
 
 
-def save_figure(fig, path, **kwargs) -> Path:
+def save_figure(fig: Figure, path: Path | str, **kwargs: object) -> Path:
     """A matplotlib figure saved atomically; the format is the suffix of
     ``path`` (PNG when it has none), as ``Figure.savefig`` would choose."""
     path = Path(path)
@@ -122,7 +127,7 @@ def save_figure(fig, path, **kwargs) -> Path:
     return path
 
 
-def pyplot():
+def pyplot() -> ModuleType:
     """matplotlib.pyplot on the file-only Agg backend, imported on first use
     (matplotlib is heavy and only the writers of figures need it)."""
     import matplotlib

@@ -14,7 +14,10 @@ negative eigenvalue is refused too (not a spring).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+import numpy.typing as npt
 
 from .._core.springs import psd_defect
 from ..errors import InputError
@@ -27,7 +30,9 @@ __all__ = ["read_link_compliance", "check_spring_matrix"]
 ASYMMETRY_ERROR = 0.1
 
 
-def check_spring_matrix(m, name: str, noise=None, silent: float = 1e-9, error: float = ASYMMETRY_ERROR) -> np.ndarray:
+def check_spring_matrix(
+    m: npt.ArrayLike, name: str, noise: np.ndarray | None = None, silent: float = 1e-9, error: float = ASYMMETRY_ERROR
+) -> np.ndarray:
     """A 6x6 compliance or stiffness as a spring: finite, symmetric (see the
     module docstring; returned symmetrised) and positive semi-definite."""
     m = matrix6(m, name)
@@ -41,7 +46,7 @@ def check_spring_matrix(m, name: str, noise=None, silent: float = 1e-9, error: f
     return sym
 
 
-def read_link_compliance(path, where: str = "") -> np.ndarray:
+def read_link_compliance(path: Path | str, where: str = "") -> np.ndarray:
     """The 6x6 compliance (SI; the link's own axes, at its reference point)
     under the key "compliance" of a ``stiffkit link`` JSON file, symmetrised.
 

@@ -17,13 +17,17 @@ import io
 import json
 import math
 import tomllib
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
 from ..errors import InputError
 from . import validate as V
+
+_T = TypeVar("_T")
 
 __all__ = [
     "Table",
@@ -38,7 +42,7 @@ __all__ = [
 ]
 
 
-def read_text(path, what: str = "file", where: str = "", error: type[InputError] = InputError) -> str:
+def read_text(path: Path | str, what: str = "file", where: str = "", error: type[InputError] = InputError) -> str:
     """The UTF-8 text of ``path`` (a BOM is dropped); ``error`` naming the
     file (and the line of the first byte that is not UTF-8) otherwise."""
     path = Path(path)
@@ -80,7 +84,7 @@ class Table:
     def has(self, column: str) -> bool:
         return column in self.header
 
-    def require(self, columns, note: str = "") -> None:
+    def require(self, columns: Sequence[str], note: str = "") -> None:
         missing = [c for c in columns if c not in self.header]
         if missing and len(self.header) == 1 and any(sep in self.header[0] for sep in ";\t"):
             raise InputError(
@@ -97,7 +101,7 @@ class Table:
         i = self.header.index(column)
         return [r[i].strip() for r in self.rows]
 
-    def numbers(self, columns, q: str | None = None) -> np.ndarray:
+    def numbers(self, columns: Sequence[str], q: str | None = None) -> np.ndarray:
         """(rows, len(columns)) floats; InputError naming line and field for
         a non-number, NaN/Inf or a magnitude beyond the quantity's limit."""
         self.require(columns)
@@ -115,7 +119,7 @@ class Table:
         return f" (line {self.lines[k[0]]})"
 
 
-def read_table(path, what: str = "table") -> Table:
+def read_table(path: Path | str, what: str = "table") -> Table:
     """Read a CSV table under the rules of the module docstring."""
     path = Path(path)
     text = read_text(path, what)
@@ -155,7 +159,7 @@ def read_table(path, what: str = "table") -> Table:
     return Table(path, header, rows, lines, what)
 
 
-def read_columns(path, columns: list[str], what: str = "table", q: str | None = None) -> np.ndarray:
+def read_columns(path: Path | str, columns: list[str], what: str = "table", q: str | None = None) -> np.ndarray:
     """Read the named numeric columns of a CSV with a header row.
 
     Returns an (nrows, len(columns)) float array. Raises InputError naming
@@ -169,7 +173,7 @@ def read_columns(path, columns: list[str], what: str = "table", q: str | None = 
     return read_table(path, what).numbers(columns, q)
 
 
-def parse_number(text: str, path, lineno: int, field: str, q: str | None = None) -> float:
+def parse_number(text: str, path: Path | str, lineno: int, field: str, q: str | None = None) -> float:
     """A finite float from one CSV field, or InputError naming file, line and
     field; with ``q`` (a quantity of stiffkit.io.validate) also its range."""
     text = text.strip()
@@ -200,7 +204,7 @@ def parse_vector(text: str, n: int, what: str, q: str | None = None) -> np.ndarr
     return V.array(v, what, (n,), q)
 
 
-def matrix6(value, name: str, hint: str = "") -> np.ndarray:
+def matrix6(value: object, name: str, hint: str = "") -> np.ndarray:
     """A 6x6 matrix of finite floats from ``value`` (nested lists or an
     array), or InputError naming ``name`` (e.g. "file.json: 'compliance'");
     ``hint`` follows the message of a value that is not numbers."""
@@ -220,7 +224,7 @@ def matrix6(value, name: str, hint: str = "") -> np.ndarray:
     return m
 
 
-def _no_constant(name: str):
+def _no_constant(name: str) -> None:
     raise ValueError(f"{name} is not a JSON number (JSON has no NaN or Infinity)")
 
 
@@ -232,7 +236,15 @@ def _no_duplicates(pairs: list) -> dict:
     return dict(pairs)
 
 
-def _document(path, what: str, where: str, error, kind: str, parse, errors):
+def _document(
+    path: Path | str,
+    what: str,
+    where: str,
+    error: type[InputError],
+    kind: str,
+    parse: Callable[[str], _T],
+    errors: tuple[type[Exception], ...],
+) -> _T:
     path = Path(path)
     at = f"{where}: {path}" if where else str(path)
     text = read_text(path, what, where, error)
@@ -242,7 +254,7 @@ def _document(path, what: str, where: str, error, kind: str, parse, errors):
         raise error(f"{at}: not valid {kind} ({' '.join(str(exc).split())})") from None
 
 
-def read_json(path, what: str, where: str = "", error: type[InputError] = InputError):
+def read_json(path: Path | str, what: str, where: str = "", error: type[InputError] = InputError) -> object:
     """The JSON document in ``path``; ``error`` (InputError by default)
     naming ``where`` (the caller's context, if any) and the file when it is
     missing, not UTF-8 or not JSON (NaN and Infinity are not JSON, and an
@@ -259,6 +271,6 @@ def read_json(path, what: str, where: str = "", error: type[InputError] = InputE
     )
 
 
-def read_toml(path, what: str, where: str = "", error: type[InputError] = InputError) -> dict:
+def read_toml(path: Path | str, what: str, where: str = "", error: type[InputError] = InputError) -> dict:
     """The TOML document in ``path``, with the messages of :func:`read_json`."""
     return _document(path, what, where, error, "TOML", tomllib.loads, (tomllib.TOMLDecodeError,))

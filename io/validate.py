@@ -21,6 +21,7 @@ import math
 import numbers
 import os
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -113,7 +114,7 @@ def quantity(name: str | Quantity | None) -> Quantity | None:
     return QUANTITIES[name]
 
 
-def _fmt(v) -> str:
+def _fmt(v: object) -> str:
     if isinstance(v, bool) or v is None:
         return repr(v)
     if isinstance(v, numbers.Integral):
@@ -128,7 +129,7 @@ def _unit(q: Quantity | None, unit: str | None) -> str:
     return f" {u}" if u else ""
 
 
-def _range_text(lo, hi, lo_open, hi_open) -> str:
+def _range_text(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool) -> str:
     if lo == 0 and hi is None:
         return "positive" if lo_open else ">= 0"
     if lo is not None and hi is not None:
@@ -138,7 +139,7 @@ def _range_text(lo, hi, lo_open, hi_open) -> str:
     return f"{'<' if hi_open else '<='} {_fmt(hi)}"
 
 
-def warn(message: str, stacklevel: int = 3, key=None) -> None:
+def warn(message: str, stacklevel: int = 3, key: object = None) -> None:
     """A :class:`PlausibilityWarning` (the command line prints it as one
     line); ``key`` identifies the finding (e.g. (quantity, value)) so that a
     value checked twice on its way (option, then API) is reported once."""
@@ -180,7 +181,7 @@ def plausible(v: float, name: str, q: str | Quantity | None) -> None:
 
 
 def number(
-    value,
+    value: object,
     name: str,
     q: str | Quantity | None = None,
     *,
@@ -230,7 +231,7 @@ def number(
     return int(v) if integer else v
 
 
-def count(value, name: str, lo: int = 1, hi: int | None = None) -> int:
+def count(value: object, name: str, lo: int = 1, hi: int | None = None) -> int:
     """An integer count in [lo, hi] (e.g. a number of postures)."""
     return int(number(value, name, lo=lo, hi=hi, integer=True))
 
@@ -241,7 +242,7 @@ def _first_bad(mask: np.ndarray) -> tuple:
 
 
 def array(
-    value,
+    value: object,
     name: str,
     shape: tuple | None = None,
     q: str | Quantity | None = None,
@@ -303,7 +304,7 @@ def _kinds(raw: np.ndarray) -> str:
     return ", ".join(kinds)
 
 
-def plausible_array(a, name: str, q: str | Quantity, where: str = "") -> None:
+def plausible_array(a: object, name: str, q: str | Quantity, where: str = "") -> None:
     """One warning when the largest magnitude in ``a`` is implausible for
     the quantity (``where`` may name the row of that value)."""
     qq = quantity(q)
@@ -323,7 +324,9 @@ def plausible_array(a, name: str, q: str | Quantity, where: str = "") -> None:
         )
 
 
-def symmetric6(m: np.ndarray, name: str, silent: float = 1e-9, error: float = 0.1, noise: np.ndarray | None = None):
+def symmetric6(
+    m: np.ndarray, name: str, silent: float = 1e-9, error: float = 0.1, noise: np.ndarray | None = None
+) -> tuple[np.ndarray, float]:
     """(C + C^T)/2 of a 6x6 compliance or stiffness, and its asymmetry.
 
     The asymmetry is max |c_ij - c_ji| / sqrt(|c_ii c_jj|) (the measure the
@@ -367,12 +370,12 @@ def _key(path: list) -> str:
     return out
 
 
-def json_ready(data, where: str = "JSON"):
+def json_ready(data: object, where: str = "JSON") -> object:
     """``data`` with numpy scalars and arrays turned into plain Python, or
     StiffkitError naming the first NaN/Inf (JSON has no such numbers; a
     writer maps an undefined value to null itself)."""
 
-    def walk(v, path):
+    def walk(v: object, path: list[str | int]) -> object:
         if isinstance(v, dict):
             return {str(k): walk(x, path + [k]) for k, x in v.items()}
         if isinstance(v, (list, tuple)):
@@ -398,7 +401,9 @@ def json_ready(data, where: str = "JSON"):
     return walk(data, [])
 
 
-def output_path(path, what: str, inputs=(), suffixes: tuple[str, ...] | None = None) -> Path:
+def output_path(
+    path: Path | str, what: str, inputs: Iterable[Path | str | None] = (), suffixes: tuple[str, ...] | None = None
+) -> Path:
     """The path of an output file, checked before any work is done: not a
     folder, not one of the ``inputs`` (overwriting what is being read), and
     with one of ``suffixes`` when given (e.g. (".png", ".svg", ".pdf"))."""

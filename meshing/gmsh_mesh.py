@@ -18,6 +18,7 @@ import threading
 import time
 import warnings
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -49,7 +50,7 @@ def _python_signals() -> None:
 TETS_WARN, TETS_LIMIT = 2.0e6, 3.0e7
 
 
-def _check_count(volume: float, size: float, units: str, where) -> None:
+def _check_count(volume: float, size: float, units: str, where: str) -> None:
     est = 6.0 * volume / size**3
     if est > TETS_LIMIT:
         raise MeshError(
@@ -66,7 +67,7 @@ def _check_count(volume: float, size: float, units: str, where) -> None:
         )
 
 
-def _gmsh():
+def _gmsh() -> ModuleType:
     try:
         import gmsh
     except ImportError as exc:  # pragma: no cover - installed by make
@@ -74,7 +75,7 @@ def _gmsh():
     return gmsh
 
 
-def _add_geometry(gmsh, geometry: dict, units: str) -> None:
+def _add_geometry(gmsh: ModuleType, geometry: dict, units: str) -> None:
     """Add the solid to the current gmsh model (OCC) and synchronise."""
     occ = gmsh.model.occ
     shape = geometry.get("shape")
@@ -120,7 +121,7 @@ def _add_geometry(gmsh, geometry: dict, units: str) -> None:
         )
 
 
-def _refinement(gmsh, size: float, refine: float, radius: float, points: list, planes: list) -> None:
+def _refinement(gmsh: ModuleType, size: float, refine: float, radius: float, points: list, planes: list) -> None:
     """Background size field: `refine * size` near the given points and
     axis-aligned planes ((axis, value)), growing to `size` at `radius`."""
     fields = []
@@ -145,7 +146,7 @@ def _refinement(gmsh, size: float, refine: float, radius: float, points: list, p
         gmsh.option.setNumber("Mesh.MeshSizeMin", refine * size)
 
 
-def _structured_box(gmsh, size: float, across_factor: float) -> None:
+def _structured_box(gmsh: ModuleType, size: float, across_factor: float) -> None:
     """Transfinite (structured) mesh of the box: every edge cut into
     ceil(length / s) equal divisions, s = ``size`` along the box's longest
     side and ``across_factor * size`` along the other two (the section);
@@ -285,7 +286,7 @@ def mesh_part(
     return mesh
 
 
-def _collect_gmsh(gmsh, order: int, scale: float) -> Mesh:
+def _collect_gmsh(gmsh: ModuleType, order: int, scale: float) -> Mesh:
     etype = 11 if order == 2 else 4
     _tags, enodes = gmsh.model.mesh.getElementsByType(etype)
     if len(enodes) == 0:
@@ -305,7 +306,7 @@ def _collect_gmsh(gmsh, order: int, scale: float) -> Mesh:
 
 
 def _read_tetgen(node_file: Path, ele_file: Path, order: int, scale: float) -> Mesh:
-    def table(path):
+    def table(path: Path) -> tuple[list[str], np.ndarray]:
         lines = [ln.split("#")[0].split() for ln in path.read_text().splitlines()]
         lines = [ln for ln in lines if ln]
         head, body = lines[0], lines[1:]

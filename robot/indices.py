@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from .._core import springs as core
 from ..errors import InputError
@@ -31,7 +32,7 @@ class Indices:
     lscale: float
 
 
-def stiffness_indices(k, lscale: float) -> Indices:
+def stiffness_indices(k: npt.ArrayLike, lscale: float) -> Indices:
     """Indices of one (6,6) or N (N,6,6) stiffness matrices, one core call."""
     k = np.asarray(k, dtype=float)
     single = k.ndim == 2
@@ -42,7 +43,7 @@ def stiffness_indices(k, lscale: float) -> Indices:
     return Indices(kappa_t=kt, kappa_r=kr, lambda_f=lf, lambda_n=ln, lscale=float(lscale))
 
 
-def stiffness_indices_where(k, ok, lscale: float) -> Indices:
+def stiffness_indices_where(k: npt.ArrayLike, ok: npt.ArrayLike, lscale: float) -> Indices:
     """Indices of N stiffness matrices (N,6,6) where ``ok`` (N,) is True, NaN elsewhere.
 
     Where the stiffness does not exist (a singular compliance: a serial

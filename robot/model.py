@@ -9,10 +9,12 @@ when the table carries a value) and a virtual spring of the chain.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from .._core import calib as core
 from .._core.springs import rotate6
@@ -20,7 +22,7 @@ from ..errors import InputError
 from ..io import validate as V
 from ..io.linkjson import check_spring_matrix, read_link_compliance
 from ..io.tables import read_toml
-from .indices import stiffness_indices_where
+from .indices import Indices, stiffness_indices_where
 from .urdf import Chain, load_chain
 
 KINDS = (
@@ -67,7 +69,7 @@ def template_elements(template: str, axis: int = 0) -> list[int]:
     raise InputError(f"unknown template {template!r}; choose one of {', '.join(TEMPLATES)}")
 
 
-def rpy_matrix(rpy) -> np.ndarray:
+def rpy_matrix(rpy: Sequence[float] | np.ndarray) -> np.ndarray:
     """URDF rpy: R = Rz(y) Ry(p) Rx(r)."""
     r, p, y = (float(v) for v in rpy)
     cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
@@ -124,7 +126,7 @@ class Model:
     robot_table: dict = field(default_factory=dict)
 
     # -- springs --------------------------------------------------------
-    def springs(self, extra_terms=()) -> list[tuple[int, int]]:
+    def springs(self, extra_terms: Iterable[Term] = ()) -> list[tuple[int, int]]:
         """Distinct springs of the terms (and extra terms), in a stable order:
         every actuated joint's spring first (needed by joint-type terms)."""
         out = []
@@ -141,7 +143,9 @@ class Model:
         return any(t.kind == kind and t.target == target for t in self.terms)
 
     # -- evaluation with known values -----------------------------------
-    def joint_compliances(self, Q: np.ndarray, terms=None, wrench=None) -> dict[int, np.ndarray]:
+    def joint_compliances(
+        self, Q: np.ndarray, terms: Iterable[Term] | None = None, wrench: np.ndarray | None = None
+    ) -> dict[int, np.ndarray]:
         """Compliance of every joint spring at postures Q (N, dof), from the
         known values of the joint kinds: {chain joint index: (N,)}.
 
@@ -200,7 +204,7 @@ class Model:
                 )
         return c
 
-    def six_values(self, terms=None) -> dict[tuple[int, int], np.ndarray]:
+    def six_values(self, terms: Iterable[Term] | None = None) -> dict[tuple[int, int], np.ndarray]:
         """Summed known 6x6 compliance of each 6-dof spring."""
         terms = self.terms if terms is None else terms
         out = {}
@@ -220,7 +224,7 @@ class Model:
                 out[t.spring] = out.get(t.spring, np.zeros((6, 6))) + C
         return out
 
-    def jacobians(self, q) -> dict:
+    def jacobians(self, q: npt.ArrayLike) -> dict:
         """Jacobians of every spring of the model at posture q (dof,):
         {(stype, joint index): (6, 1) or (6, 6)}; the tool twist per spring
         deflection (base axes, about the tool-frame origin)."""
@@ -241,7 +245,9 @@ class Model:
             col += n
         return out
 
-    def tool_compliance(self, Q, return_stiffness: bool = False, wrench=None):
+    def tool_compliance(
+        self, Q: npt.ArrayLike, return_stiffness: bool = False, wrench: npt.ArrayLike | None = None
+    ) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Tool-frame compliance (N, 6, 6) at postures Q (N, dof): base axes,
         about the tool-frame origin, sum_i J_i C_i J_i^T, one core call.
 
@@ -282,11 +288,11 @@ class Model:
             return C, K, rank.astype(int), kinfo == 0
         return C
 
-    def stiffness(self, Q):
+    def stiffness(self, Q: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(C, K, rank, ok) at postures Q; see tool_compliance."""
         return self.tool_compliance(Q, return_stiffness=True)
 
-    def stiffness_indices(self, Q, lscale: float | None = None):
+    def stiffness_indices(self, Q: npt.ArrayLike, lscale: float | None = None) -> tuple[Indices, np.ndarray]:
         """Stiffness indices kappa_t, kappa_r (N) of the tool stiffness at
         postures Q (Taghvaeipour et al. 2010 eqs. 31-39, core/sk_indices.f90),
         made unit-invariant with the length ``lscale`` (m; default the chain's
@@ -305,7 +311,7 @@ def profile_basis(q: np.ndarray) -> np.ndarray:
     return np.column_stack([np.ones_like(q), np.cos(q), np.sin(q), np.cos(2 * q), np.sin(2 * q)])
 
 
-def load_factor(kind: str, tau: np.ndarray, tau0=None) -> np.ndarray:
+def load_factor(kind: str, tau: np.ndarray, tau0: float | np.ndarray | None = None) -> np.ndarray:
     """Secant factor of a load-nonlinear joint kind: its joint deflection is
     value * factor * tau (contract extensions).
 
@@ -353,13 +359,13 @@ def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
 # reading a model file
 
 
-def _where(path, i, table) -> str:
+def _where(path: Path | str, i: int, table: dict) -> str:
     return f"{path}: [[effect]] #{i + 1} ({table.get('kind', '?')}" + (
         f", target {table['target']!r})" if "target" in table else ")"
     )
 
 
-def _six_value(table, base_dir, where) -> np.ndarray:
+def _six_value(table: dict, base_dir: Path, where: str) -> np.ndarray:
     """The known 6x6 compliance of a link/base/tool effect: ``value`` as 6
     rows of 6 numbers or the name of a ``stiffkit link`` JSON result, in the
     spring frame's axes, or in axes turned by ``rpy`` from them. Symmetric
@@ -392,13 +398,13 @@ def _default_axis(chain: Chain, link: str) -> int:
     return int(np.argmax(np.abs(seg)))
 
 
-def _number(table, key, where, q=None, **limits) -> float:
+def _number(table: dict, key: str, where: str, q: str | None = None, **limits: object) -> float:
     if key not in table:
         raise InputError(f"{where}: missing {key!r}")
     return V.number(table[key], f"{where}: {key}", q, **limits)
 
 
-def _suggest(word: str, choices) -> str:
+def _suggest(word: str, choices: Iterable[str]) -> str:
     import difflib
 
     close = difflib.get_close_matches(str(word), list(choices), n=1)
@@ -419,7 +425,9 @@ KEYS = {
 }
 
 
-def expand_effect(chain: Chain, table: dict, i: int, path="model", base_dir=Path(".")) -> list[Term]:
+def expand_effect(
+    chain: Chain, table: dict, i: int, path: Path | str = "model", base_dir: Path = Path(".")
+) -> list[Term]:
     """Terms of one [[effect]] table (raises InputError naming the table)."""
     if not isinstance(table, dict):
         raise InputError(f"{path}: [[effect]] #{i + 1} must be a table (kind = ..., target = ...), got {table!r:.60}")
@@ -571,7 +579,7 @@ def check_terms(terms: list[Term], where: str) -> None:
         raise InputError(f"{where}: more than one point_offset effect")
 
 
-def load_model(path) -> Model:
+def load_model(path: Path | str) -> Model:
     """Read a model TOML (contract s2, s5) and its URDF.
 
     Returns a :class:`Model`; ``model.tool_compliance(Q)`` evaluates a model
@@ -632,14 +640,18 @@ ROBOT_KEYS = ("urdf", "base_link", "tool_frame")
 MEAS_KEYS = ("sigma_position", "sigma_rotation", "kind")
 
 
-def _known(table: dict, known, what: str) -> None:
+def _known(table: dict, known: Collection[str], what: str) -> None:
     unknown = sorted(set(table) - set(known))
     if unknown:
         raise InputError(f"{what} {', '.join(unknown)}{_suggest(unknown[0], known)}; known: {', '.join(known)}")
 
 
 def model_from_tables(
-    chain: Chain, effects: list[dict], sigma_position=None, sigma_rotation=None, where="model"
+    chain: Chain,
+    effects: list[dict],
+    sigma_position: float | None = None,
+    sigma_rotation: float | None = None,
+    where: str = "model",
 ) -> Model:
     """A Model from a chain and effect tables (Python API, synth, diagnosis)."""
     terms = []

@@ -3,13 +3,21 @@ tables and [[effect]] tables, with or without values."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 import tomli_w
 
 __all__ = ["model_toml", "effects_toml"]
 
 
-def model_toml(effects: list[dict], sigma=None, urdf="robot.urdf", tool_frame="tool0", sigma_rotation=None) -> str:
+def model_toml(
+    effects: list[dict],
+    sigma: float | None = None,
+    urdf: str = "robot.urdf",
+    tool_frame: str = "tool0",
+    sigma_rotation: float | None = None,
+) -> str:
     """A model file (contract s2): [robot], optional [measurements] sigmas, the effects."""
     doc = {"robot": {"urdf": urdf, "base_link": "base_link", "tool_frame": tool_frame}}
     meas = {}
@@ -22,12 +30,12 @@ def model_toml(effects: list[dict], sigma=None, urdf="robot.urdf", tool_frame="t
     return tomli_w.dumps(doc) + effects_toml(effects)
 
 
-def effects_toml(effects) -> str:
+def effects_toml(effects: Iterable[dict]) -> str:
     """[[effect]] tables, always in the appendable array-of-tables form."""
     return "".join("\n[[effect]]\n" + tomli_w.dumps(_plain(e)) for e in effects)
 
 
-def _plain(v):
+def _plain(v: object) -> object:
     if isinstance(v, dict):
         return {k: _plain(x) for k, x in v.items()}
     if isinstance(v, (list, tuple, np.ndarray)):

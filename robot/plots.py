@@ -11,7 +11,9 @@ from ..io.files import pyplot, save_figure
 __all__ = ["stiffness_png"]
 
 
-def stiffness_png(path, Q, C, ok, indices: dict, units: dict, lscale: float) -> Path:
+def stiffness_png(
+    path: Path | str, Q: np.ndarray, C: np.ndarray, ok: np.ndarray, indices: dict, units: dict, lscale: float
+) -> Path:
     """Principal compliances and the indices along the postures; singular
     postures (no stiffness, indices undefined) marked in grey."""
     plt = pyplot()

@@ -10,10 +10,12 @@ more core call), NaN where K does not exist, with the reason per posture.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
 from ..io.files import atomic_open, write_json
@@ -24,7 +26,7 @@ from .plots import stiffness_png
 __all__ = ["INDICES", "index_status", "compute_indices", "StiffnessReport", "stiffness_report"]
 
 
-def _kappa(C, K, ok, lscale) -> dict:
+def _kappa(C: np.ndarray, K: np.ndarray, ok: np.ndarray, lscale: float) -> dict:
     """kappa_t, kappa_r (N) of Taghvaeipour et al. 2010 eqs. 31-39 (core/sk_indices.f90):
     one core call for the postures where K exists, NaN elsewhere."""
     idx = stiffness_indices_where(K, ok, lscale)
@@ -37,12 +39,12 @@ def _kappa(C, K, ok, lscale) -> dict:
 INDICES: dict = {"kappa": (_kappa, "N")}
 
 
-def index_status(ok, rank) -> list[str]:
+def index_status(ok: Iterable[bool], rank: Iterable[int]) -> list[str]:
     """Per posture: "ok", or why the indices do not exist."""
     return ["ok" if o else f"undefined: no stiffness matrix (compliance rank {int(r)} < 6)" for o, r in zip(ok, rank)]
 
 
-def compute_indices(C, K, ok, lscale) -> tuple[dict, dict]:
+def compute_indices(C: np.ndarray, K: np.ndarray, ok: np.ndarray, lscale: float) -> tuple[dict, dict]:
     """({index name: (N,)}, {index name: unit}) of every registered provider."""
     values, units = {}, {}
     for fn, unit in INDICES.values():
@@ -52,11 +54,11 @@ def compute_indices(C, K, ok, lscale) -> tuple[dict, dict]:
     return values, units
 
 
-def _null(v: float):
+def _null(v: float) -> float | None:
     return None if not np.isfinite(v) else float(v)
 
 
-def _matrix(a) -> str:
+def _matrix(a: np.ndarray) -> str:
     """A 6x6 matrix as rows of aligned scientific numbers, indented."""
     return "\n".join("  " + " ".join(f"{v: .4e}" for v in row) for row in a)
 
@@ -133,10 +135,10 @@ class StiffnessReport:
             "indices_note": "null where the stiffness does not exist (see indices_status)",
         }
 
-    def write_json(self, path) -> Path:
+    def write_json(self, path: Path | str) -> Path:
         return write_json(path, self.to_json(), allow_nan=False)
 
-    def write_npz(self, path) -> Path:
+    def write_npz(self, path: Path | str) -> Path:
         """Arrays q, compliance, stiffness, rank, ok, lscale, indices_ok and
         one per index; ``.npz`` is appended to a name without it (as numpy does)."""
         path = Path(path)
@@ -156,11 +158,11 @@ class StiffnessReport:
             )
         return path
 
-    def write_png(self, path) -> Path:
+    def write_png(self, path: Path | str) -> Path:
         return stiffness_png(path, self.Q, self.C, self.ok, self.indices, self.units, self.lscale)
 
 
-def stiffness_report(model: Model, Q, lscale: float | None = None) -> StiffnessReport:
+def stiffness_report(model: Model, Q: npt.ArrayLike, lscale: float | None = None) -> StiffnessReport:
     """C, K, rank (one core call) and the indices (one more) at postures Q
     (N, dof); ``lscale`` (m) defaults to the chain's characteristic length."""
     if lscale is not None and not (np.isfinite(lscale) and lscale > 0):

@@ -125,7 +125,7 @@ class Tree:
         return j.name, mult, off
 
 
-def _origin(j: object, path="URDF") -> np.ndarray:
+def _origin(j: object, path: Path | str = "URDF") -> np.ndarray:
     T = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         raise InputError(f"{path}: joint {j.name!r} has a malformed origin")
@@ -136,7 +136,7 @@ def _origin(j: object, path="URDF") -> np.ndarray:
 _NUMERIC = (("origin", "xyz", 3), ("origin", "rpy", 3), ("axis", "xyz", 3))
 
 
-def _owner(el, parents) -> str:
+def _owner(el: ET.Element, parents: dict[ET.Element, ET.Element]) -> str:
     """'joint NAME' or 'link NAME' of an element, for messages."""
     p = parents.get(el)
     while p is not None and p.tag not in ("joint", "link"):
@@ -144,7 +144,7 @@ def _owner(el, parents) -> str:
     return f"{p.tag} {p.get('name')!r}" if p is not None else "the robot"
 
 
-def check_urdf_text(text: str, path) -> None:
+def check_urdf_text(text: str, path: Path | str) -> None:
     """What the URDF library would accept silently or explain badly: XML
     that is not well formed (a truncated file), a root other than <robot>,
     joints or links without a name, numeric attributes that are not finite

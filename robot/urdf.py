@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from .._core import calib as core
 from ..errors import InputError
@@ -124,7 +125,7 @@ class Chain:
             tpos=np.asarray(self.tpos, float),
         )
 
-    def poses(self, Q) -> dict:
+    def poses(self, Q: npt.ArrayLike) -> dict:
         """Frames of the chain at postures Q (N, dof), computed by the core's
         forward kinematics (sk_chain, one call): ``rf`` (N, nj, 3, 3), ``pf``
         (N, nj, 3) every joint frame F_k before its rotation, ``rt`` (N, 3, 3),
@@ -134,7 +135,7 @@ class Chain:
             raise InputError(f"postures must have shape (N, {self.dof}), got {np.shape(Q)}")
         return core.chain_poses(self.core_arrays(), np.asfortranarray(Q.T))
 
-    def joint_torques(self, Q, W) -> np.ndarray:
+    def joint_torques(self, Q: npt.ArrayLike, W: npt.ArrayLike) -> np.ndarray:
         """Torque (N m) about every joint's axis (N, nj; 0 for fixed joints)
         of the wrenches W (N, 6) (force, moment at the tool-frame origin, base
         axes) at postures Q (N, dof): tau_k = z_k . (m + (p_tool - p_k) x f),
@@ -152,14 +153,14 @@ class Chain:
         moment = W[:, None, 3:] + np.cross(lever, W[:, None, :3])
         return np.einsum("nki,nki->nk", axes, moment)
 
-    def forward(self, q) -> tuple[np.ndarray, np.ndarray]:
+    def forward(self, q: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Tool frame (R (3,3), p (3,)) at posture q (the core's forward
         kinematics, as every other pose of the chain)."""
         P = self.poses(np.asarray(q, float).reshape(1, -1))
         return P["rt"][0], P["pt"][0]
 
 
-def _rot_axis(axis, angle) -> np.ndarray:
+def _rot_axis(axis: npt.ArrayLike, angle: float) -> np.ndarray:
     """Rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
     return rot_exp(np.asarray(axis, float) * angle)
 

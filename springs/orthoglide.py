@@ -78,9 +78,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
-from .tree import Joint, Spring, TreeResult, evaluate, load_link_compliance, parallel, series
+from .tree import Joint, Parallel, Series, Spring, TreeResult, evaluate, load_link_compliance, parallel, series
 
 __all__ = [
     "OrthoglideGeometry",
@@ -128,13 +129,13 @@ class OrthoglideGeometry:
     cube: float = 0.200  #: workspace cube edge, m
 
 
-def _table_si(diag) -> np.ndarray:
+def _table_si(diag: npt.ArrayLike) -> np.ndarray:
     """Table 7 diagonal (mm/N, rad/(N mm)) -> SI (m/N, rad/(N m))."""
     d = np.asarray(diag, dtype=float)
     return np.concatenate([d[:3] * 1e-3, d[3:] * 1e3])
 
 
-def cantilever_from_diagonal(length: float, diag_si) -> np.ndarray:
+def cantilever_from_diagonal(length: float, diag_si: npt.ArrayLike) -> np.ndarray:
     """Eq. 22 cantilever compliance along x with the diagonal given (SI):
     c26 = L c66 / 2 and c35 = -L c55 / 2 (since c66 = L/EIz, c55 = L/EIy)."""
     c = np.diag(np.asarray(diag_si, dtype=float))
@@ -185,16 +186,16 @@ def foot_axes(i: int) -> np.ndarray:
     return np.stack([ei, np.cross(ai, ei), ai], axis=-1)
 
 
-def _frame(x, y) -> np.ndarray:
+def _frame(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """(N,3,3) rotation with columns x, y, x cross y (inputs unit, orthogonal)."""
     return np.stack([x, y, np.cross(x, y)], axis=-1)
 
 
-def _unit(v):
+def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def leg_tree(i: int, P: np.ndarray, links: dict, g: OrthoglideGeometry, actuator_compliance: float = 0.0):
+def leg_tree(i: int, P: np.ndarray, links: dict, g: OrthoglideGeometry, actuator_compliance: float = 0.0) -> Series:
     """Spring tree of leg i at tool points P (N,3)."""
     e = np.eye(3)
     ei, ai = e[i], e[(i + 1) % 3]
@@ -237,8 +238,11 @@ def leg_tree(i: int, P: np.ndarray, links: dict, g: OrthoglideGeometry, actuator
 
 
 def orthoglide_tree(
-    P, links: dict | None = None, geometry: OrthoglideGeometry | None = None, actuator_compliance: float = 0.0
-):
+    P: npt.ArrayLike,
+    links: dict | None = None,
+    geometry: OrthoglideGeometry | None = None,
+    actuator_compliance: float = 0.0,
+) -> Parallel:
     """The whole robot: three legs in parallel at the tool point (N,3)."""
     g = geometry or OrthoglideGeometry()
     links = links or link_compliances("beam", g)
@@ -247,7 +251,7 @@ def orthoglide_tree(
 
 
 def compliance(
-    P,
+    P: npt.ArrayLike,
     links: dict | None = None,
     geometry: OrthoglideGeometry | None = None,
     actuator_compliance: float = 0.0,
@@ -260,7 +264,7 @@ def compliance(
     return evaluate(tree, tool=P, lscale=g.L, rcond=rcond)
 
 
-def workspace_grid(n: int = 21, geometry: OrthoglideGeometry | None = None):
+def workspace_grid(n: int = 21, geometry: OrthoglideGeometry | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Points of the workspace cube (centred on the isotropic point): (xs, grid (n^3,3))."""
     g = geometry or OrthoglideGeometry()
     xs = np.linspace(-g.cube / 2, g.cube / 2, n)

@@ -14,7 +14,7 @@ from ..robot.indices import Indices
 __all__ = ["orthoglide_map_png", "smg_indices_png"]
 
 
-def orthoglide_map_png(path, xs, ct3, cr3) -> Path:
+def orthoglide_map_png(path: Path | str, xs: np.ndarray, ct3: np.ndarray, cr3: np.ndarray) -> Path:
     """Slices z = first, middle, last grid value of the largest translational
     (mm/N) and rotational (rad/(N mm)) compliance eigenvalue on the grid
     ``xs`` (mm) cubed, as log10 contour maps."""
@@ -48,7 +48,7 @@ def orthoglide_map_png(path, xs, ct3, cr3) -> Path:
         plt.close(fig)
 
 
-def smg_indices_png(path, tau, P, theta, idx: Indices) -> Path:
+def smg_indices_png(path: Path | str, tau: np.ndarray, P: np.ndarray, theta: np.ndarray, idx: Indices) -> Path:
     """The trajectory (x, z) and kappa_t, kappa_r along it (cf. Fig. 10)."""
     plt = pyplot()
     fig, axs = plt.subplots(1, 3, figsize=(15, 4.2), constrained_layout=True)

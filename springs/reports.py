@@ -8,10 +8,12 @@ results (SI), and ``write_json`` / ``write_png`` the files.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
 from ..io.files import write_json
@@ -34,7 +36,7 @@ __all__ = [
 ]
 
 
-def format6(c) -> str:
+def format6(c: np.ndarray) -> str:
     """A 6x6 compliance or stiffness with its row (twist) and column (wrench) names."""
     names = ("tx", "ty", "tz", "phix", "phiy", "phiz")
     lines = ["        " + " ".join(f"{n:>11s}" for n in ("Fx", "Fy", "Fz", "Mx", "My", "Mz"))]
@@ -43,7 +45,7 @@ def format6(c) -> str:
     return "\n".join(lines)
 
 
-def _vectors(rows) -> list[str]:
+def _vectors(rows: Iterable[Iterable[float]]) -> list[str]:
     return ["   " + " ".join(f"{v:10.3e}" for v in f) for f in rows]
 
 
@@ -140,10 +142,10 @@ class OrthoglideReport:
             out["map"] = self.map.to_json()
         return out
 
-    def write_json(self, path) -> Path:
+    def write_json(self, path: Path | str) -> Path:
         return write_json(path, self.to_json())
 
-    def write_png(self, path) -> Path:
+    def write_png(self, path: Path | str) -> Path:
         """Slices of the workspace map (needs the map)."""
         if self.map is None:
             raise InputError("the Orthoglide PNG shows the workspace map: compute it first (--map N)")
@@ -151,7 +153,7 @@ class OrthoglideReport:
 
 
 def orthoglide_report(
-    point_mm=(0.0, 0.0, 0.0),
+    point_mm: npt.ArrayLike = (0.0, 0.0, 0.0),
     links: str = "beam",
     link_files: dict | None = None,
     actuator_compliance: float = 0.0,
@@ -214,10 +216,10 @@ class SMGReport:
             "pi_joints": self.pi_joints,
         }
 
-    def write_json(self, path) -> Path:
+    def write_json(self, path: Path | str) -> Path:
         return write_json(path, self.to_json())
 
-    def write_png(self, path) -> Path:
+    def write_png(self, path: Path | str) -> Path:
         return smg_indices_png(path, self.tau, self.P, self.theta, self.indices)
 
 
@@ -282,11 +284,11 @@ class TreeReport:
             out.update(kappa_t=float(self.indices.kappa_t[0]), kappa_r=float(self.indices.kappa_r[0]))
         return out
 
-    def write_json(self, path) -> Path:
+    def write_json(self, path: Path | str) -> Path:
         return write_json(path, self.to_json())
 
 
-def tree_report(path, rcond: float = 1e-9) -> TreeReport:
+def tree_report(path: Path | str, rcond: float = 1e-9) -> TreeReport:
     """Read a tree JSON file (springs/tree_json.py) and evaluate it at its tool."""
     src = load_tree(path)
     res = src.evaluate(rcond)

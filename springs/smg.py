@@ -30,11 +30,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
 from ..field import cantilever_compliance, section_properties
 from ..robot.indices import Indices, stiffness_indices
-from .tree import Joint, Spring, TreeResult, evaluate, load_link_compliance, parallel, series
+from .tree import Joint, Parallel, Spring, TreeResult, evaluate, load_link_compliance, parallel, series
 
 __all__ = ["SMGGeometry", "smg_links", "trajectory", "limb_points", "smg_tree", "stiffness", "indices_along_trajectory"]
 
@@ -69,12 +70,12 @@ def smg_links(files: dict | None = None) -> dict:
     return out
 
 
-def _smooth(x):
+def _smooth(x: np.ndarray) -> np.ndarray:
     x = np.clip(x, 0.0, 1.0)
     return x**3 * (10 - 15 * x + 6 * x * x)
 
 
-def trajectory(n: int = 401, geometry: SMGGeometry | None = None):
+def trajectory(n: int = 401, geometry: SMGGeometry | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Smoothed test trajectory: (tau (n,), P (n,3) m, theta (n,) rad).
 
     25 mm up, 300 mm along x, 25 mm down, the MP turning 180 deg on the
@@ -90,7 +91,9 @@ def trajectory(n: int = 401, geometry: SMGGeometry | None = None):
     return tau, P, theta
 
 
-def limb_points(J: int, P: np.ndarray, theta: np.ndarray, g: SMGGeometry):
+def limb_points(
+    J: int, P: np.ndarray, theta: np.ndarray, g: SMGGeometry
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Shoulder S, elbow E, wrist W (N,3) and the limb's horizontal direction h."""
     sgn = -1.0 if J == 0 else 1.0
     n = P.shape[0]
@@ -107,7 +110,9 @@ def limb_points(J: int, P: np.ndarray, theta: np.ndarray, g: SMGGeometry):
     return S, E, W, h
 
 
-def _pi_joint(A, Bp, h, width, c_link, both_ends):
+def _pi_joint(
+    A: np.ndarray, Bp: np.ndarray, h: np.ndarray, width: float, c_link: np.ndarray, both_ends: bool
+) -> Parallel:
     """Pi-joint between points A (first end) and Bp: two links at +-width/2 (vertical)."""
     z = np.array([0.0, 0.0, 1.0])
     n = np.cross(h, z)  # hinge axis, normal to the limb plane
@@ -123,7 +128,13 @@ def _pi_joint(A, Bp, h, width, c_link, both_ends):
     return parallel(*links)
 
 
-def smg_tree(P, theta, links: dict | None = None, geometry: SMGGeometry | None = None, pi_joints: str = "paper"):
+def smg_tree(
+    P: npt.ArrayLike,
+    theta: npt.ArrayLike,
+    links: dict | None = None,
+    geometry: SMGGeometry | None = None,
+    pi_joints: str = "paper",
+) -> Parallel:
     """Spring tree of the SMG at MP points P (N,3) and MP angles theta (N,)."""
     if pi_joints not in ("paper", "both"):
         raise InputError("pi_joints must be 'paper' (one passive joint per link, eq. 23) or 'both'")
@@ -146,8 +157,8 @@ def smg_tree(P, theta, links: dict | None = None, geometry: SMGGeometry | None =
 
 
 def stiffness(
-    P,
-    theta,
+    P: npt.ArrayLike,
+    theta: npt.ArrayLike,
     links: dict | None = None,
     geometry: SMGGeometry | None = None,
     pi_joints: str = "paper",
@@ -165,7 +176,7 @@ def indices_along_trajectory(
     geometry: SMGGeometry | None = None,
     pi_joints: str = "paper",
     lscale: float | None = None,
-):
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, TreeResult, Indices]:
     """(tau, P, theta, TreeResult, Indices) along the smoothed test trajectory."""
     g = geometry or SMGGeometry()
     tau, P, theta = trajectory(n, g)

@@ -27,9 +27,11 @@ singular matrix, and ``rank`` says how many directions remain elastic.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from .._core import springs as core
 from ..errors import InputError
@@ -59,7 +61,7 @@ _JOINT_TYPES = {"revolute": 1, "prismatic": 2}
 load_link_compliance = read_link_compliance
 
 
-def _as_pose(a, shape, name) -> np.ndarray:
+def _as_pose(a: npt.ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray:
     a = V.array(a, name)
     if a.shape != shape and a.shape[1:] != shape:
         raise InputError(f"{name} must have shape {shape} or (N,) + {shape}, got {a.shape}")
@@ -76,7 +78,7 @@ class Spring:
     kind: str = "compliance"
     name: str = ""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.kind not in ("compliance", "stiffness"):
             raise InputError(f"spring {self.name!r}: kind must be 'compliance' or 'stiffness'")
         self.matrix = check_spring_matrix(self.matrix, f"spring {self.name!r}: {self.kind}", error=1e-2)
@@ -106,7 +108,7 @@ class Joint:
     passive: bool = False
     name: str = ""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not isinstance(self.type, str) or self.type not in _JOINT_TYPES:
             raise InputError(f"joint {self.name!r}: type = {self.type!r} must be revolute or prismatic")
         self.axis = _as_pose(self.axis, (3,), f"joint {self.name!r}: axis")
@@ -193,7 +195,7 @@ class TreeResult:
 
 
 class _Program:
-    def __init__(self):
+    def __init__(self) -> None:
         self.prog: list[tuple[int, int]] = []
         self.springs: list[Spring] = []
         self.joints: list[Joint] = []
@@ -216,7 +218,7 @@ class _Program:
             raise InputError(f"not a spring-tree node: {type(node).__name__}")
 
 
-def _stack(items, shape, n) -> np.ndarray:
+def _stack(items: Sequence[np.ndarray], shape: tuple[int, ...], n: int) -> np.ndarray:
     """(n, k) + shape array of per-leaf poses, broadcast over postures."""
     out = np.empty((n, len(items)) + shape)
     for i, a in enumerate(items):
@@ -224,7 +226,7 @@ def _stack(items, shape, n) -> np.ndarray:
     return out
 
 
-def _npostures(prog: _Program, tool) -> int:
+def _npostures(prog: _Program, tool: npt.ArrayLike) -> int:
     sizes = {np.asarray(tool).shape[0]} if np.asarray(tool).ndim == 2 else set()
     for s in prog.springs:
         if s.pos.ndim == 2:
@@ -251,7 +253,11 @@ def _default_lscale(prog: _Program, tool: np.ndarray) -> float:
 
 
 def evaluate(
-    tree: Node, tool=(0.0, 0.0, 0.0), tool_rot=None, lscale: float | None = None, rcond: float = 1e-9
+    tree: Node,
+    tool: npt.ArrayLike = (0.0, 0.0, 0.0),
+    tool_rot: npt.ArrayLike | None = None,
+    lscale: float | None = None,
+    rcond: float = 1e-9,
 ) -> TreeResult:
     """Evaluate a spring tree at the tool point for N postures, one core call.
 

@@ -16,6 +16,7 @@ NODE is ``{"series": [NODE, ...]}``, ``{"parallel": [NODE, ...]}``,
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,7 +36,7 @@ _SPRING_KEYS = ("compliance", "stiffness", "file", "pos", "rot", "name")
 _JOINT_KEYS = ("type", "axis", "point", "compliance", "stiffness", "passive", "name")
 
 
-def _keys(val, allowed, where: str) -> dict:
+def _keys(val: object, allowed: Collection[str], where: str) -> dict:
     if not isinstance(val, dict):
         raise InputError(f"{where}: must be an object {{...}}, got {val!r:.60}")
     unknown = sorted(set(val) - set(allowed))
@@ -44,7 +45,7 @@ def _keys(val, allowed, where: str) -> dict:
     return val
 
 
-def parse_node(d, base: Path, where: str = "tree") -> Node:
+def parse_node(d: object, base: Path, where: str = "tree") -> Node:
     """The spring-tree node of one JSON object (files relative to ``base``);
     ``where`` is the node's path in the document, for messages."""
     if not isinstance(d, dict) or len(d) != 1:
@@ -118,7 +119,7 @@ class TreeFile:
         return evaluate(self.tree, tool=self.tool, tool_rot=self.tool_axes, lscale=self.lscale, rcond=rcond)
 
 
-def load_tree(path) -> TreeFile:
+def load_tree(path: Path | str) -> TreeFile:
     """Read a tree JSON file; InputError naming the file or the node for bad input."""
     path = Path(path)
     spec = read_json(path, "tree JSON")

@@ -31,26 +31,29 @@ postures, one core call for all of them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import InputError
-from ..robot.model import SPRING_BASE, SPRING_FRAME, SPRING_JOINT
-from .tree import Joint, Spring, TreeResult, evaluate, series
+from ..robot.model import SPRING_BASE, SPRING_FRAME, SPRING_JOINT, Model
+from .tree import Joint, Series, Spring, TreeResult, evaluate, series
 
 __all__ = ["serial_vjm", "model_tree", "model_vjm"]
 
 
 def serial_vjm(
-    joint_axes,
-    joint_points,
-    joint_compliances,
-    link_compliances,
-    link_points,
-    link_rotations,
-    tool,
-    joint_types=None,
-    tool_rot=None,
-    lscale=None,
+    joint_axes: npt.ArrayLike,
+    joint_points: npt.ArrayLike,
+    joint_compliances: npt.ArrayLike,
+    link_compliances: npt.ArrayLike,
+    link_points: npt.ArrayLike,
+    link_rotations: npt.ArrayLike,
+    tool: npt.ArrayLike,
+    joint_types: Sequence[str] | None = None,
+    tool_rot: npt.ArrayLike | None = None,
+    lscale: float | None = None,
     rcond: float = 1e-9,
 ) -> TreeResult:
     """Tool compliance/stiffness of a serial VJM at N postures.
@@ -82,7 +85,7 @@ def serial_vjm(
     return evaluate(series(*parts), tool=tool, tool_rot=tool_rot, lscale=lscale, rcond=rcond)
 
 
-def model_tree(model, Q):
+def model_tree(model: Model, Q: npt.ArrayLike) -> tuple[Series, np.ndarray]:
     """The serial array of a URDF model's springs at postures Q (N, dof).
 
     Poses from the core's forward kinematics (sk_chain via Chain.poses);
@@ -124,7 +127,7 @@ def model_tree(model, Q):
     return series(*parts), poses["pt"]
 
 
-def model_vjm(model, Q, lscale=None, rcond: float = 1e-9) -> TreeResult:
+def model_vjm(model: Model, Q: npt.ArrayLike, lscale: float | None = None, rcond: float = 1e-9) -> TreeResult:
     """Tool compliance/stiffness of a URDF model through the spring-tree
     evaluator (one core call): the result Model.tool_compliance gives, plus
     the free twists / rigid wrenches where a matrix does not exist.

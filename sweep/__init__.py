@@ -19,9 +19,19 @@ from __future__ import annotations
 
 import sys
 import types
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from .study import SweepResult
 
 
-def sweep(link, vary, client=None, **kw):
+def sweep(
+    link: Path | str | dict, vary: dict | Sequence[str] | str, client: Client | None = None, **kw: object
+) -> object:
     from .study import sweep as _sweep
 
     return _sweep(link, vary, client=client, **kw)
@@ -30,7 +40,7 @@ def sweep(link, vary, client=None, **kw):
 sweep.__doc__ = """Run a design sweep; see :func:`stiffkit.sweep.study.sweep`."""
 
 
-def run_sweep(link, vary, **kw):
+def run_sweep(link: Path | str | dict, vary: dict | Sequence[str] | str, **kw: object) -> SweepResult:
     from .study import run_sweep as _run
 
     return _run(link, vary, **kw)
@@ -39,7 +49,9 @@ def run_sweep(link, vary, **kw):
 class _CallableModule(types.ModuleType):
     """``stiffkit.sweep`` is both this package and the function :func:`sweep`."""
 
-    def __call__(self, link, vary, client=None, **kw):
+    def __call__(
+        self, link: Path | str | dict, vary: dict | Sequence[str] | str, client: Client | None = None, **kw: object
+    ) -> object:
         return sweep(link, vary, client=client, **kw)
 
 

@@ -26,11 +26,12 @@ import signal
 import sys
 import time
 import traceback
+from types import FrameType
 
 _PR_SET_PDEATHSIG = 1
 
 
-def _parent_death_signal(sig=signal.SIGTERM) -> None:
+def _parent_death_signal(sig: int = signal.SIGTERM) -> None:
     """Ask Linux to send ``sig`` to this process when its parent exits."""
     try:
         import ctypes
@@ -88,7 +89,7 @@ def run_spec(spec_path: str, result_path: str) -> int:
     from ..fea.job import run_link
     from .table import failed_fields, run_fields
 
-    def stop(signum, _frame):
+    def stop(signum: int, _frame: FrameType | None) -> None:
         _kill_descendants()  # ccx runs in a session of its own
         _write_json(result_path, failed_fields(f"interrupted (signal {signal.Signals(signum).name})"))
         os._exit(128 + signum)
@@ -126,7 +127,7 @@ def serve() -> None:
     _parent_death_signal(signal.SIGTERM)
     current = {"pid": 0}
 
-    def stop(signum, _frame):
+    def stop(signum: int, _frame: FrameType | None) -> None:
         if current["pid"]:
             try:
                 os.kill(current["pid"], signal.SIGTERM)
@@ -161,7 +162,7 @@ def serve() -> None:
         out.flush()
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["serve"]:
         serve()

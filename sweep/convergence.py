@@ -10,24 +10,30 @@ closed form or a Richardson extrapolation) is :func:`stiffkit.fea.convergence.as
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..fea.config import LinkJob
 from ..fea.convergence import RunRecord, assess
 from .runner import run_jobs
 
+if TYPE_CHECKING:
+    from distributed import Client
+
 __all__ = ["run_study"]
 
 
 def run_study(
     job: LinkJob,
-    orders,
-    sizes,
+    orders: Iterable[int],
+    sizes: Iterable[float],
     cache_dir: str,
     jobs: int = 1,
-    progress=True,
+    progress: bool = True,
     scheduler: str | None = None,
-    client=None,
+    client: Client | None = None,
     memory_mb: float | None = None,
 ) -> dict:
     """Run every (order, size) pair, return the table data (see module).

@@ -24,6 +24,7 @@ import copy
 import itertools
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,7 +34,7 @@ except ImportError:  # pragma: no cover
     import tomli as tomllib  # type: ignore
 
 from ..errors import InputError
-from ..fea.config import ConfigError, parse_link
+from ..fea.config import ConfigError, LinkJob, parse_link
 
 #: LINK.toml keys by section and their types: float, int, str, bool, list
 #: (of numbers; ``list3`` of three), amplitudes ("auto" or six numbers).
@@ -136,7 +137,7 @@ class Plan:
         return [k.text for a in self.axes for k in a.keys]
 
 
-def fmt_value(v) -> str:
+def fmt_value(v: object) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, float):
@@ -211,18 +212,18 @@ def split_values(text: str) -> list[str]:
     return out
 
 
-def _toml_value(tok: str):
+def _toml_value(tok: str) -> object:
     try:
         return tomllib.loads(f"v = {tok}")["v"]
     except tomllib.TOMLDecodeError:
         return None
 
 
-def _number(v) -> bool:
+def _number(v: object) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def coerce(key: Key, value, what: str = "--vary"):
+def coerce(key: Key, value: object, what: str = "--vary") -> int | float | bool | str | list[float]:
     """Convert one value (a string from the command line, or a Python value)
     to the key's type; raise PlanError naming the key and the value."""
     shown = value if isinstance(value, str) else repr(value)
@@ -310,7 +311,7 @@ def parse_vary(text: str) -> Axis:
     return Axis(keys, values)
 
 
-def _check_tied(keys, values, text) -> None:
+def _check_tied(keys: list[Key], values: list[list], text: str) -> None:
     lens = {len(v) for v in values}
     if len(lens) > 1:
         raise PlanError(
@@ -319,7 +320,7 @@ def _check_tied(keys, values, text) -> None:
         )
 
 
-def axes_from_python(vary) -> list[Axis]:
+def axes_from_python(vary: dict | Sequence[str] | str) -> list[Axis]:
     """``vary`` of :func:`stiffkit.sweep`: a dict ``{key: values}`` (one axis
     each; a value that is itself a dict ``{key: values, ...}`` is a group of
     keys moving together, the outer key being only a label), or a list of
@@ -353,7 +354,7 @@ def axes_from_python(vary) -> list[Axis]:
     return axes
 
 
-def _set(data: dict, key: Key, value, what: str) -> None:
+def _set(data: dict, key: Key, value: object, what: str) -> None:
     sec = data.setdefault(key.section, {})
     if not isinstance(sec, dict):
         raise PlanError(f"{what}: [{key.section}] is not a table in the LINK file")
@@ -416,7 +417,7 @@ def _no_effect(data: dict, overrides: list[tuple[Key, object]]) -> None:
             raise PlanError(f"{what}: [mesh] refine_radius has no effect without [mesh] refine")
 
 
-def read_link(link) -> tuple[dict, str, Path]:
+def read_link(link: Path | str | dict) -> tuple[dict, str, Path]:
     """(LINK data, source name, base folder for relative paths)."""
     if isinstance(link, dict):
         return copy.deepcopy(link), "LINK", Path.cwd()
@@ -430,7 +431,7 @@ def read_link(link) -> tuple[dict, str, Path]:
     return data, str(p), p.resolve().parent
 
 
-def _check_run(data, overrides, source, base, what):
+def _check_run(data: dict, overrides: list[tuple[Key, object]], source: str, base: Path, what: str) -> LinkJob:
     _no_effect(data, overrides)
     try:
         return parse_link(data, source, base)
@@ -438,7 +439,7 @@ def _check_run(data, overrides, source, base, what):
         raise PlanError(f"{what}: {exc}") from None
 
 
-def make_plan(link, axes: list[Axis], zipped: bool = False) -> Plan:
+def make_plan(link: Path | str | dict, axes: list[Axis], zipped: bool = False) -> Plan:
     """Every run of the sweep with its checked LinkJob (nothing runs)."""
     data, source, base = read_link(link)
     if not axes:
@@ -504,7 +505,7 @@ def make_plan(link, axes: list[Axis], zipped: bool = False) -> Plan:
     return plan
 
 
-def _blame(data, ov, source, base) -> None:
+def _blame(data: dict, ov: list[tuple[Key, object]], source: str, base: Path) -> None:
     """When a run is invalid and the base with one of its values alone is
     too (but the base without it is not), name that key and value."""
     if _single_key_error(data, [], source, base):
@@ -518,7 +519,7 @@ def _blame(data, ov, source, base) -> None:
             _check_run(alone, [(k, v)], source, base, f"--vary {k.text}={fmt_value(v)}")
 
 
-def _single_key_error(run_data, ov, source, base) -> bool:
+def _single_key_error(run_data: dict, ov: list[tuple[Key, object]], source: str, base: Path) -> bool:
     try:
         _no_effect(run_data, ov)
         parse_link(run_data, source, base)

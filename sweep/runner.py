@@ -45,11 +45,18 @@ import tempfile
 import threading
 import time
 import uuid
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, TextIO
 
 from ..errors import StiffkitError
 from ..fea.job import cache_key, resolve_route
 from .table import failed_fields, one_line
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from ..fea.config import LinkJob
 
 #: the Dask worker resource runs are placed by (bytes)
 RESOURCE = "MEMORY"
@@ -78,7 +85,7 @@ _CAD_MEASURES: dict[tuple, tuple] = {}
 
 
 @contextlib.contextmanager
-def _silent_stdout():
+def _silent_stdout() -> Iterator[None]:
     """OpenCASCADE prints its STEP statistics on file descriptor 1."""
     sys.stdout.flush()
     saved = os.dup(1)
@@ -116,7 +123,7 @@ def _cad_measures(path: str) -> tuple[float, float, float]:
     return _CAD_MEASURES[key]
 
 
-def estimate_nodes(job) -> int:
+def estimate_nodes(job: LinkJob) -> int:
     """Nodes of the run's mesh, estimated from the geometry and the mesh size
     before meshing (unstructured gmsh meshes: within ~10 % above a few
     thousand nodes, ~35 % for a section only one or two elements across)."""
@@ -178,7 +185,7 @@ def _child_env() -> dict:
 class _Launcher:
     """A process that has imported what runs need and forks one child per run."""
 
-    def __init__(self, tmp: Path):
+    def __init__(self, tmp: Path) -> None:
         self.log_path = tmp / f"launcher-{os.getpid()}-{threading.get_ident()}.log"
         log = open(self.log_path, "ab")
         try:
@@ -296,7 +303,7 @@ def _run_in_child(spec_path: Path, result_path: Path) -> tuple[int | None, str]:
     return proc.returncode, ((proc.stderr or "").strip().splitlines() or [""])[-1]
 
 
-def run_task(spec: dict, *_after) -> dict:
+def run_task(spec: dict, *_after: object) -> dict:
     """One run on a worker: returns its table fields (never raises for a run
     that fails; ``_after`` are runs whose FEA this one reuses)."""
     import json
@@ -388,7 +395,7 @@ def need_dask() -> None:
 
 
 @contextlib.contextmanager
-def _quiet_dask():
+def _quiet_dask() -> Iterator[None]:
     names = [
         "distributed",
         "distributed.comm",
@@ -412,18 +419,18 @@ def _quiet_dask():
 class Where:
     """What the runs run on: a client, its memory placement, a description."""
 
-    def __init__(self, client, budget_mb: float | None, text: str, slots: int):
+    def __init__(self, client: Client, budget_mb: float | None, text: str, slots: int) -> None:
         self.client, self.budget_mb, self.text, self.slots = client, budget_mb, text, slots
 
 
 @contextlib.contextmanager
 def open_cluster(
-    client=None,
+    client: Client | None = None,
     scheduler: str | None = None,
     workers: int | None = None,
     memory_mb: float | None = None,
     n_runs: int | None = None,
-):
+) -> Iterator[Where]:
     """Yield a :class:`Where`; a cluster made here is closed on the way out
     (also on Ctrl-C), a client given is left open."""
     need_dask()
@@ -491,7 +498,7 @@ def _probe(addr: str) -> None:
 
     from distributed.comm import connect
 
-    async def go():
+    async def go() -> None:
         comm = await connect(addr, timeout=CONNECT_TIMEOUT_S)
         await comm.close()
 
@@ -503,7 +510,7 @@ def _probe(addr: str) -> None:
         raise OSError(f"no answer within {CONNECT_TIMEOUT_S:.0f} s") from None
 
 
-def _describe(client, name: str) -> Where:
+def _describe(client: Client, name: str) -> Where:
     info = client.scheduler_info(n_workers=-1) if _accepts_n_workers(client) else client.scheduler_info()
     ws = info.get("workers", {})
     threads = sum(w.get("nthreads", 0) for w in ws.values())
@@ -518,7 +525,7 @@ def _describe(client, name: str) -> Where:
     return Where(client, budget / 2**20 if budget else None, text, threads)
 
 
-def _accepts_n_workers(client) -> bool:
+def _accepts_n_workers(client: Client) -> bool:
     import inspect
 
     try:
@@ -534,7 +541,7 @@ class Progress:
     """One bar over the runs with finished / failed counts: tqdm on a
     terminal, else one line per finished run (logs)."""
 
-    def __init__(self, total: int, enabled: bool = True, stream=None):
+    def __init__(self, total: int, enabled: bool = True, stream: TextIO | None = None) -> None:
         self.total, self.enabled = total, enabled
         self.out = stream or sys.stderr
         self.done = self.ok = self.failed = self.cached = 0
@@ -595,7 +602,7 @@ class Progress:
 # ---------------------------------------------------------------- runs
 
 
-def plan_estimates(jobs, cache_dir: Path) -> tuple[list[str], list[bool], list[int], list[float]]:
+def plan_estimates(jobs: Sequence[LinkJob], cache_dir: Path) -> tuple[list[str], list[bool], list[int], list[float]]:
     """Cache keys, whether each run's FEA is cached, estimated nodes and memory (MB)."""
     keys = [cache_key(j, resolve_route(j)) for j in jobs]
     cached = [(cache_dir / f"{k}.npz").is_file() for k in keys]
@@ -607,15 +614,15 @@ def plan_estimates(jobs, cache_dir: Path) -> tuple[list[str], list[bool], list[i
 def run_jobs(
     jobs: list,
     labels: list[str],
-    cache_dir,
+    cache_dir: Path | str,
     *,
-    client=None,
+    client: Client | None = None,
     scheduler: str | None = None,
     workers: int | None = None,
     memory_mb: float | None = None,
     progress: bool = True,
     title: str = "sweep",
-    stream=None,
+    stream: TextIO | None = None,
 ) -> list[dict]:
     """Run every LinkJob as a task; results in job order (dicts of table
     fields, see :mod:`stiffkit.sweep.table`, plus ``memory_est_mb``,

@@ -5,13 +5,18 @@ from __future__ import annotations
 import re
 import sys
 import time
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, TextIO
 
 from ..errors import InputError
 from . import table as tb
 from .plan import Plan, axes_from_python, make_plan, parse_vary
 from .runner import check_address, need_dask, plan_estimates, run_jobs
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 #: exit status of `stiffkit sweep` when at least one run failed (the others finished)
 EXIT_PARTIAL = 3
@@ -33,21 +38,21 @@ class SweepResult:
         return sum(r["status"] != "ok" for r in self.rows)
 
     @property
-    def table(self):
+    def table(self) -> object:
         return tb.as_table(self.rows, self.varied)
 
 
-def plan_sweep(link, vary, zip: bool = False) -> Plan:
+def plan_sweep(link: Path | str | dict, vary: dict | Sequence[str] | str, zip: bool = False) -> Plan:
     """The checked runs (raises PlanError / ConfigError before anything runs)."""
     axes = [parse_vary(v) for v in vary] if _is_cli_list(vary) else axes_from_python(vary)
     return make_plan(link, axes, zipped=zip)
 
 
-def _is_cli_list(vary) -> bool:
+def _is_cli_list(vary: object) -> bool:
     return isinstance(vary, (list, tuple)) and all(isinstance(v, str) for v in vary) and len(vary) > 0
 
 
-def check_workers(n, what="-j") -> int | None:
+def check_workers(n: object, what: str = "-j") -> int | None:
     if n is None:
         return None
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
@@ -58,7 +63,7 @@ def check_workers(n, what="-j") -> int | None:
 _SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?|\.\d+)\s*([kKmMgGtT]?)i?[bB]?\s*$")
 
 
-def parse_memory(text) -> float | None:
+def parse_memory(text: str | float | None) -> float | None:
     """``8G``, ``512M``, ``8000`` (MB) -> MB."""
     if text is None:
         return None
@@ -75,17 +80,17 @@ def parse_memory(text) -> float | None:
 
 
 def run_sweep(
-    link,
-    vary,
+    link: Path | str | dict,
+    vary: dict | Sequence[str] | str,
     *,
     zip: bool = False,
-    client=None,
+    client: Client | None = None,
     scheduler: str | None = None,
     jobs: int | None = None,
-    memory=None,
-    cache=".stiffkit-cache",
+    memory: str | float | None = None,
+    cache: Path | str = ".stiffkit-cache",
     progress: bool = False,
-    stream=None,
+    stream: TextIO | None = None,
 ) -> SweepResult:
     """Plan the sweep, run every run as a Dask task, gather the rows."""
     jobs = check_workers(jobs)
@@ -127,17 +132,17 @@ zip_ = zip
 
 
 def sweep(
-    link,
-    vary,
-    client=None,
+    link: Path | str | dict,
+    vary: dict | Sequence[str] | str,
+    client: Client | None = None,
     *,
     zip: bool = False,
     scheduler: str | None = None,
     jobs: int | None = None,
-    memory=None,
-    cache=".stiffkit-cache",
+    memory: str | float | None = None,
+    cache: Path | str = ".stiffkit-cache",
     progress: bool = False,
-):
+) -> object:
     """Run a design sweep of a link; return its table (a pandas DataFrame if
     pandas is installed, else a list of dicts), the same as the CSV of
     ``stiffkit sweep``.
@@ -167,7 +172,9 @@ def sweep(
     ).table
 
 
-def check_outputs(varied: list[str], x=None, y=None, paths=()) -> tuple[str | None, list[str] | None]:
+def check_outputs(
+    varied: list[str], x: str | None = None, y: str | None = None, paths: Iterable[tuple[str, Path | str | None]] = ()
+) -> tuple[str | None, list[str] | None]:
     cols = tb.columns(varied)
     if x is not None and x not in varied:
         raise InputError(f"--x {x}: plot against a varied key ({', '.join(varied)})")
@@ -190,23 +197,23 @@ def check_outputs(varied: list[str], x=None, y=None, paths=()) -> tuple[str | No
 
 
 def command(
-    link,
-    vary,
+    link: Path | str,
+    vary: Sequence[str],
     *,
-    zip=False,
-    scheduler=None,
-    jobs=None,
-    memory=None,
-    cache=".stiffkit-cache",
-    json_out=None,
-    csv_out=None,
-    png_out=None,
-    x=None,
-    y=None,
-    quiet=False,
-    dry_run=False,
-    out=None,
-    err=None,
+    zip: bool = False,
+    scheduler: str | None = None,
+    jobs: int | None = None,
+    memory: str | float | None = None,
+    cache: Path | str = ".stiffkit-cache",
+    json_out: Path | str | None = None,
+    csv_out: Path | str | None = None,
+    png_out: Path | str | None = None,
+    x: str | None = None,
+    y: str | None = None,
+    quiet: bool = False,
+    dry_run: bool = False,
+    out: TextIO | None = None,
+    err: TextIO | None = None,
 ) -> int:
     """`stiffkit sweep`: returns the exit status (0 every run ok, 3 some failed)."""
     out = out or sys.stdout

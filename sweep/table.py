@@ -25,8 +25,12 @@ import math
 import os
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .plan import fmt_value
+
+if TYPE_CHECKING:
+    from ..fea.outputs import LinkResult
 
 ELEMENTS = [f"k{i + 1}{j + 1}" for i in range(6) for j in range(6)]
 HEAD = ["run"]
@@ -53,7 +57,7 @@ def columns(varied: list[str]) -> list[str]:
     return HEAD + list(varied) + BODY + ELEMENTS + [f"{e}_ci" for e in ELEMENTS] + TAIL
 
 
-def run_fields(res) -> dict:
+def run_fields(res: LinkResult) -> dict:
     """The per-run fields of a finished LinkResult (computed where it ran)."""
     import numpy as np
 
@@ -119,7 +123,7 @@ def make_row(run_index: int, overrides: dict, result: dict, varied: list[str]) -
     return row
 
 
-def as_table(rows: list[dict], varied: list[str]):
+def as_table(rows: list[dict], varied: list[str]) -> object:
     """pandas DataFrame when pandas is installed, else the list of dicts."""
     try:
         import pandas as pd
@@ -131,7 +135,7 @@ def as_table(rows: list[dict], varied: list[str]):
 # ---------------------------------------------------------------- files
 
 
-def _atomic_write(path, data: bytes) -> Path:
+def _atomic_write(path: Path | str, data: bytes) -> Path:
     """Write through a unique temporary in the same folder, then rename."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -147,7 +151,7 @@ def _atomic_write(path, data: bytes) -> Path:
     return path
 
 
-def _csv_cell(v):
+def _csv_cell(v: object) -> object:
     if v is None:
         return ""
     if isinstance(v, float):
@@ -157,7 +161,7 @@ def _csv_cell(v):
     return v
 
 
-def write_csv(path, rows: list[dict], varied: list[str]) -> Path:
+def write_csv(path: Path | str, rows: list[dict], varied: list[str]) -> Path:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     cols = columns(varied)
@@ -167,13 +171,13 @@ def write_csv(path, rows: list[dict], varied: list[str]) -> Path:
     return _atomic_write(path, buf.getvalue().encode())
 
 
-def _json_safe(v):
+def _json_safe(v: object) -> object:
     if isinstance(v, float) and not math.isfinite(v):
         return None
     return v
 
 
-def write_json(path, rows: list[dict], varied: list[str], meta: dict) -> Path:
+def write_json(path: Path | str, rows: list[dict], varied: list[str], meta: dict) -> Path:
     doc = dict(meta)
     doc["columns"] = columns(varied)
     doc["runs"] = [{k: _json_safe(r.get(k)) for k in columns(varied)} for r in rows]
@@ -201,7 +205,7 @@ def summary(rows: list[dict], varied: list[str]) -> str:
     return "\n".join(lines)
 
 
-def _fmt(v) -> str:
+def _fmt(v: object) -> str:
     return "" if v is None else fmt_value(v)
 
 
@@ -210,7 +214,9 @@ def _fmt(v) -> str:
 DEFAULT_Y = ["k11", "k22", "k33", "k44", "k55", "k66"]
 
 
-def plot(path, rows: list[dict], varied: list[str], x: str | None = None, ys: list[str] | None = None) -> Path:
+def plot(
+    path: Path | str, rows: list[dict], varied: list[str], x: str | None = None, ys: list[str] | None = None
+) -> Path:
     """One panel per result column ``ys`` against the varied key ``x``; one
     line per combination of the other varied keys; compliance elements with
     their confidence intervals as error bars."""
