@@ -1,12 +1,15 @@
 """Typed wrappers of the serial-chain and calibration core (``_calib``,
 core/sk_api_calib.f90): chain kinematics, tool compliance, observation
-bases, weighted least squares, score tests and tail probabilities.
+bases, weighted least squares, score tests, tail probabilities, and the
+Levenberg-Marquardt iteration by reverse communication (core/sk_lm.f90).
 
 A chain is passed as the dict of Fortran-ordered arrays that
 ``stiffkit.robot.Chain.core_arrays()`` returns (jrot, jpos, jaxis, qidx,
 trot, tpos)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -154,3 +157,109 @@ def chi2_logsf(x: float, k: float) -> float:
 def f_logsf(f: float, d1: float, d2: float) -> float:
     """log P(F(d1, d2) > f)."""
     return float(call(_calib.sk_f_logsf, "sk_f_logsf", float(f), float(d1), float(d2)))
+
+
+#: why the Levenberg-Marquardt iteration stopped (core/sk_lm.f90; every fit of
+#: the core shares it: sk_lm_start and the tree model's sk_tree_lm)
+LM_REASONS = {
+    1: "the relative decrease of the cost fell below ftol",
+    2: "the step fell below xtol",
+    3: "the gradient is orthogonal to the residual (gtol)",
+    4: "the residual is zero",
+    5: "the iteration limit was reached",
+    6: "no step decreases the cost (lambda above 1e16)",
+}
+#: the reasons that mean convergence (the others: iteration limit, no decrease found)
+LM_CONVERGED = frozenset((1, 2, 3, 4))
+
+_LM_STATE = (
+    "the iteration has stopped, the calls are out of order (step, accept, step, ...), "
+    "or the state is not one that sk_lm_start returned"
+)
+
+
+@dataclass
+class LMState:
+    """The core's Levenberg-Marquardt state between the calls of the reverse
+    communication: ``rstate`` and ``istate`` go back to the core unchanged
+    (the wrappers replace them); ``n`` unknowns; ``reason`` 0 while the
+    iteration runs, else a key of LM_REASONS; ``niter`` iterations so far
+    (points at which a step was computed)."""
+
+    rstate: np.ndarray
+    istate: np.ndarray
+    n: int
+    reason: int = 0
+    niter: int = 0
+
+    @property
+    def running(self) -> bool:
+        return self.reason == 0
+
+    @property
+    def converged(self) -> bool:
+        return self.reason in LM_CONVERGED
+
+
+def lm_start(jac: np.ndarray, res: np.ndarray, maxit: int, ftol: float, xtol: float, gtol: float) -> LMState:
+    """Start the core's Levenberg-Marquardt iteration (core/sk_lm.f90) at a
+    point with Jacobian ``jac`` (m, n) and residual ``res`` (m,), the model
+    minus the data (the cost is |res|^2 / 2), in the variables the caller
+    iterates on. Then, while ``state.running``: ``dx = lm_step(state, x)``,
+    evaluate the model at x + dx, ``lm_accept(state, jac, res)``; move to
+    x + dx when it returns True. To change its variables the caller starts
+    again."""
+    jac = np.asfortranarray(jac, dtype=float)
+    rstate, istate, reason, info = call(
+        _calib.sk_lm_start,
+        "sk_lm_start",
+        jac,
+        np.asarray(res, dtype=float),
+        int(maxit),
+        float(ftol),
+        float(xtol),
+        float(gtol),
+    )
+    check(
+        info,
+        "Levenberg-Marquardt start (sk_lm_start)",
+        {1: "the residual and the Jacobian have different numbers of rows", 6: "maxit and the tolerances must be >= 0"},
+    )
+    return LMState(rstate, istate, jac.shape[1], int(reason), 0)
+
+
+def lm_step(state: LMState, x: np.ndarray) -> np.ndarray:
+    """The trial step dx (n,) from the current point ``x`` (n,): the damped
+    least-squares step at the core's current lambda."""
+    rstate, istate, dx, info = call(
+        _calib.sk_lm_step, "sk_lm_step", state.rstate, state.istate, np.asarray(x, dtype=float)
+    )
+    check(info, "Levenberg-Marquardt step (sk_lm_step)", {1: f"x must have {state.n} values", 6: _LM_STATE})
+    state.rstate, state.istate = rstate, istate
+    return dx
+
+
+def lm_accept(state: LMState, jac: np.ndarray | None, res: np.ndarray | None, ok: bool = True) -> bool:
+    """The core's verdict on the last trial, given the Jacobian ``jac`` and
+    residual ``res`` there (``ok=False``, jac and res None: the trial could
+    not be evaluated, e.g. it lies outside the model's domain). True: the
+    caller moves to the trial. ``state.reason`` and ``state.niter`` are
+    updated."""
+    if not ok or jac is None or res is None:
+        ok, jac, res = False, np.zeros((1, state.n)), np.zeros(1)  # not read
+    rstate, istate, accepted, reason, niter, info = call(
+        _calib.sk_lm_accept,
+        "sk_lm_accept",
+        state.rstate,
+        state.istate,
+        int(bool(ok)),
+        np.asfortranarray(jac, dtype=float),
+        np.asarray(res, dtype=float),
+    )
+    check(
+        info,
+        "Levenberg-Marquardt verdict (sk_lm_accept)",
+        {1: f"the Jacobian must have {state.n} columns and as many rows as the residual", 6: _LM_STATE},
+    )
+    state.rstate, state.istate, state.reason, state.niter = rstate, istate, int(reason), int(niter)
+    return bool(accepted)

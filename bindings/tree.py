@@ -14,21 +14,13 @@ import numpy as np
 
 from ..errors import ConvergenceError, InputError
 from . import _tree
+from .calib import LM_REASONS as LM_REASONS  # why LM stopped (core/sk_lm.f90, shared)
 from .errors import check
 
 _DETAILS = {
     1: "the tree model's arrays are inconsistent (a parent after its child, an index out of range)",
     2: "the model or the data contain NaN or Inf",
     6: "an argument is out of range (joint type, axis not unit, law type, weight < 0)",
-}
-#: why the Levenberg-Marquardt iteration stopped (core/sk_tree_solve.f90)
-LM_REASONS = {
-    1: "the relative decrease of the cost fell below ftol",
-    2: "the step fell below xtol",
-    3: "the gradient is orthogonal to the residual (gtol)",
-    4: "the residual is zero",
-    5: "the iteration limit was reached",
-    6: "no step decreases the cost (lambda above 1e16)",
 }
 
 

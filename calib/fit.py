@@ -5,8 +5,10 @@ The observation basis of every spring comes from the core in one call
 parameters, and the core solves the weighted least squares by a
 rank-revealing SVD (eqs. 7-9, 15-20) and partitions the parameters into
 identifiable / non-identifiable / semi-identifiable groups (M4a).
-Nonlinear effects (gravity compensator, point offset) are identified by
-Levenberg-Marquardt on top of the same linear solver.
+Nonlinear effects (gravity compensator, point offset) are identified by the
+core's Levenberg-Marquardt (core/sk_lm.f90, by reverse communication): this
+module evaluates the model and chooses the variables; the step, the damping,
+the acceptance of a trial and the stopping are the core's.
 """
 
 from __future__ import annotations
@@ -55,6 +57,15 @@ __all__ = [
 GROUP_NAMES = {1: "identifiable", 2: "non-identifiable", 3: "semi-identifiable"}
 RCOND = 1e-10  # singular values below RCOND * s_max are zero (unit-norm columns)
 GTOL = 1e-6  # M4a: a row of V below this norm counts as zero
+#: Levenberg-Marquardt of nonlinear models (core/sk_lm.f90): stop when a step
+#: decreases the cost, and predicts to decrease it, by less than LM_FTOL of it
+#: (a small fraction of one unit of chi2 at the sizes of calibration data;
+#: tighter values only crawl along the flat valley of a compensator the data
+#: hardly determine), when the scaled step is below LM_XTOL of the point, or
+#: when every column is within LM_GTOL of orthogonal to the residual
+LM_FTOL = 1e-4
+LM_XTOL = 1e-10
+LM_GTOL = 1e-10
 #: a parameter whose column is this small against the best-excited parameter of
 #: its kind (the data's scale) is not excited by the loads: non-identifiable
 NEGLIGIBLE = 1e-6
@@ -186,6 +197,84 @@ def as_inputs(model, meas):
     return model, meas
 
 
+class _Variables:
+    """The variables the core's Levenberg-Marquardt iterates on, u = z / f:
+    z is theta with the compliance c of a compensated joint replaced by its
+    stiffness 1/c once c > 0 (c_eff = 1 / (1/c + k_s h(q)) has a straight
+    valley in 1/c, not a curved one; d/d(1/c) = -c^2 d/dc), f the column
+    equilibration of the nonlinear and reparametrised columns
+    (``equilibrate``: the core floors its Marquardt scales relative to the
+    largest column, which must catch structural zeros only). They stay
+    fixed while the core iterates; once a compensated c turns positive, or
+    a column that was zero when they were set (k_s and the point offset at
+    theta = 0) is not any more, they are ``stale`` and the core starts
+    again in new ones."""
+
+    def __init__(self, theta, A, inv, nlmask):
+        self.inv = inv
+        self.use = inv & (theta > 0)
+        Az = self._columns_z(theta, A)
+        self.f = equilibrate(Az, nlmask | self.use)
+        self.pending = (nlmask | self.use) & (np.linalg.norm(Az, axis=0) == 0)
+
+    def _columns_z(self, theta, A):
+        Az = A.copy()
+        Az[:, self.use] = A[:, self.use] * (-(theta[self.use] ** 2))
+        return Az
+
+    def jacobian(self, theta, A):
+        """The weighted Jacobian A (w.r.t. theta) in these variables."""
+        return self._columns_z(theta, A) * self.f
+
+    def point(self, theta):
+        z = theta.copy()
+        z[self.use] = 1.0 / theta[self.use]
+        return z / self.f
+
+    def theta(self, u):
+        """theta at u; None outside the domain (a stiffness 1/c <= 0)."""
+        z = u * self.f
+        if np.any(z[self.use] <= 0):
+            return None
+        z[self.use] = 1.0 / z[self.use]
+        return z
+
+    def stale(self, theta, A) -> bool:
+        turned = self.inv & (theta > 0) & ~self.use
+        woke = self.pending & (np.linalg.norm(A, axis=0) > 0)
+        return bool(np.any(turned) or np.any(woke))
+
+
+def _levenberg_marquardt(pb: Problem, y, theta, weigh, nlmask, max_iter: int):
+    """The nonlinear fit from theta: the core's Levenberg-Marquardt (reverse
+    communication), Python evaluating the model at the core's trials.
+    Returns (theta, iterations, converged)."""
+    comp = {t.joint for t in pb.terms if t.kind == "gravity_compensator"}
+    inv = np.array([t.kind == "joint" and t.joint in comp for t in pb.terms if t.free for _ in t.names], dtype=bool)
+    pred, J = pb.evaluate(theta)
+    A, b = weigh(J), y - pb.weighted(pred)
+    used = 0
+    while True:
+        var = _Variables(theta, A, inv, nlmask)
+        st = core.lm_start(var.jacobian(theta, A), -b, max_iter - used, LM_FTOL, LM_XTOL, LM_GTOL)
+        stale = False
+        while st.running and not stale:
+            u = var.point(theta)
+            trial = var.theta(u + core.lm_step(st, u))
+            if trial is None:
+                core.lm_accept(st, None, None, ok=False)
+                continue
+            p2, J2 = pb.evaluate(trial)
+            A2, b2 = weigh(J2), y - pb.weighted(p2)
+            if core.lm_accept(st, var.jacobian(trial, A2), -b2):
+                theta, A, b = trial, A2, b2
+                stale = st.running and var.stale(theta, A)
+        # a restart factorises the new point again: count it once
+        used += st.niter - int(stale)
+        if not stale:
+            return theta, used, st.converged
+
+
 def fit(
     model: Model,
     meas: Measurements,
@@ -228,7 +317,7 @@ def fit(
     theta = np.zeros(npar) if theta0 is None else np.array(theta0, float)
     nonlinear = any(t.free and t.nonlinear for t in pb.terms)
     nlmask = np.array([t.nonlinear for t in pb.terms if t.free for _ in t.names], dtype=bool)
-    lam, it, converged = 0.0, 0, True
+    it, converged = 0, True
     pred, J = pb.evaluate(theta)
     neg, reasons = negligible_columns(pb, pb.weighted(J))
 
@@ -240,57 +329,12 @@ def fit(
         return Ax
 
     if npar:
-        A = weigh(J)
-        b = y - pb.weighted(pred)
-        cost = float(b @ b)
         if not nonlinear:
-            delta, *_ = solve_wls(A, b)
+            delta, *_ = solve_wls(weigh(J), y - pb.weighted(pred))
             theta = theta + delta
             it = 1
         else:
-            # compensated joints: iterate on their stiffness 1/c, in which
-            # c_eff = 1 / (1/c + k_s h(q)) has a straight valley, not a curved one
-            comp = {t.joint for t in pb.terms if t.kind == "gravity_compensator"}
-            inv = np.array(
-                [t.kind == "joint" and t.joint in comp for t in pb.terms if t.free for _ in t.names], dtype=bool
-            )
-            converged = False
-            for it in range(1, max_iter + 1):
-                use = inv & (theta > 0) if it > 1 else np.zeros(npar, bool)
-                Az = A.copy()
-                Az[:, use] = A[:, use] * (-(theta[use] ** 2))  # d/d(1/c) = -c^2 d/dc
-                if lam > 0:
-                    d = np.linalg.norm(Az, axis=0)
-                    Aa = np.vstack([Az, np.sqrt(lam) * np.diag(d)])
-                    ba = np.concatenate([b, np.zeros(npar)])
-                else:
-                    Aa, ba = Az, b
-                dz, *_ = solve_wls(Aa, ba, scale=equilibrate(Az, nlmask | use))
-                trial = theta + dz
-                zc = 1.0 / theta[use] + dz[use]
-                trial[use] = np.where(zc > 0, 1.0 / np.where(zc > 0, zc, 1.0), theta[use] * 10.0)
-                delta = trial - theta
-                p2, J2 = pb.evaluate(trial)
-                b2 = y - pb.weighted(p2)
-                c2 = float(b2 @ b2)
-                if c2 <= cost:
-                    # a relative decrease below 1e-4 is far below one unit of chi2
-                    # at any noise level: stop (the noise-free case converges
-                    # quadratically down to round-off first)
-                    small = cost - c2 <= 1e-4 * cost + 1e-300 or np.all(
-                        np.abs(delta) <= 1e-10 * (np.abs(trial) + 1e-300)
-                    )
-                    theta, pred, J, b, cost = trial, p2, J2, b2, c2
-                    A = weigh(J)
-                    lam = lam / 10.0 if lam > 1e-12 else 0.0
-                    if small:
-                        converged = True
-                        break
-                else:
-                    lam = max(lam * 10.0, 1e-6)
-                    if lam > 1e12:
-                        converged = True  # no further decrease possible
-                        break
+            theta, it, converged = _levenberg_marquardt(pb, y, theta, weigh, nlmask, max_iter)
         pred, J = pb.evaluate(theta)
         A = weigh(J)
         b = y - pb.weighted(pred)

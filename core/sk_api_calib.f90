@@ -145,3 +145,83 @@ subroutine sk_f_logsf(f, d1, d2, l)
     real(c_double), intent(out) :: l
     l = f_logsf(f, d1, d2)
 end subroutine sk_f_logsf
+
+!> Levenberg-Marquardt by reverse communication (sk_lm), start: the
+!> Jacobian jac[m,n] and residual res[m] (model - data) at the start, the
+!> most iterations and the tolerances. Returns the state rstate[nrs]
+!> (nrs = 9 + n (n + 3)) and istate[6], which the caller passes back to
+!> sk_lm_step and sk_lm_accept unchanged, and reason (0: step on; 1-6:
+!> stopped, sk_lm).
+subroutine sk_lm_start(m, n, nrs, jac, res, maxit, ftol, xtol, gtol, rstate, istate, reason, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_lm, only: lm_state, lm_start, lm_save, lm_nint
+    implicit none
+    integer(c_int), intent(in) :: m, n, nrs, maxit
+    real(c_double), intent(in) :: jac(m, n), res(m), ftol, xtol, gtol
+    real(c_double), intent(out) :: rstate(nrs)
+    integer(c_int), intent(out) :: istate(lm_nint), reason, info
+    type(lm_state) :: st
+    rstate = 0.0_c_double
+    istate = 0
+    reason = 0
+    call lm_start(st, jac, res, maxit, ftol, xtol, gtol, info)
+    if (info /= sk_ok) return
+    call lm_save(st, rstate, istate, info)
+    reason = st%reason
+end subroutine sk_lm_start
+
+!> Levenberg-Marquardt by reverse communication (sk_lm), step: the trial
+!> step dx[n] from the current point x[n] (in the variables of the
+!> Jacobian columns); the caller evaluates the model at x + dx and calls
+!> sk_lm_accept. rstate, istate: updated.
+subroutine sk_lm_step(n, nrs, rstate, istate, x, dx, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_lm, only: lm_state, lm_step, lm_save, lm_load, lm_nint
+    implicit none
+    integer(c_int), intent(in) :: n, nrs
+    real(c_double), intent(inout) :: rstate(nrs)
+    integer(c_int), intent(inout) :: istate(lm_nint)
+    real(c_double), intent(in) :: x(n)
+    real(c_double), intent(out) :: dx(n)
+    integer(c_int), intent(out) :: info
+    type(lm_state) :: st
+    dx = 0.0_c_double
+    call lm_load(st, rstate, istate, info)
+    if (info /= sk_ok) return
+    call lm_step(st, x, dx, info)
+    if (info /= sk_ok) return
+    call lm_save(st, rstate, istate, info)
+end subroutine sk_lm_step
+
+!> Levenberg-Marquardt by reverse communication (sk_lm), verdict on the
+!> trial: ok = 1 with the Jacobian jac[m,n] and residual res[m] there, 0
+!> when the trial could not be evaluated (outside the model's domain).
+!> accepted = 1: the caller moves to the trial; reason: 0 step on, 1-6
+!> stopped; niter: iterations so far. rstate, istate: updated.
+subroutine sk_lm_accept(m, n, nrs, rstate, istate, ok, jac, res, accepted, reason, niter, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_lm, only: lm_state, lm_accept, lm_save, lm_load, lm_nint
+    implicit none
+    integer(c_int), intent(in) :: m, n, nrs, ok
+    real(c_double), intent(inout) :: rstate(nrs)
+    integer(c_int), intent(inout) :: istate(lm_nint)
+    real(c_double), intent(in) :: jac(m, n), res(m)
+    integer(c_int), intent(out) :: accepted, reason, niter, info
+    type(lm_state) :: st
+    logical :: acc
+    integer(c_int) :: sinfo
+    accepted = 0
+    reason = 0
+    niter = 0
+    call lm_load(st, rstate, istate, info)
+    if (info /= sk_ok) return
+    call lm_accept(st, ok /= 0, jac, res, acc, info)
+    accepted = merge(1, 0, acc)
+    reason = st%reason
+    niter = st%niter
+    call lm_save(st, rstate, istate, sinfo)
+    if (info == sk_ok) info = sinfo
+end subroutine sk_lm_accept

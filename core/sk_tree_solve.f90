@@ -38,6 +38,8 @@ module sk_tree_solve
     use sk_linalg, only: rot_log, all_finite, qr_triangle, lstsq, jacobi_eig, spd_inverse_small
     use sk_spatial, only: nsym
     use sk_tree
+    use sk_lm, only: lm_state, lm_start, lm_step, lm_accept, lm_running, lm_ftol, lm_xtol, lm_gtol, lm_zero, &
+        lm_maxit, lm_lambda
     implicit none
     private
     public :: tree_lm, compensate_batch
@@ -52,20 +54,20 @@ module sk_tree_solve
     !> region where the linearisation holds
     real(dp), parameter :: dqmax = 0.2_dp
 
-    !> reasons the fit stopped (tree_lm reason)
-    integer, parameter, public :: lm_ftol = 1, lm_xtol = 2, lm_gtol = 3, lm_zero = 4, lm_maxit = 5, &
-        lm_lambda = 6
+    !> reasons the fit stopped (tree_lm reason; sk_lm)
+    public :: lm_ftol, lm_xtol, lm_gtol, lm_zero, lm_maxit, lm_lambda
 
 contains
 
     !> Levenberg-Marquardt fit of theta(free) on problem pr from theta0
-    !> (module header). eqit, etol: equilibrium (sk_tree); maxit: most
-    !> iterations (Jacobian evaluations); stop when the actual and predicted
-    !> relative cost reductions are below ftol (reason 1), the scaled step
-    !> |D dx| is below xtol (|D x| + xtol) (2), every column of J is within
-    !> gtol of orthogonal to the residual (3), or the cost is zero (4).
-    !> Outputs: theta[npar], hist[maxit+1] the cost after each accepted step
-    !> (hist(1) at theta0; nhist entries), niter iterations, reason, and
+    !> (module header; the iteration is sk_lm's: step, acceptance, lambda,
+    !> scales and stopping tests). eqit, etol: equilibrium (sk_tree); maxit:
+    !> most iterations (Jacobian evaluations); stop when the actual and
+    !> predicted relative cost reductions are below ftol (reason 1), the
+    !> scaled step |D dx| is below xtol (|D x| + xtol) (2), every column of J
+    !> is within gtol of orthogonal to the residual (3), or the cost is zero
+    !> (4). Outputs: theta[npar], hist[maxit+1] the cost after each accepted
+    !> step (hist(1) at theta0; nhist entries), niter iterations, reason, and
     !> jac[3*nobs,nfree], res[3*nobs] at the returned theta (as evaluate),
     !> rref[3,3]: after every accepted step the tracker rotation is
     !> re-centred (rref <- rref Rx(a1) Ry(a2) Rz(a3), the angles set to 0),
@@ -81,13 +83,12 @@ contains
         real(dp), intent(out) :: theta(:), hist(:), jac(:, :), res(:), rref(3, 3)
         integer(ip), intent(out) :: nhist, niter, reason, info
         type(tree_problem) :: pl
+        type(lm_state) :: lm
         real(dp) :: rt(3, 3), tt(3), tw(3, 3)
-        real(dp), allocatable :: pred(:, :), delta(:, :), aug(:, :), rr(:, :), stack(:, :), rhs(:), &
-            dx(:), thetat(:), jact(:, :), rest(:), dsc(:), c(:)
+        real(dp), allocatable :: pred(:, :), delta(:, :), dx(:), thetat(:), jact(:, :), rest(:)
         integer(ip), allocatable :: nit(:), eqinfo(:)
-        real(dp) :: cost, costt, predred, rho, lam, nu, rnorm, gmax, cn, dnorm, xnorm
         integer(ip) :: tinfo
-        integer :: n, mrow, j, it
+        integer :: n, mrow
         logical :: accepted
         n = pr%nfree
         mrow = 3*pr%nobs
@@ -104,119 +105,40 @@ contains
             .or. any(shape(jac) /= [mrow, n]) .or. size(res) /= mrow .or. mrow < n) return
         info = sk_err_argument
         if (maxit < 0 .or. .not. (ftol >= 0.0_dp .and. xtol >= 0.0_dp .and. gtol >= 0.0_dp)) return
-        allocate(pred(3, pr%nobs), delta(pr%m%ne, pr%np), nit(pr%np), eqinfo(pr%np), aug(mrow, n + 1), &
-            rr(n + 1, n + 1), stack(2*n, n), rhs(2*n), dx(n), thetat(pr%m%npar), jact(mrow, n), rest(mrow), &
-            dsc(n), c(n))
+        allocate(pred(3, pr%nobs), delta(pr%m%ne, pr%np), nit(pr%np), eqinfo(pr%np), dx(n), thetat(pr%m%npar), &
+            jact(mrow, n), rest(mrow))
         theta = theta0
         pl = pr
         call evaluate(pl, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
         if (info /= sk_ok) return
-        cost = 0.5_dp*sum(res**2)
+        call lm_start(lm, jac, res, maxit, ftol, xtol, gtol, info)
+        if (info /= sk_ok) return
         nhist = 1
-        hist(1) = cost
-        do j = 1, n
-            dsc(j) = norm2(jac(:, j))
-        end do
-        ! Marquardt's scales, floored relative to the largest: a column that
-        ! is zero or at round-off at the start (a marker on a joint axis, a
-        ! joint that gravity does not load) is damped like the others
-        ! instead of taking an unbounded step along it
-        if (maxval(dsc) > 0.0_dp) then
-            where (dsc < 1.0e-6_dp*maxval(dsc)) dsc = 1.0e-6_dp*maxval(dsc)
-        else
-            dsc = 1.0_dp
-        end if
-        lam = 1.0e-3_dp
-        nu = 2.0_dp
-        reason = lm_maxit
-        if (cost == 0.0_dp) reason = lm_zero
-        if (n == 0) reason = lm_ftol
-        do it = 1, maxit
-            if (reason /= lm_maxit) exit
-            ! orthogonality of the residual to every column
-            rnorm = norm2(res)
-            gmax = 0.0_dp
-            do j = 1, n
-                cn = norm2(jac(:, j))
-                if (cn > 0.0_dp) gmax = max(gmax, abs(dot_product(jac(:, j), res))/(cn*rnorm))
-            end do
-            if (gmax <= gtol) then
-                reason = lm_gtol
-                exit
+        hist(1) = lm%cost
+        do while (lm%reason == lm_running)
+            call lm_step(lm, theta(pr%free), dx, info)
+            if (info /= sk_ok) return
+            thetat = theta
+            thetat(pr%free) = thetat(pr%free) + dx
+            call evaluate(pl, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo)
+            call lm_accept(lm, tinfo == sk_ok, jact, rest, accepted, info)
+            if (accepted) then
+                theta = thetat
+                res = rest
+                jac = jact
+                ! re-centre the tracker rotation: rref <- rref Rx Ry Rz, angles
+                ! 0 (the same poses and Jacobian columns; never near gimbal lock)
+                call tracker_pose(pl%m, theta, rt, tt, tw)
+                pl%m%rref = rt
+                theta(pl%m%tpar(4:6)) = 0.0_dp
+                nhist = nhist + 1
+                hist(nhist) = lm%cost
             end if
-            niter = it
-            aug(:, 1:n) = jac
-            aug(:, n + 1) = res
-            call qr_triangle(aug, rr, tinfo)
-            if (tinfo /= sk_ok) then
-                info = tinfo
-                return
-            end if
-            c = rr(1:n, n + 1)
-            accepted = .false.
-            do
-                stack = 0.0_dp
-                stack(1:n, :) = rr(1:n, 1:n)
-                do j = 1, n
-                    stack(n + j, j) = sqrt(lam)*dsc(j)
-                end do
-                rhs = 0.0_dp
-                rhs(1:n) = -c
-                call lstsq(stack, rhs, dx, tinfo)
-                if (tinfo /= sk_ok) then
-                    info = tinfo
-                    return
-                end if
-                predred = 0.5_dp*(sum(c**2) - sum((c + matmul(rr(1:n, 1:n), dx))**2))
-                thetat = theta
-                thetat(pr%free) = thetat(pr%free) + dx
-                call evaluate(pl, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo)
-                costt = huge(1.0_dp)
-                if (tinfo == sk_ok) costt = 0.5_dp*sum(rest**2)
-                dnorm = norm2(dsc*dx)
-                xnorm = norm2(dsc*theta(pr%free))
-                if (costt < cost) then
-                    rho = (cost - costt)/max(predred, tiny(1.0_dp))
-                    accepted = .true.
-                    lam = lam*max(0.1_dp, 1.0_dp - (2.0_dp*rho - 1.0_dp)**3)
-                    nu = 2.0_dp
-                    if (cost - costt <= ftol*cost .and. predred <= ftol*cost) reason = lm_ftol
-                    if (dnorm <= xtol*(xnorm + xtol)) reason = lm_xtol
-                    theta = thetat
-                    res = rest
-                    jac = jact
-                    ! re-centre the tracker rotation: rref <- rref Rx Ry Rz, angles
-                    ! 0 (the same poses and Jacobian columns; never near gimbal lock)
-                    call tracker_pose(pl%m, theta, rt, tt, tw)
-                    pl%m%rref = rt
-                    theta(pl%m%tpar(4:6)) = 0.0_dp
-                    cost = costt
-                    nhist = nhist + 1
-                    hist(nhist) = cost
-                    if (cost == 0.0_dp) reason = lm_zero
-                    do j = 1, n
-                        dsc(j) = max(dsc(j), norm2(jac(:, j)))
-                    end do
-                    exit
-                end if
-                ! no decrease: at the round-off floor, or damp harder
-                if (predred <= ftol*cost) then
-                    reason = lm_ftol
-                    exit
-                end if
-                if (dnorm <= xtol*(xnorm + xtol)) then
-                    reason = lm_xtol
-                    exit
-                end if
-                lam = lam*nu
-                nu = 2.0_dp*nu
-                if (lam > 1.0e16_dp) then
-                    reason = lm_lambda
-                    exit
-                end if
-            end do
-            if (.not. accepted .and. reason == lm_maxit) exit
+            niter = lm%niter
+            if (info /= sk_ok) return
         end do
+        niter = lm%niter
+        reason = lm%reason
         rref = pl%m%rref
         info = merge(sk_err_noconv, sk_ok, reason == lm_maxit .or. reason == lm_lambda)
     end subroutine tree_lm

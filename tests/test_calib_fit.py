@@ -232,3 +232,27 @@ def test_reduction_of_the_complete_kr270_model_follows_table_1():
     assert counts[4] == 56 - len(red.g2)
     res = fit(m, meas)
     assert counts[5] == len(red.selected) == res.rank
+
+
+def test_core_levenberg_marquardt_by_reverse_communication():
+    """The core's LM (core/sk_lm.f90) driven from Python as fit drives it:
+    Rosenbrock's valley to (1, 1); a call out of order is refused."""
+    from stiffkit._core import calib as core
+
+    def model(x):
+        return np.array([10 * (x[1] - x[0] ** 2), 1 - x[0]]), np.array([[-20 * x[0], 10.0], [-1.0, 0.0]])
+
+    x = np.array([-1.2, 1.0])
+    st = core.lm_start(model(x)[1], model(x)[0], 100, 1e-15, 1e-15, 0.0)
+    while st.running:
+        dx = core.lm_step(st, x)
+        r, J = model(x + dx)
+        if core.lm_accept(st, J, r):
+            x = x + dx
+    assert st.converged and core.LM_REASONS[st.reason] and 0 < st.niter < 60
+    np.testing.assert_allclose(x, [1.0, 1.0], atol=1e-10)
+    with pytest.raises(stiffkit.InputError, match="sk_lm_step"):
+        core.lm_step(st, x)  # the iteration has stopped
+    st = core.lm_start(model(x + 0.1)[1], model(x + 0.1)[0], 100, 0.0, 0.0, 0.0)
+    with pytest.raises(stiffkit.InputError, match="sk_lm_accept"):
+        core.lm_accept(st, *model(x)[::-1])  # a verdict before a step
