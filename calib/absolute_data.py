@@ -81,10 +81,19 @@ class AbsoluteData:
         )
 
 
-def read_absolute(path: str | Path, joints: list[str], frames: list[str], mimic: dict | None = None) -> AbsoluteData:
+def read_absolute(
+    path: str | Path,
+    joints: list[str],
+    frames: list[str],
+    mimic: dict | None = None,
+    needed: set[str] | None = None,
+) -> AbsoluteData:
     """Read an absolute-measurement CSV for a robot with actuated ``joints``
     (URDF order) and marker ``frames``; ``mimic`` names the joints whose
-    value follows another (a column for them is an error, not ignored)."""
+    value follows another (a column for them is an error, not ignored);
+    ``needed``: the joints that move a marker frame (the others may be left
+    out of the file: held at 0, with a warning). Without a ``config`` column,
+    rows with the same joint values are one configuration."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such measurement file")
@@ -109,16 +118,20 @@ def read_absolute(path: str | Path, joints: list[str], frames: list[str], mimic:
             raise InputError(
                 f"{path}: column {h!r} is a mimic joint (it follows {mimic[h]!r}); give only the actuated joints"
             )
-    if all(j in col for j in joints):
-        jcols = [col[j] for j in joints]
-    elif all(f"q{k + 1}" in col for k in range(len(joints))) and not any(j in col for j in joints):
+    held: list[str] = []
+    if all(f"q{k + 1}" in col for k in range(len(joints))) and not any(j in col for j in joints):
         jcols = [col[f"q{k + 1}"] for k in range(len(joints))]
     else:
         missing = [j for j in joints if j not in col]
-        raise InputError(
-            f"{path}: missing joint column(s) {', '.join(missing)} (the actuated joints of the URDF are "
-            f"{', '.join(joints)}; header has {', '.join(header)})"
-        )
+        # a joint that moves no measured frame (a head, a gripper) may be left out: held at 0
+        blocking = [j for j in missing if needed is None or j in needed]
+        if blocking:
+            raise InputError(
+                f"{path}: missing joint column(s) {', '.join(blocking)} (they move a measured frame; the actuated "
+                f"joints of the URDF are {', '.join(joints)}; header has {', '.join(header)})"
+            )
+        held = missing
+        jcols = [col.get(j) for j in joints]
     missing = [c for c in XYZ if c not in col]
     if missing:
         raise InputError(f"{path}: missing column(s) {', '.join(missing)} (measured position, m, tracker frame)")
@@ -127,6 +140,7 @@ def read_absolute(path: str | Path, joints: list[str], frames: list[str], mimic:
     has_w = [c for c in WRENCH if c in col]
     if has_w and len(has_w) != 6:
         raise InputError(f"{path}: payload columns must be all of {' '.join(WRENCH)}, found only {' '.join(has_w)}")
+    by_posture: dict[bytes, str] = {}
     cfg_of, configs, Qrows, cfg_line = {}, [], [], {}
     post, frm, xyz, wt, lines, loads = [], [], [], [], [], {}
     for lineno, row in enumerate(reader, start=2):
@@ -134,10 +148,13 @@ def read_absolute(path: str | Path, joints: list[str], frames: list[str], mimic:
             continue
         if len(row) != len(header):
             raise InputError(f"{path}, line {lineno}: {len(row)} fields, the header has {len(header)}")
-        label = row[col["config"]].strip() if "config" in col else f"line {lineno}"
+        q = np.array([0.0 if k is None else parse_number(row[k], path, lineno, header[k]) for k in jcols])
+        if "config" in col:
+            label = row[col["config"]].strip()
+        else:  # one configuration per distinct posture
+            label = by_posture.setdefault(q.tobytes(), f"posture {len(by_posture) + 1}")
         if not label:
             raise InputError(f"{path}, line {lineno}: field 'config' is empty")
-        q = np.array([parse_number(row[k], path, lineno, header[k]) for k in jcols])
         if label in cfg_of:
             k = cfg_of[label]
             if not np.allclose(q, Qrows[k], rtol=0, atol=1e-9):
@@ -192,6 +209,11 @@ def read_absolute(path: str | Path, joints: list[str], frames: list[str], mimic:
         payloads=[(p, f, w) for (p, f), (w, _ln) in loads.items() if np.any(w)],
     )
     data.warnings = plausibility(data)
+    if held:
+        data.warnings.append(
+            f"{path}: no column for {', '.join(held)}: these joints move no measured frame and are held at 0 "
+            f"(their links' weight acts on the others as at q = 0)"
+        )
     return data
 
 

@@ -24,8 +24,10 @@ def load_absolute(model_path: str | Path, meas_path: str | Path) -> tuple:
     """The tree model and its measurements (the CSV checked against the
     model's joints and marker frames)."""
     model = load_tree_model(model_path)
-    mimic = {j.name: j.mimic[0] for j in model.tree.joints if j.mimic is not None}
-    data = read_absolute(meas_path, model.actuated, model.frames, mimic)
+    tree = model.tree
+    mimic = {j.name: j.mimic[0] for j in tree.joints if j.mimic is not None}
+    needed = {tree.leader(j.name)[0] for f in model.frames for j in tree.path(f) if j.moving}
+    data = read_absolute(meas_path, model.actuated, model.frames, mimic, needed)
     return model, data
 
 
