@@ -228,11 +228,48 @@ def plausibility(data: AbsoluteData) -> list[str]:
                 f"{data.path}: joint {j!r} reaches {v:.4g}, beyond one turn: are the joint values in degrees? "
                 f"(files are in rad: multiply by pi/180)"
             )
-    span = np.ptp(data.xyz, axis=0).max() if data.n > 1 else 0.0
+    out += scale_slips(data)
+    use = data.weight > 0
+    span = np.ptp(data.xyz[use], axis=0).max() if use.sum() > 1 else 0.0
     if span > 50.0:
         out.append(
             f"{data.path}: the measured points span {span:.4g} (x, y, z), implausible in metres for a robot: "
             f"millimetres? (files are in m: divide by 1000)"
+        )
+    return out
+
+
+#: a configuration whose points lie this many times farther from the data's centre than the
+#: others' median is a unit slip (1e3: mm, 1e2: cm), set aside before any fit
+SLIP_RATIO = 30.0
+
+
+def scale_slips(data: AbsoluteData) -> list[str]:
+    """Configurations recorded in another unit of length (a few postures in
+    mm among postures in m): their points lie ~1000 times farther from the
+    data's centre. They get weight 0 (set aside: a tracker start or a fit
+    through them would be meaningless) and a warning naming them and the
+    fix; when most of the data is in such a unit the whole file is, which
+    the tracker start reports."""
+    if data.n < 4:
+        return []
+    centre = np.median(data.xyz, axis=0)
+    dist = np.linalg.norm(data.xyz - centre, axis=1)
+    typical = float(np.median(dist))
+    if not typical > 0:
+        return []
+    out = []
+    for p, label in enumerate(data.configs):
+        rows = np.flatnonzero(data.posture == p)
+        ratio = float(np.median(dist[rows])) / typical
+        if ratio < SLIP_RATIO:
+            continue
+        unit, fix = ("mm", "divide by 1000") if ratio > 300 else ("cm", "divide by 100")
+        data.weight[rows] = 0.0
+        lines = ", ".join(str(int(x)) for x in data.lines[rows][:6])
+        out.append(
+            f"{data.path}: configuration {label!r} (line {lines}): its points lie {ratio:.0f}x farther from the "
+            f"others' centre: recorded in {unit}? ({fix}); set aside"
         )
     return out
 

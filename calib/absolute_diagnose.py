@@ -196,10 +196,16 @@ def diagnose_absolute(
         labels = [data.configs[p] for p in data.posture]
         pred = data.xyz - fit.residual
         slips = unit_slips(data.xyz, pred, labels, sig_decl)
-        flags = outlier_rows(fit.residual, sig_decl if sig_decl else _robust_sigma(fit.residual), labels, alpha=alpha)
+        # gross errors among the rows still in use (the reader sets gross unit slips aside)
+        use = np.flatnonzero(w > 0)
+        res_use = fit.residual[use]
+        scale = sig_decl if sig_decl else _robust_sigma(res_use)
+        flags = outlier_rows(res_use, scale, [labels[i] for i in use], alpha=OUTLIER_ALPHA)
+        for f in flags:
+            f.row = int(use[f.row])
         dchecks["unit_slips"] = [s.to_json() for s in slips]
         dchecks["outliers"] = [f.to_json(line=data.lines[f.row]) for f in flags]
-        aside = {f.row for f in flags} | {r for s in slips for r in s.rows}
+        aside = {f.row for f in flags} | {r for s in slips for r in s.rows} | set(np.flatnonzero(w == 0).tolist())
         if aside:
             w[list(aside)] = 0.0
             kept = data.subset(w > 0)

@@ -183,22 +183,32 @@ def tracker_start(model: TreeModel, data: AbsoluteData, theta: np.ndarray) -> np
     if "xyz" in table or "rpy" in table:
         return theta
     th = model.with_tracker(np.eye(3), np.zeros(3), theta)
-    base = predict(model, data, th)["pred"]
-    if data.n < 3:
-        raise InputError(f"{data.path}: {data.n} measured point(s); the tracker pose needs at least 3")
-    R, t = core_field.rigid_transform(base, data.xyz)
+    use = data.weight > 0  # rows set aside (a unit slip) play no part
+    base = predict(model, data, th)["pred"][use]
+    xyz = data.xyz[use]
+    if base.shape[0] < 3:
+        raise InputError(f"{data.path}: {base.shape[0]} measured point(s); the tracker pose needs at least 3")
+    R, t = core_field.rigid_transform(base, xyz)
+    # a few gross errors must not spoil the start: refit without the points far off
+    for _ in range(3):
+        d = np.linalg.norm(base @ R.T + t - xyz, axis=1)
+        keep = d <= max(5.0 * float(np.median(d)), 1e-3)
+        if keep.all() or keep.sum() < max(3, 0.5 * keep.size):
+            break
+        R, t = core_field.rigid_transform(base[keep], xyz[keep])
     th = model.with_tracker(R, t, th)
-    rms = float(np.sqrt(np.mean(np.sum((base @ R.T + t - data.xyz) ** 2, axis=1))))
+    rms = float(np.sqrt(np.median(np.sum((base @ R.T + t - xyz) ** 2, axis=1))))
     reach = float(np.sqrt(np.mean(np.sum((base - base.mean(axis=0)) ** 2, axis=1)))) or 1.0
     if not math.isfinite(rms) or rms > 0.25 * reach:
-        spread = float(np.sqrt(np.mean(np.sum((data.xyz - data.xyz.mean(axis=0)) ** 2, axis=1))))
+        spread = float(np.sqrt(np.mean(np.sum((xyz - xyz.mean(axis=0)) ** 2, axis=1))))
         ratio = spread / reach
         unit = ""
         if 300 < ratio < 3000:
             unit = f" The measured points spread {ratio:.0f} times wider than the model's: in mm? (files are in m)"
         raise InputError(
             f"{data.path}: the tracker start failed: the best rigid motion of the nominal model's points onto "
-            f"the measured ones leaves {rms * 1e3:.4g} mm RMS ({rms / reach:.3g} times the points' spread).{unit} "
+            f"the measured ones leaves a median distance of {rms * 1e3:.4g} mm ({rms / reach:.3g} times the points' "
+            f"spread).{unit} "
             f"Check the units (m, rad), the joint columns and the frame names, or give the tracker a start pose "
             f"(xyz, rpy in the tracker effect)"
         )

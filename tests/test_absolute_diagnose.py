@@ -142,3 +142,23 @@ def test_fit_write_model_then_compensate_reaches_the_targets(loop, tmp_path):
     err = np.linalg.norm(true_at - targets, axis=1)
     floor = math.sqrt(3) * 1e-4
     assert math.sqrt(np.mean(err**2)) < 2 * floor
+
+
+def test_a_configuration_in_mm_is_named_and_set_aside(loop, tmp_path):
+    out, _steps = loop
+    rows = list(csv.reader((out / "measurements.csv").read_text().splitlines()))
+    head, body = rows[0], rows[1:]
+    ix = head.index("x")
+    label = body[40][0]
+    for r in body:
+        if r[0] == label:
+            for k in range(3):
+                r[ix + k] = repr(1000 * float(r[ix + k]))
+    meas = tmp_path / "m.csv"
+    meas.write_text("\n".join(",".join(r) for r in [head] + body) + "\n")
+    model, data = load_absolute(out / "model.toml", meas)
+    assert any(label in w and "recorded in mm" in w and "divide by 1000" in w for w in data.warnings)
+    dg = diagnose_absolute(model, data)
+    assert [s["config"] for s in dg.data_checks["unit_slips"]] == [label]
+    assert dg.proposal is None
+    assert dg.fit.rms_position < 1.1 * math.sqrt(3) * 1e-4
