@@ -46,6 +46,7 @@ import argparse
 from pathlib import Path
 
 from ..calib.absolute_diagnose import CV_FOLDS, diagnose_absolute, format_absolute_diagnosis
+from ..calib.absolute_plots import absolute_plots
 from ..calib.absolute_report import format_absolute, load_absolute
 from ..calib.diagnose import diagnose, format_diagnosis
 from ..calib.fit import format_table
@@ -181,4 +182,7 @@ def run_absolute(args) -> int:
     if args.json:
         write_json(args.json, dg.to_json())
         print(f"wrote {args.json}")
+    if args.plots:
+        for f in absolute_plots(dg.fit, args.plots, label="diagnose"):
+            print(f"wrote {f}")
     return 0

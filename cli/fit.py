@@ -17,6 +17,7 @@ import argparse
 from pathlib import Path
 
 from ..calib.absolute_fit import fit_absolute
+from ..calib.absolute_plots import absolute_plots
 from ..calib.absolute_report import format_absolute, format_absolute_parameters, load_absolute, residual_table
 from ..calib.absolute_write import write_model as write_model_absolute
 from ..calib.absolute_write import write_urdf
@@ -219,6 +220,9 @@ def run_absolute(args) -> int:
         print()
         print(residual_table(fit))
     out = fit.to_json()
+    if args.plots:
+        for f in absolute_plots(fit, args.plots):
+            print(f"wrote {f}")
     if args.write_urdf:
         for note in write_urdf(fit, args.write_urdf):
             print(f"note: {note}")
