@@ -13,7 +13,9 @@ the acceptance of a trial and the stopping are the core's.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -31,6 +33,9 @@ from .results import (
     model_tables_with_values,
     write_model,
 )
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 __all__ = [
     "fit",
@@ -76,7 +81,7 @@ def _block(e: int) -> str:
     return "translation" if b < 3 else ("rotation" if a >= 3 else "coupling")
 
 
-def negligible_columns(pb: Problem, A) -> tuple[np.ndarray, list[str]]:
+def negligible_columns(pb: Problem, A: np.ndarray) -> tuple[np.ndarray, list[str]]:
     """Parameters that the loads of these data do not excite, judged
     against the data's scale, not against rounding: a joint-type parameter
     (joint, joint_profile, joint_cubic, joint_deadzone, compensator) whose
@@ -122,7 +127,7 @@ def negligible_columns(pb: Problem, A) -> tuple[np.ndarray, list[str]]:
     return mask, reasons
 
 
-def equilibrate(A, nonlinear):
+def equilibrate(A: np.ndarray, nonlinear: np.ndarray) -> np.ndarray:
     """Column factors that bring the columns of nonlinear parameters (whose
     units differ from compliances by many decades, e.g. k_s in N/m) to the
     largest column norm, so the core's zero-column test (relative to the
@@ -139,7 +144,9 @@ def equilibrate(A, nonlinear):
     return f
 
 
-def solve_wls(A, b, rcond=RCOND, gtol=GTOL, scale=None):
+def solve_wls(
+    A: np.ndarray, b: np.ndarray, rcond: float = RCOND, gtol: float = GTOL, scale: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
     """Core weighted least squares (rows already weighted); ``scale``
     multiplies the columns before the core and the solution after."""
     if A.shape[0] < A.shape[1]:
@@ -152,7 +159,7 @@ def solve_wls(A, b, rcond=RCOND, gtol=GTOL, scale=None):
     return theta * f, stdu * f, s, v, rank, group, res
 
 
-def coupling_relations(names, v, rank, tol=1e-6) -> list[list[str]]:
+def coupling_relations(names: Sequence[str], v: np.ndarray, rank: int, tol: float = 1e-6) -> list[list[str]]:
     """Sparse linear relations between coupled parameters (eq. 21, core
     null_relations): each is a set of parameters of which only a combination
     is identifiable, e.g. a joint compliance and the link spring's rotation
@@ -171,7 +178,9 @@ def coupling_relations(names, v, rank, tol=1e-6) -> list[list[str]]:
     return out
 
 
-def coupling_groups(names, v, rank, group, tol=1e-6) -> list[list[str]]:
+def coupling_groups(
+    names: Sequence[str], v: np.ndarray, rank: int, group: np.ndarray, tol: float = 1e-6
+) -> list[list[str]]:
     """M5a: semi-identifiable parameters coupled through the null space, as
     connected groups (unions of overlapping relations)."""
     rels = coupling_relations(names, v, rank, tol)
@@ -187,7 +196,7 @@ def coupling_groups(names, v, rank, group, tol=1e-6) -> list[list[str]]:
     return [sorted(g, key=order.get) for g in groups if len(g) > 1]
 
 
-def as_inputs(model, meas):
+def as_inputs(model: Model | Path | str, meas: Measurements | Path | str) -> tuple[Model, Measurements]:
     """Accept paths as well as loaded objects (Python calls mirror the CLI)."""
 
     if isinstance(model, (str, Path)):
@@ -210,28 +219,28 @@ class _Variables:
     theta = 0) is not any more, they are ``stale`` and the core starts
     again in new ones."""
 
-    def __init__(self, theta, A, inv, nlmask):
+    def __init__(self, theta: np.ndarray, A: np.ndarray, inv: np.ndarray, nlmask: np.ndarray) -> None:
         self.inv = inv
         self.use = inv & (theta > 0)
         Az = self._columns_z(theta, A)
         self.f = equilibrate(Az, nlmask | self.use)
         self.pending = (nlmask | self.use) & (np.linalg.norm(Az, axis=0) == 0)
 
-    def _columns_z(self, theta, A):
+    def _columns_z(self, theta: np.ndarray, A: np.ndarray) -> np.ndarray:
         Az = A.copy()
         Az[:, self.use] = A[:, self.use] * (-(theta[self.use] ** 2))
         return Az
 
-    def jacobian(self, theta, A):
+    def jacobian(self, theta: np.ndarray, A: np.ndarray) -> np.ndarray:
         """The weighted Jacobian A (w.r.t. theta) in these variables."""
         return self._columns_z(theta, A) * self.f
 
-    def point(self, theta):
+    def point(self, theta: np.ndarray) -> np.ndarray:
         z = theta.copy()
         z[self.use] = 1.0 / theta[self.use]
         return z / self.f
 
-    def theta(self, u):
+    def theta(self, u: np.ndarray) -> np.ndarray | None:
         """theta at u; None outside the domain (a stiffness 1/c <= 0)."""
         z = u * self.f
         if np.any(z[self.use] <= 0):
@@ -239,13 +248,20 @@ class _Variables:
         z[self.use] = 1.0 / z[self.use]
         return z
 
-    def stale(self, theta, A) -> bool:
+    def stale(self, theta: np.ndarray, A: np.ndarray) -> bool:
         turned = self.inv & (theta > 0) & ~self.use
         woke = self.pending & (np.linalg.norm(A, axis=0) > 0)
         return bool(np.any(turned) or np.any(woke))
 
 
-def _levenberg_marquardt(pb: Problem, y, theta, weigh, nlmask, max_iter: int):
+def _levenberg_marquardt(
+    pb: Problem,
+    y: np.ndarray,
+    theta: np.ndarray,
+    weigh: Callable[[np.ndarray], np.ndarray],
+    nlmask: np.ndarray,
+    max_iter: int,
+) -> tuple[np.ndarray, int, bool]:
     """The nonlinear fit from theta: the core's Levenberg-Marquardt (reverse
     communication), Python evaluating the model at the core's trials.
     Returns (theta, iterations, converged)."""
@@ -276,12 +292,12 @@ def _levenberg_marquardt(pb: Problem, y, theta, weigh, nlmask, max_iter: int):
 
 
 def fit(
-    model: Model,
-    meas: Measurements,
-    sigma_position=None,
+    model: Model | Path | str,
+    meas: Measurements | Path | str,
+    sigma_position: float | None = None,
     max_iter: int = 50,
     problem: Problem | None = None,
-    theta0=None,
+    theta0: npt.ArrayLike | None = None,
 ) -> FitResult:
     """Identify the free parameters of ``model`` from ``meas`` (contract s4).
 
@@ -321,7 +337,7 @@ def fit(
     pred, J = pb.evaluate(theta)
     neg, reasons = negligible_columns(pb, pb.weighted(J))
 
-    def weigh(Jx):
+    def weigh(Jx: np.ndarray) -> np.ndarray:
         # parameters the loads do not excite get a zero column: the core
         # reports them non-identifiable (value 0, no standard error)
         Ax = pb.weighted(Jx)

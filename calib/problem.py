@@ -10,6 +10,9 @@ joint torque of every row.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .._core import calib as core
@@ -25,6 +28,11 @@ from ..robot.model import (
 )
 from .measure import Measurements
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from ..robot.model import Term
+
 __all__ = ["Problem"]
 
 
@@ -37,7 +45,14 @@ class Problem:
     per point offset.
     """
 
-    def __init__(self, model: Model, meas: Measurements, extra_terms=(), sigma_position=None, sigma_rotation=None):
+    def __init__(
+        self,
+        model: Model,
+        meas: Measurements,
+        extra_terms: Iterable[Term] = (),
+        sigma_position: float | None = None,
+        sigma_rotation: float | None = None,
+    ) -> None:
         if meas.q.shape[1] != model.chain.dof:
             raise InputError(f"{meas.path}: rows have {meas.q.shape[1]} joint values, the robot has {model.chain.dof}")
         self.model = model
@@ -89,13 +104,13 @@ class Problem:
         t = np.cross(z, point[:, None, :] - P["pf"])
         return np.concatenate([t, z], axis=2).transpose(2, 0, 1)
 
-    def tau0(self, term) -> float:
+    def tau0(self, term: Term) -> float:
         """Smoothing torque of a joint_deadzone term: declared, else chosen
         from these rows (robot.model.default_tau0)."""
         v = term.geometry.get("tau0")
         return float(v) if v is not None else default_tau0(self.torques[:, term.joint])
 
-    def load_column(self, term, B=None) -> np.ndarray:
+    def load_column(self, term: Term, B: np.ndarray | None = None) -> np.ndarray:
         """(6, n) rows of a load-nonlinear joint term per unit of its value."""
         B = self.basis()[0] if B is None else B
         g = B[:, :, self.offset[(SPRING_JOINT, term.joint + 1)]]
@@ -103,7 +118,7 @@ class Problem:
         return g * load_factor(term.kind, self.torques[:, term.joint], tau0)
 
     @staticmethod
-    def _layout(terms):
+    def _layout(terms: Sequence[Term]) -> dict[int, slice]:
         out, k = {}, 0
         for i, t in enumerate(terms):
             if t.free:
@@ -119,7 +134,7 @@ class Problem:
     def npar(self) -> int:
         return sum(len(t.names) for t in self.terms if t.free)
 
-    def basis(self, r=None):
+    def basis(self, r: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(B (6, n, nb), Rt (n, 3, 3)) at point offset r (tool frame)."""
         if r is not None and not np.any(r):
             r = None
@@ -145,7 +160,9 @@ class Problem:
         self._cache[key] = out
         return out
 
-    def offset_value(self, theta, terms=None, layout=None):
+    def offset_value(
+        self, theta: np.ndarray, terms: Sequence[Term] | None = None, layout: dict[int, slice] | None = None
+    ) -> np.ndarray | None:
         terms = self.terms if terms is None else terms
         layout = self.layout if layout is None else layout
         for i, t in enumerate(terms):
@@ -153,7 +170,13 @@ class Problem:
                 return theta[layout[i]] if t.free else t.value
         return None
 
-    def evaluate(self, theta, terms=None, layout=None, jac=True):
+    def evaluate(
+        self,
+        theta: np.ndarray,
+        terms: Sequence[Term] | None = None,
+        layout: dict[int, slice] | None = None,
+        jac: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """Predicted rows (6, n) and Jacobian (6, n, npar) at theta."""
         terms = self.terms if terms is None else terms
         layout = self.layout if layout is None else layout
@@ -210,7 +233,7 @@ class Problem:
         return pred, J
 
     @staticmethod
-    def offset_columns(pred, Rt):
+    def offset_columns(pred: np.ndarray, Rt: np.ndarray) -> np.ndarray:
         """d(point deflection)/dr (3, n, 3) = [dphi]x R_tool at the prediction
         (the point deflection is dt + dphi x R_tool (p + r))."""
         dphi = pred[3:6].T  # (n, 3)
@@ -219,7 +242,7 @@ class Problem:
             out[:, :, i] = np.cross(dphi, Rt[:, :, i]).T
         return out
 
-    def weighted(self, rows6):
+    def weighted(self, rows6: np.ndarray) -> np.ndarray:
         """Rows (6, n[, k]) -> weighted observation vector/matrix (rows*n[, k])."""
         r = rows6[: self.rows]
         w = self.wrow.reshape((-1,) + (1,) * (r.ndim - 1))

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
+import re
 import shutil
 import tempfile
 import warnings
@@ -68,6 +70,26 @@ def cache_key(job: LinkJob, route: str) -> str:
         key["structured"] = True
         key["across_factor"] = job.across_factor
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
+
+
+def remove_stale_temporaries(cache_dir: Path) -> int:
+    """Remove half-written entries left by a run that was killed while it
+    wrote (their writer process no longer exists); returns how many."""
+    gone = 0
+    for tmp in Path(cache_dir).glob(".*.npz.*-*.tmp.npz"):
+        m = re.match(r"\..*\.npz\.(\d+)-[0-9a-f]+\.tmp\.npz$", tmp.name)
+        if m is None:
+            continue
+        try:
+            os.kill(int(m.group(1)), 0)
+            continue  # its writer is still running
+        except ProcessLookupError:
+            pass
+        except OSError:
+            continue  # another user's process: leave it
+        tmp.unlink(missing_ok=True)
+        gone += 1
+    return gone
 
 
 def store_solution(path: Path, sol: FeaSolution, key: str | None = None) -> None:

@@ -26,6 +26,7 @@ import signal
 import sys
 import time
 import traceback
+from pathlib import Path
 from types import FrameType
 
 _PR_SET_PDEATHSIG = 1
@@ -89,8 +90,13 @@ def run_spec(spec_path: str, result_path: str) -> int:
     from ..fea.job import run_link
     from .table import failed_fields, run_fields
 
+    where = {"cache": None}
+
     def stop(signum: int, _frame: FrameType | None) -> None:
         _kill_descendants()  # ccx runs in a session of its own
+        if where["cache"]:  # os._exit skips the atomic writers' cleanup: no half-written entry stays
+            for tmp in Path(where["cache"]).glob(f".*.{os.getpid()}-*.tmp*"):
+                tmp.unlink(missing_ok=True)
         _write_json(result_path, failed_fields(f"interrupted (signal {signal.Signals(signum).name})"))
         os._exit(128 + signum)
 
@@ -100,6 +106,7 @@ def run_spec(spec_path: str, result_path: str) -> int:
     try:
         with open(spec_path, "rb") as fh:
             spec = pickle.load(fh)
+        where["cache"] = spec["cache_dir"]
         res = run_link(spec["job"], cache_dir=spec["cache_dir"], workdir=spec.get("workdir"))
         out = run_fields(res)
     except StiffkitError as exc:

@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
 from ..errors import StiffkitError
+from ..fea.cache import remove_stale_temporaries
 from ..fea.job import cache_key, resolve_route
 from .table import failed_fields, one_line
 
@@ -630,6 +631,7 @@ def run_jobs(
     cache = Path(cache_dir).expanduser().resolve()
     cache.mkdir(parents=True, exist_ok=True)
     _stopping.clear()
+    remove_stale_temporaries(cache)
     keys, cached, _nodes, mem = plan_estimates(jobs, cache)
     bar = Progress(len(jobs), progress, stream)
     with open_cluster(client, scheduler, workers, memory_mb, len(jobs)) as where:

@@ -279,7 +279,7 @@ def test_interrupted_sweep_resumes_and_leaves_no_process(link, tmp_path, countin
         args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
     )
     t0 = time.time()
-    while len(list(cache.glob("*.npz"))) < 2 and time.time() - t0 < 120 and proc.poll() is None:
+    while len(list(cache.glob("[!.]*.npz"))) < 2 and time.time() - t0 < 120 and proc.poll() is None:
         time.sleep(0.05)
     os.killpg(proc.pid, signal.SIGINT)
     out, err = proc.communicate(timeout=60)
@@ -287,8 +287,9 @@ def test_interrupted_sweep_resumes_and_leaves_no_process(link, tmp_path, countin
     assert "interrupted" in err and "Traceback" not in err
     time.sleep(0.5)
     assert marked_processes(mark) == []  # no worker, launcher, run or ccx left
-    done = len(list(cache.glob("*.npz")))
+    done = len(list(cache.glob("[!.]*.npz")))
     assert 2 <= done < 4
+    assert not list(cache.glob(".*.tmp*"))  # no half-written entry of the stopped run
     assert not list(cache.glob("run-*"))  # the stopped run's folder is gone
     first = launches()
     assert first >= done
@@ -302,6 +303,22 @@ def test_interrupted_sweep_resumes_and_leaves_no_process(link, tmp_path, countin
     rows = read_csv(tmp_path / "s.csv")
     assert sum(r["cached"] == "True" for r in rows) == done and all(r["status"] == "ok" for r in rows)
     assert marked_processes(mark) == []
+
+
+def test_half_written_entries_of_dead_runs_are_removed(tmp_path):
+    """A run killed while writing its cache entry leaves a temporary; the next
+    sweep removes it, but not one whose writer is still alive."""
+    from stiffkit.fea.cache import remove_stale_temporaries
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = tmp_path / f".abc.npz.{dead.pid}-0123456789ab.tmp.npz"
+    live = tmp_path / f".abd.npz.{os.getpid()}-0123456789ab.tmp.npz"
+    entry = tmp_path / "abe.npz"
+    for f in (stale, live, entry):
+        f.write_bytes(b"x")
+    assert remove_stale_temporaries(tmp_path) == 1
+    assert not stale.exists() and live.exists() and entry.exists()
 
 
 # ---------------------------------------------------------------- failures
