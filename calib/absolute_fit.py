@@ -258,7 +258,7 @@ def _nonnegative(p: object) -> bool:
     return p.kind in ("link", "base") and len(tail) == 3 and tail[0] == "c" and tail[1] == tail[2]
 
 
-def _duplicates(A: np.ndarray, c: int, kept: np.ndarray, kept_names: list[str], coef=None) -> str:
+def _duplicates(A: np.ndarray, c: int, kept: np.ndarray, kept_names: list[str], coef: np.ndarray | None = None) -> str:
     """Words for a dependent column: the kept parameters whose combination
     (``coef``, the least-squares one when not given) reproduces it, largest
     contributions first."""

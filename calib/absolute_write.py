@@ -36,9 +36,12 @@ import json
 import math
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Collection
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..io.files import atomic_write_text
@@ -52,13 +55,16 @@ from ..robot.tree_model import (
     rpy_from_matrix,
 )
 
+if TYPE_CHECKING:
+    from .absolute_fit import AbsoluteFit
+
 __all__ = ["write_model", "write_urdf", "model_text", "model_effects", "folded_origins", "FOLDED_KINDS"]
 
 #: the effect kinds write_urdf folds into the joint origins
 FOLDED_KINDS = ("joint_offset", "frame")
 
 
-def _toml(v) -> str:
+def _toml(v: object) -> str:
     """A TOML value: numbers exactly (repr), arrays inline (a matrix one row a line)."""
     if isinstance(v, (bool, np.bool_)):
         return "true" if v else "false"
@@ -87,7 +93,7 @@ def model_text(
     urdf: str = "robot.urdf",
     base_link: str = "base_link",
     sigma_position: float | None = None,
-    gravity=None,
+    gravity: ArrayLike | None = None,
     iterations: int | None = None,
     robot: dict | None = None,
     header: str = "",
@@ -131,7 +137,7 @@ def _tau0(model: TreeModel, joint: str) -> float:
 
 
 def model_effects(
-    model: TreeModel, theta: np.ndarray, skip=(), std: np.ndarray | None = None
+    model: TreeModel, theta: np.ndarray, skip: Collection[str] = (), std: np.ndarray | None = None
 ) -> tuple[list[dict], list[str]]:
     """The [[effect]] tables of ``model`` with the values of ``theta``, one
     table per target (a value needs one target), in the order of the model's
@@ -203,7 +209,7 @@ def _relative(target: str | Path, folder: Path) -> str:
         return str(target)
 
 
-def write_model(fit, path: str | Path, folded_urdf: str | Path | None = None) -> list[str]:
+def write_model(fit: AbsoluteFit, path: str | Path, folded_urdf: str | Path | None = None) -> list[str]:
     """Write the fitted model (``fit``: an AbsoluteFit) as a model TOML with
     every value. With ``folded_urdf`` (a URDF written by :func:`write_urdf`
     from this fit), the model names that URDF and leaves out the effects
@@ -286,11 +292,11 @@ def folded_origins(model: TreeModel, theta: np.ndarray) -> dict[str, np.ndarray]
     return out
 
 
-def _fmt(v) -> str:
+def _fmt(v: ArrayLike) -> str:
     return " ".join(repr(float(x)) for x in v)
 
 
-def write_urdf(fit, path: str | Path) -> list[str]:
+def write_urdf(fit: AbsoluteFit, path: str | Path) -> list[str]:
     """Write the robot's URDF with the fit's zero offsets and frame errors
     folded into the joint origins (module docstring). Returns notes."""
     model: TreeModel = fit.model

@@ -39,8 +39,8 @@ import numpy as np
 from ..errors import InputError
 from ..io import validate as V
 from ..io.files import atomic_write_text
-from ..robot.tree import load_tree
-from ..robot.tree_model import FRAME_NAMES, tree_model_from_tables
+from ..robot.tree import Tree, load_tree
+from ..robot.tree_model import FRAME_NAMES, TreeModel, tree_model_from_tables
 from .absolute_data import AbsoluteData, write_absolute
 from .absolute_write import model_text
 
@@ -231,7 +231,7 @@ def _suffix(joint: str) -> str:
     return joint if joint.startswith("torso") else joint.split("_", 1)[1]
 
 
-def _structure(tree) -> list[dict]:
+def _structure(tree: Tree) -> list[dict]:
     """The truth's effects without values: tracker, markers, and every kind of STORY on all joints."""
     eff = [{"kind": "tracker", "xyz": list(TRACKER["xyz"]), "rpy": list(TRACKER["rpy"])}]
     eff += [{"kind": "marker", "target": f, "xyz": list(p)} for f, p in MARKERS.items()]
@@ -239,7 +239,7 @@ def _structure(tree) -> list[dict]:
     return eff
 
 
-def _reference_data(model, Q: np.ndarray, theta: np.ndarray) -> AbsoluteData:
+def _reference_data(model: TreeModel, Q: np.ndarray, theta: np.ndarray) -> AbsoluteData:
     from .absolute_fit import predict
 
     n = Q.shape[0]

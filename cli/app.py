@@ -34,7 +34,10 @@ import sys
 import threading
 import traceback
 import warnings
+from collections.abc import Iterator
 from contextlib import contextmanager
+from types import FrameType
+from typing import Any, NoReturn, TextIO
 
 from ..errors import StiffkitError, StiffkitWarning
 from ..version import __version__
@@ -81,11 +84,11 @@ class Parser(argparse.ArgumentParser):
     """argparse with one-line errors (exit status 2) and values that start
     with "-" accepted after their option (``--point -50,0,0``)."""
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = _NEGATIVE
 
-    def error(self, message: str):
+    def error(self, message: str) -> NoReturn:
         m = re.match(r"argument ([^:]+): (.*)$", message, re.S)
         if m and m.group(2).startswith(m.group(1).split("/")[-1]):
             message = m.group(2)  # the value check already names the option
@@ -114,7 +117,7 @@ class _PipeSafe:
     """stdout that stops writing, silently, once its reader has gone
     (``stiffkit ... | head``): the command still finishes its files."""
 
-    def __init__(self, stream):
+    def __init__(self, stream: TextIO) -> None:
         self._stream = stream
         self.closed_pipe = False
 
@@ -127,7 +130,7 @@ class _PipeSafe:
         except (OSError, ValueError, AttributeError):
             pass
 
-    def write(self, text):
+    def write(self, text: str) -> int:
         if self.closed_pipe:
             return len(text)
         try:
@@ -136,7 +139,7 @@ class _PipeSafe:
             self._gone()
             return len(text)
 
-    def flush(self):
+    def flush(self) -> None:
         if self.closed_pipe:
             return
         try:
@@ -144,12 +147,12 @@ class _PipeSafe:
         except BrokenPipeError:
             self._gone()
 
-    def __getattr__(self, name):
+    def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
 
 
 @contextmanager
-def _session(command: list):
+def _session(command: list) -> Iterator[None]:
     """Warnings as one line each, stdout safe against a closed pipe, SIGTERM
     raised as an interrupt; everything restored afterwards (main() may be
     called in-process, e.g. by tests)."""
@@ -158,7 +161,14 @@ def _session(command: list):
 
     seen = set()
 
-    def show(message, category, filename, lineno, file=None, line=None):
+    def show(
+        message: Warning | str,
+        category: type[Warning],
+        filename: str,
+        lineno: int,
+        file: TextIO | None = None,
+        line: str | None = None,
+    ) -> None:
         # the same finding reached twice (an option, then the API; a file read twice)
         keys = {("text", str(message))}
         if getattr(message, "key", None) is not None:
@@ -175,7 +185,7 @@ def _session(command: list):
     old_term = None
     if main_thread:
 
-        def on_term(signum, frame):
+        def on_term(signum: int, frame: FrameType | None) -> NoReturn:
             raise Terminated()
 
         old_term = signal.signal(signal.SIGTERM, on_term)

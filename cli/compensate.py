@@ -42,7 +42,7 @@ examples:
 """
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "compensate",
         help="joint commands that make the identified robot reach the nominal targets",
@@ -57,7 +57,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     rep = compensate(args.model, args.targets, args.out, args.frame)
     print(rep.text())
     return 0

@@ -84,7 +84,7 @@ example:
 """
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "diagnose",
         help="test the model against the noise; rank the missing effects",
@@ -122,7 +122,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if args.json:
         V.output_path(args.json, "--json", [args.model, args.measurements])
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
@@ -165,7 +165,7 @@ def run(args) -> int:
     return 0
 
 
-def run_absolute(args) -> int:
+def run_absolute(args: argparse.Namespace) -> int:
     """``diagnose`` on absolute measurements (docs/calibration.md section 6.4)."""
     model, data = load_absolute(args.model, args.measurements)
     dg = diagnose_absolute(

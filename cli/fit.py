@@ -85,7 +85,7 @@ example (the loop):
 """
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "fit",
         help="identify a robot's elastostatic parameters from measurements",
@@ -126,7 +126,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _outputs(args) -> None:
+def _outputs(args: argparse.Namespace) -> None:
     """Every output path checked before anything runs (not an input, not a folder, suffixes)."""
     inputs = [args.model, args.measurements]
     for opt, path, suffixes in (
@@ -141,7 +141,7 @@ def _outputs(args) -> None:
     V.distinct_outputs({"--json": args.json, "--write-model": args.write_model, "--write-urdf": args.write_urdf})
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     _outputs(args)
     if model_kind(args.model) == "absolute":
         return run_absolute(args)
@@ -203,7 +203,7 @@ def run(args) -> int:
     return 0
 
 
-def run_absolute(args) -> int:
+def run_absolute(args: argparse.Namespace) -> int:
     """``fit`` on absolute measurements (docs/calibration.md section 6.4)."""
     model, data = load_absolute(args.model, args.measurements)
     for w in data.warnings:

@@ -43,7 +43,7 @@ dualarm: 400 postures, sigma 1e-4 m by default; --loads, --markers, --force,
 """
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "synth",
         help="synthetic calibration data with a known truth",
@@ -104,7 +104,7 @@ def register(sub) -> None:
 MARKERS = [(0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2), (-0.1, -0.1, 0.22)]
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if args.robot == "dualarm":
         configs = DA.DEFAULT_CONFIGS if args.configs is None else args.configs
         out = DA.synth_dualarm(

@@ -47,10 +47,12 @@ import io
 import math
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._core import tree as core
 from ..errors import InputError, StiffkitWarning
@@ -137,7 +139,13 @@ class CompensationModel:
         c = src.joint_compliances(Q, terms=terms)
         return np.column_stack([c[j] for _i, j in self.varying])
 
-    def compensate(self, Q, frames=None, wrench=None, check_plausible: bool = True) -> Compensation:
+    def compensate(
+        self,
+        Q: ArrayLike,
+        frames: str | Sequence[str] | None = None,
+        wrench: ArrayLike | None = None,
+        check_plausible: bool = True,
+    ) -> Compensation:
         """Commands q' (n, dof) for the commands Q (n, dof), one frame per row
         (a name, a list of n names, or None: the default frame) and an
         optional wrench per row (n, 6): (f, m) at the frame origin (relative
@@ -189,7 +197,18 @@ class CompensationModel:
         out.seconds = time.perf_counter() - t0
         return out
 
-    def _solve(self, rows, Q, R, p, vj, lvj, wrench, full6, out) -> None:
+    def _solve(
+        self,
+        rows: np.ndarray,
+        Q: np.ndarray,
+        R: np.ndarray,
+        p: np.ndarray,
+        vj: np.ndarray,
+        lvj: np.ndarray,
+        wrench: np.ndarray | None,
+        full6: bool,
+        out: Compensation,
+    ) -> None:
         """Compensate ``rows`` (one mode) into ``out``; posture-dependent
         compliances by passes (module docstring)."""
         loads = None
@@ -416,7 +435,7 @@ def _relative(path: Path) -> CompensationModel:
     )
 
 
-def load_compensation_model(path) -> CompensationModel:
+def load_compensation_model(path: str | Path) -> CompensationModel:
     """Read a model file with values: absolute (section 6) or relative
     (sections 2-5), by its ``[measurements] kind``."""
     if not isinstance(path, (str, Path)):
@@ -444,7 +463,7 @@ class Targets:
     wrench: np.ndarray | None
 
 
-def read_targets(path, cm: CompensationModel, frame: str | None = None) -> Targets:
+def read_targets(path: str | Path, cm: CompensationModel, frame: str | None = None) -> Targets:
     """Read TARGETS.csv (docs/calibration.md 6.5) for the model ``cm``:
     joint columns named as the actuated joints (or q1..qN), optional
     ``frame`` and ``fx fy fz mx my mz`` (all or none). ``frame`` (the
@@ -530,7 +549,7 @@ def commands_text(targets: Targets, res: Compensation) -> str:
     return buf.getvalue()
 
 
-def write_commands(path, targets: Targets, res: Compensation) -> Path:
+def write_commands(path: str | Path, targets: Targets, res: Compensation) -> Path:
     """Write COMMANDS.csv atomically (commands_text)."""
     return atomic_write_text(path, commands_text(targets, res))
 
@@ -585,7 +604,9 @@ class CompensationReport:
         ]
 
 
-def compensate(model, targets, out=None, frame: str | None = None) -> CompensationReport:
+def compensate(
+    model: str | Path, targets: str | Path, out: str | Path | None = None, frame: str | None = None
+) -> CompensationReport:
     """``stiffkit compensate MODEL.toml TARGETS.csv --out COMMANDS.csv
     [--frame F]`` (docs/calibration.md 6.5). ``out``: where COMMANDS.csv
     goes (checked before any work, written atomically), or None. Rows

@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
@@ -281,7 +282,14 @@ class _Builder:
         self.params: list[Param] = []
         self.blocks: list[tuple[str, str]] = []
 
-    def add_vj(self, parent: int, vtype: int = 0, axis=(0, 0, 0), rot=None, pos=(0, 0, 0)) -> int:
+    def add_vj(
+        self,
+        parent: int,
+        vtype: int = 0,
+        axis: ArrayLike = (0, 0, 0),
+        rot: np.ndarray | None = None,
+        pos: ArrayLike = (0, 0, 0),
+    ) -> int:
         self.v.append(
             dict(
                 parent=parent,
@@ -347,7 +355,7 @@ class _Cursor:
     def __init__(self, b: _Builder, parent: int, origin: np.ndarray) -> None:
         self.b, self.vj, self.origin, self.first = b, parent, origin, True
 
-    def add(self, vtype: int = 0, axis=(0, 0, 0)) -> int:
+    def add(self, vtype: int = 0, axis: ArrayLike = (0, 0, 0)) -> int:
         if self.first:
             self.vj = self.b.add_vj(self.vj, vtype, axis, self.origin[:3, :3], self.origin[:3, 3])
             self.first = False
@@ -398,7 +406,7 @@ def _targets(tree: Tree, table: dict, where: str, kind: str, moving_only: bool) 
 def tree_model_from_tables(
     tree: Tree,
     effects: list[dict],
-    gravity=GRAVITY,
+    gravity: ArrayLike = GRAVITY,
     iterations: int = EQ_ITERATIONS,
     where: str = "model",
     sigma_position: float | None = None,
