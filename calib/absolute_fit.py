@@ -37,7 +37,7 @@ from .._core import calib as core_calib
 from .._core import field as core_field
 from .._core import tree as core
 from ..errors import InputError
-from ..robot.tree_model import DEADZONE_TAU0_FRACTION, EQ_TOL, LAW_DEADZONE, TreeModel, rpy_from_matrix
+from ..robot.tree_model import ABS_KINDS, DEADZONE_TAU0_FRACTION, EQ_TOL, LAW_DEADZONE, TreeModel, rpy_from_matrix
 from .absolute_data import AbsoluteData
 from .crossval import config_folds
 
@@ -47,19 +47,9 @@ __all__ = ["AbsoluteFit", "Reduction", "fit_absolute", "position_stats", "predic
 DROP_TOL = 1e-7
 #: ... and shorter than this, near-redundant (merged into the parameters it nearly duplicates)
 MERGE_TOL = 1e-4
-#: order in which kinds are kept when columns are dependent
-PREFERENCE = (
-    "tracker",
-    "marker",
-    "joint_offset",
-    "frame",
-    "joint",
-    "lateral",
-    "joint_cubic",
-    "joint_deadzone",
-    "link",
-    "base",
-)
+#: order in which kinds are kept when columns are dependent (the catalogue's
+#: order: geometry before elasticity, simple laws before refined ones)
+PREFERENCE = ABS_KINDS
 #: standardised distance beyond which a robust fit sets a row aside: sqrt of chi2_3 at 99.9 %
 SET_ASIDE = math.sqrt(16.266)
 #: Huber's constant on the standardised distance: sqrt of chi2_3 at 95 %
@@ -143,7 +133,14 @@ def predict(
     """The core's evaluation of ``data`` at theta: ``pred`` (n, 3), weighted
     residuals ``res`` and, for ``free``, their Jacobian ``jac``."""
     free = np.zeros(0, int) if free is None else np.asarray(free, int)
-    return core.evaluate(
+    weight = data.weight if weight is None else weight
+    return core.evaluate(*_observations(model, data, theta), weight, free, model.eqit, EQ_TOL)
+
+
+def _observations(model: TreeModel, data: AbsoluteData, theta: np.ndarray) -> tuple:
+    """The leading arguments of the core's evaluate and lm: the model,
+    theta, and the data's postures, loads and observed points."""
+    return (
         model.ne,
         model.arrays,
         theta,
@@ -152,10 +149,6 @@ def predict(
         data.posture,
         _marker_index(model, data),
         data.xyz,
-        data.weight if weight is None else weight,
-        free,
-        model.eqit,
-        EQ_TOL,
     )
 
 
@@ -376,21 +369,8 @@ def _lm(
     maxit: int,
     eqit: int | None = None,
 ) -> dict:
-    return core.lm(
-        model.ne,
-        model.arrays,
-        theta,
-        data.Q,
-        _loads(model, data),
-        data.posture,
-        _marker_index(model, data),
-        data.xyz,
-        weight,
-        free,
-        model.eqit if eqit is None else eqit,
-        EQ_TOL,
-        maxit=maxit,
-    )
+    eqit = model.eqit if eqit is None else eqit
+    return core.lm(*_observations(model, data, theta), weight, free, eqit, EQ_TOL, maxit=maxit)
 
 
 def _solve(
