@@ -451,7 +451,7 @@ contains
             if (norm2(x) <= 0.0_dp) cycle
             x = x/norm2(x)
             do pass = 1, 2                          ! re-orthogonalise once
-                if (nq > 0) x = x - matmul(qb(:, 1:nq), matmul(transpose(qb(:, 1:nq)), x))
+                if (nq > 0) x = x - matmul(qb(:, 1:nq), matmul(x, qb(:, 1:nq)))  ! Q (Q^T x), no transposed copy
             end do
             if (norm2(x) > tol .and. nq < n) then
                 nq = nq + 1

@@ -1318,13 +1318,17 @@ contains
     !> delta[ne,np], iterations nit[np], eqinfo[np] as in poses_batch.
     !> info: sk_ok, sk_err_noconv (some posture missed etol; outputs
     !> filled), sk_err_singular (an unstable equilibrium), size/NaN codes.
-    subroutine evaluate(pr, theta, eqit, etol, want_jac, pred, res, jac, delta, nit, eqinfo, info)
+    !> Optional warm[ne,np]: deflections to start each posture's iteration
+    !> from (eqit >= 2), e.g. those at a nearby theta; the fixed point and
+    !> the tolerance are the same, only fewer steps are taken.
+    subroutine evaluate(pr, theta, eqit, etol, want_jac, pred, res, jac, delta, nit, eqinfo, info, warm)
         type(tree_problem), intent(in) :: pr
         real(dp), intent(in) :: theta(:), etol
         integer(ip), intent(in) :: eqit
         logical, intent(in) :: want_jac
         real(dp), intent(out) :: pred(:, :), res(:), jac(:, :), delta(:, :)
         integer(ip), intent(out) :: nit(:), eqinfo(:), info
+        real(dp), intent(in), optional :: warm(:, :)
         type(tree_state) :: st
         real(dp) :: rt(3, 3), tt(3), tw(3, 3), y(3)
         real(dp), allocatable :: b(:, :), jrow(:, :), lam(:, :), jd(:, :)
@@ -1341,8 +1345,14 @@ contains
         if (size(theta) /= pr%m%npar .or. any(shape(pred) /= [3, pr%nobs]) .or. size(res) /= 3*pr%nobs &
             .or. any(shape(delta) /= [pr%m%ne, pr%np]) .or. size(nit) /= pr%np .or. size(eqinfo) /= pr%np) return
         if (want_jac .and. any(shape(jac) /= [3*pr%nobs, pr%nfree])) return
+        if (present(warm)) then
+            if (any(shape(warm) /= [pr%m%ne, pr%np])) return
+        end if
         info = sk_err_nonfinite
         if (.not. (all_finite(theta) .and. etol == etol)) return
+        if (present(warm)) then
+            if (.not. all_finite(warm)) return
+        end if
         need = .false.
         need(pr%ent_vj) = .true.
         call state_init(pr%m, st, need)
@@ -1355,8 +1365,9 @@ contains
         allocate(b(ne, pr%nz), jrow(3, pr%nfree), lam(ne, maxrow), jd(3, ne))
         info = sk_ok
         do ipost = 1, pr%np
+            if (present(warm)) st%delta = warm(:, ipost)
             call solve_posture(pr%m, theta, pr%q(:, ipost), pr%lidx(pr%lstart(ipost):pr%lstart(ipost + 1) - 1), &
-                pr%lvj, pr%lw, eqit, etol, .false., st)
+                pr%lvj, pr%lw, eqit, etol, present(warm), st)
             delta(:, ipost) = st%delta
             nit(ipost) = st%nit
             if (.not. st%conv) eqinfo(ipost) = sk_err_noconv

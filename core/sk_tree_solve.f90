@@ -85,7 +85,7 @@ contains
         type(tree_problem) :: pl
         type(lm_state) :: lm
         real(dp) :: rt(3, 3), tt(3), tw(3, 3)
-        real(dp), allocatable :: pred(:, :), delta(:, :), dx(:), thetat(:), jact(:, :), rest(:)
+        real(dp), allocatable :: pred(:, :), delta(:, :), dx(:), thetat(:), jact(:, :), rest(:), dacc(:, :)
         integer(ip), allocatable :: nit(:), eqinfo(:)
         integer(ip) :: tinfo
         integer :: n, mrow
@@ -106,11 +106,15 @@ contains
         info = sk_err_argument
         if (maxit < 0 .or. .not. (ftol >= 0.0_dp .and. xtol >= 0.0_dp .and. gtol >= 0.0_dp)) return
         allocate(pred(3, pr%nobs), delta(pr%m%ne, pr%np), nit(pr%np), eqinfo(pr%np), dx(n), thetat(pr%m%npar), &
-            jact(mrow, n), rest(mrow))
+            jact(mrow, n), rest(mrow), dacc(pr%m%ne, pr%np))
         theta = theta0
         pl = pr
         call evaluate(pl, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
         if (info /= sk_ok) return
+        ! trials start their equilibria from the deflections at the last
+        ! accepted theta (sk_tree%evaluate, warm): the same fixed point to
+        ! etol in a few steps instead of a cold start's many
+        dacc = delta
         call lm_start(lm, jac, res, maxit, ftol, xtol, gtol, info)
         if (info /= sk_ok) return
         nhist = 1
@@ -120,10 +124,11 @@ contains
             if (info /= sk_ok) return
             thetat = theta
             thetat(pr%free) = thetat(pr%free) + dx
-            call evaluate(pl, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo)
+            call evaluate(pl, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo, warm=dacc)
             call lm_accept(lm, tinfo == sk_ok, jact, rest, accepted, info)
             if (accepted) then
                 theta = thetat
+                dacc = delta
                 res = rest
                 jac = jact
                 ! re-centre the tracker rotation: rref <- rref Rx Ry Rz, angles
