@@ -26,6 +26,8 @@ __all__ = ["AbsoluteData", "read_absolute", "write_absolute", "WRENCH"]
 
 WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
 XYZ = ["x", "y", "z"]
+#: what x, y and z all read in a row whose marker the tracker did not see
+UNSEEN = ("", "nan", "na", "n/a", "-")
 
 
 @dataclass
@@ -140,15 +142,21 @@ def read_absolute(
     has_w = [c for c in WRENCH if c in col]
     if has_w and len(has_w) != 6:
         raise InputError(f"{path}: payload columns must be all of {' '.join(WRENCH)}, found only {' '.join(has_w)}")
+    known = {"config", "frame", "weight", *XYZ, *WRENCH, *joints, *(f"q{k + 1}" for k in range(len(joints)))}
+    unused = [h for h in header if h not in known]
     by_posture: dict[bytes, str] = {}
     cfg_of, configs, Qrows, cfg_line = {}, [], [], {}
     post, frm, xyz, wt, lines, loads = [], [], [], [], [], {}
+    unseen: list[int] = []
     for lineno, row in enumerate(reader, start=2):
         if not row or all(not x.strip() for x in row):
             continue
         if len(row) != len(header):
             raise InputError(f"{path}, line {lineno}: {len(row)} fields, the header has {len(header)}")
         q = np.array([0.0 if k is None else parse_number(row[k], path, lineno, header[k]) for k in jcols])
+        if all(row[col[c]].strip().lower() in UNSEEN for c in XYZ):
+            unseen.append(lineno)  # the marker was not seen in this posture: no point, not an error
+            continue
         if "config" in col:
             label = row[col["config"]].strip()
         else:  # one configuration per distinct posture
@@ -191,7 +199,9 @@ def read_absolute(
         wt.append(w)
         lines.append(lineno)
     if not xyz:
-        raise InputError(f"{path}: no data rows")
+        raise InputError(
+            f"{path}: no data rows" + (f" with a measured position ({len(unseen)} without)" if unseen else "")
+        )
     wt = np.array(wt)
     if not np.any(wt > 0):
         raise InputError(f"{path}: every row has weight 0")
@@ -209,6 +219,17 @@ def read_absolute(
         payloads=[(p, f, w) for (p, f), (w, _ln) in loads.items() if np.any(w)],
     )
     data.warnings = plausibility(data)
+    if unseen:
+        shown = ", ".join(map(str, unseen[:8])) + (", ..." if len(unseen) > 8 else "")
+        data.warnings.append(
+            f"{path}: {len(unseen)} row(s) without a measured position (x, y, z all empty or NaN: the marker "
+            f"was not seen) left out: line(s) {shown}"
+        )
+    if unused:
+        data.warnings.append(
+            f"{path}: column(s) {', '.join(repr(h) for h in unused)} not used (neither an actuated joint of the "
+            f"URDF nor config, frame, x, y, z, weight, fx..mz); a misspelt joint name?"
+        )
     if held:
         data.warnings.append(
             f"{path}: no column for {', '.join(held)}: these joints move no measured frame and are held at 0 "

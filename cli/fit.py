@@ -206,8 +206,8 @@ def run(args: argparse.Namespace) -> int:
 def run_absolute(args: argparse.Namespace) -> int:
     """``fit`` on absolute measurements (docs/calibration.md section 6.4)."""
     model, data = load_absolute(args.model, args.measurements)
-    for w in data.warnings:
-        print(f"warning: {w}")
+    for w in data.warnings:  # stderr, one line each, like every command's warnings
+        V.warn(w, key=("data", w))
     fit = fit_absolute(model, data, sigma_position=args.sigma, cv=args.cv or 0, robust=args.robust)
     print(
         f"model {args.model}: {len(model.effects)} effect(s), {len(model.params)} parameters; "

@@ -57,3 +57,39 @@ def test_a_joint_on_the_measured_path_is_required(tmp_path):
     m, d = files(tmp_path, "j1,neck,x,y,z", ["0.1,0.2,1,2,3"])
     with pytest.raises(stiffkit.InputError, match=r"missing joint column\(s\) j2 \(they move a measured frame"):
         load_absolute(m, d)
+
+
+def test_rows_whose_marker_was_not_seen_are_left_out_with_their_lines(tmp_path):
+    """A tracker export marks an occluded marker by empty or NaN x, y, z:
+    those rows carry no point and are left out (named, by line); a row with
+    only some of x, y, z missing is an error."""
+    rows = ["0.1,0.2,0,1,2,3", "0.1,0.2,0,,,", "0.3,-0.2,0,1,2.2,3", "0.3,-0.2,0,NaN,nan,NAN", "0.5,0.1,0,1,2,3.1"]
+    m, d = files(tmp_path, "j1,j2,neck,x,y,z", rows)
+    model, data = load_absolute(m, d)
+    assert data.n == 3 and list(data.lines) == [2, 4, 6]
+    assert any("2 row(s) without a measured position" in w and "line(s) 3, 5" in w for w in data.warnings)
+    rows[1] = "0.1,0.2,0,1,,3"
+    m, d = files(tmp_path, "j1,j2,neck,x,y,z", rows)
+    with pytest.raises(stiffkit.InputError, match=r"line 3: field 'y' = '' is not a number"):
+        load_absolute(m, d)
+    m, d = files(tmp_path, "j1,j2,neck,x,y,z", ["0.1,0.2,0,,,"])
+    with pytest.raises(stiffkit.InputError, match=r"no data rows with a measured position \(1 without\)"):
+        load_absolute(m, d)
+
+
+def test_a_column_that_is_not_used_is_named(tmp_path):
+    """An extra column (a time stamp, a misspelt joint that moves no marker)
+    is read past with a warning naming it, on stderr from the command line."""
+    m, d = files(tmp_path, "time,j1,j2,nek,x,y,z", ["0,0.1,0.2,0,1,2,3", "1,0.3,-0.2,0,1,2.2,3"])
+    model, data = load_absolute(m, d)
+    assert any("column(s) 'time', 'nek' not used" in w for w in data.warnings)
+    import contextlib
+    import io
+
+    from stiffkit.cli import main
+
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+        main(["fit", str(m), str(d)])
+    assert "stiffkit fit: warning: " in err.getvalue() and "'nek' not used" in err.getvalue()
+    assert "not used" not in out.getvalue()
