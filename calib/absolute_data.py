@@ -26,6 +26,8 @@ __all__ = ["AbsoluteData", "read_absolute", "write_absolute", "WRENCH"]
 
 WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
 XYZ = ["x", "y", "z"]
+#: how far (rad or m, relative above 1) a mimic joint's column may stray from its <mimic> law
+MIMIC_TOL = 1e-6
 #: what x, y and z all read in a row whose marker the tracker did not see
 UNSEEN = ("", "nan", "na", "n/a", "-")
 
@@ -91,8 +93,10 @@ def read_absolute(
     needed: set[str] | None = None,
 ) -> AbsoluteData:
     """Read an absolute-measurement CSV for a robot with actuated ``joints``
-    (URDF order) and marker ``frames``; ``mimic`` names the joints whose
-    value follows another (a column for them is an error, not ignored);
+    (URDF order) and marker ``frames``; ``mimic`` maps the joints whose
+    value follows another to their actuated leader, or to (leader,
+    multiplier, offset): then a column for one is checked against that law
+    on every row (and an error where it strays), else it is an error;
     ``needed``: the joints that move a marker frame (the others may be left
     out of the file: held at 0, with a warning). Without a ``config`` column,
     rows with the same joint values are one configuration."""
@@ -115,11 +119,19 @@ def read_absolute(
         raise InputError(f"{path}: duplicate column(s) {', '.join(dup)} in the header")
     col = {h: k for k, h in enumerate(header)}
     mimic = mimic or {}
+    # a column for a mimic joint (joint_states lists them too): with its law
+    # known, read as a check against the law; without, an error
+    mimic_cols = {}
     for h in header:
-        if h in mimic:
+        if h not in mimic:
+            continue
+        law = mimic[h]
+        if isinstance(law, str) or law[0] not in header:
+            lead = law if isinstance(law, str) else law[0]
             raise InputError(
-                f"{path}: column {h!r} is a mimic joint (it follows {mimic[h]!r}); give only the actuated joints"
+                f"{path}: column {h!r} is a mimic joint (it follows {lead!r}); give only the actuated joints"
             )
+        mimic_cols[h] = law
     held: list[str] = []
     if all(f"q{k + 1}" in col for k in range(len(joints))) and not any(j in col for j in joints):
         jcols = [col[f"q{k + 1}"] for k in range(len(joints))]
@@ -142,7 +154,8 @@ def read_absolute(
     has_w = [c for c in WRENCH if c in col]
     if has_w and len(has_w) != 6:
         raise InputError(f"{path}: payload columns must be all of {' '.join(WRENCH)}, found only {' '.join(has_w)}")
-    known = {"config", "frame", "weight", *XYZ, *WRENCH, *joints, *(f"q{k + 1}" for k in range(len(joints)))}
+    known = {"config", "frame", "weight", *XYZ, *WRENCH, *joints, *mimic_cols}
+    known |= {f"q{k + 1}" for k in range(len(joints))}
     unused = [h for h in header if h not in known]
     by_posture: dict[bytes, str] = {}
     cfg_of, configs, Qrows, cfg_line = {}, [], [], {}
@@ -154,6 +167,15 @@ def read_absolute(
         if len(row) != len(header):
             raise InputError(f"{path}, line {lineno}: {len(row)} fields, the header has {len(header)}")
         q = np.array([0.0 if k is None else parse_number(row[k], path, lineno, header[k]) for k in jcols])
+        for h, (lead, mult, off) in mimic_cols.items():
+            v = parse_number(row[col[h]], path, lineno, h)
+            expect = mult * parse_number(row[col[lead]], path, lineno, lead) + off
+            if abs(v - expect) > MIMIC_TOL * max(1.0, abs(expect)):
+                raise InputError(
+                    f"{path}, line {lineno}: column {h!r} is a mimic joint (it follows {lead!r}): {v:.6g} here, but "
+                    f"its <mimic> law gives {mult:g} x {lead} + {off:g} = {expect:.6g}; leave the column out, or "
+                    f"remove the <mimic> tag from the URDF if this joint moves on its own"
+                )
         if all(row[col[c]].strip().lower() in UNSEEN for c in XYZ):
             unseen.append(lineno)  # the marker was not seen in this posture: no point, not an error
             continue
@@ -224,6 +246,11 @@ def read_absolute(
         data.warnings.append(
             f"{path}: {len(unseen)} row(s) without a measured position (x, y, z all empty or NaN: the marker "
             f"was not seen) left out: line(s) {shown}"
+        )
+    if mimic_cols:
+        data.warnings.append(
+            f"{path}: column(s) {', '.join(repr(h) for h in mimic_cols)} of mimic joint(s) agree with the URDF's "
+            f"<mimic> law on every row: read as a check, the values used are computed from the leaders"
         )
     if unused:
         data.warnings.append(

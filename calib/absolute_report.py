@@ -25,7 +25,7 @@ def load_absolute(model_path: str | Path, meas_path: str | Path) -> tuple:
     model's joints and marker frames)."""
     model = load_tree_model(model_path)
     tree = model.tree
-    mimic = {j.name: j.mimic[0] for j in tree.joints if j.mimic is not None}
+    mimic = {j.name: tree.leader(j.name) for j in tree.joints if j.mimic is not None}
     needed = {tree.leader(j.name)[0] for f in model.frames for j in tree.path(f) if j.moving}
     data = read_absolute(meas_path, model.actuated, model.frames, mimic, needed)
     return model, data

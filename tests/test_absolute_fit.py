@@ -320,6 +320,31 @@ def test_bad_joint_columns(da, op, column, fragment):
     assert fragment in one_line(exc, p)
 
 
+def test_a_mimic_column_is_checked_against_its_law(da):
+    """joint_states lists mimic joints too: a column for one that follows
+    the URDF's <mimic> law is read as a check (warned), one that strays from
+    it is an error naming the line, the values and the law."""
+    out, model, _mimic, lines = da
+    laws = {j.name: model.tree.leader(j.name) for j in model.tree.joints if j.mimic}
+    lead, mult, off = laws["torso_4a"]
+    table = [ln.split(",") for ln in lines]
+    k = table[0].index(lead)
+    for n, row in enumerate(table):
+        row.append("torso_4a" if n == 0 else repr(mult * float(row[k]) + off))
+    p = out / "mimic_ok.csv"
+    p.write_text("\n".join(",".join(row) for row in table) + "\n")
+    good = read_absolute(out / "measurements.csv", model.actuated, model.frames, laws)
+    data = read_absolute(p, model.actuated, model.frames, laws)
+    np.testing.assert_array_equal(data.Q, good.Q)
+    assert any("'torso_4a' of mimic joint(s) agree" in w for w in data.warnings)
+    table[3][-1] = repr(float(table[3][-1]) + 0.01)
+    p.write_text("\n".join(",".join(row) for row in table) + "\n")
+    with pytest.raises(stiffkit.InputError) as exc:
+        read_absolute(p, model.actuated, model.frames, laws)
+    msg = one_line(exc, p)
+    assert "line 4: column 'torso_4a' is a mimic joint (it follows 'torso_2')" in msg and "<mimic> law" in msg
+
+
 def test_bad_negative_mass(da):
     out, *_ = da
     u = out / "neg.urdf"
