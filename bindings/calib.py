@@ -104,6 +104,36 @@ def score(
     return stat, dof, pr
 
 
+def neighbour_correlation(
+    x: np.ndarray,
+    e: np.ndarray,
+    w: np.ndarray,
+    group: np.ndarray,
+    cls: np.ndarray,
+    nperm: int = 999,
+    seed: int = 12345,
+) -> tuple[float, float, np.ndarray]:
+    """Is the residual ``e`` (n, k) a function of ``x`` (n, d), or noise?
+    (rho, p-value, nn): rho, the correlation of every point's residual with
+    that of its nearest point by x among the points of the same class
+    ``cls`` (n,) and another ``group`` (n,) (weights ``w`` > 0 only); the
+    p-value of ``nperm`` random pairings; nn (n,) the neighbour of each
+    point (-1: none)."""
+    x = np.asarray(x, float)
+    e = np.asarray(e, float)
+    rho, pval, nn, info = _calib.sk_neighbour_correlation(
+        np.asfortranarray(x.T),
+        np.asfortranarray(e.T),
+        np.asarray(w, float),
+        np.asarray(group, np.int32),
+        np.asarray(cls, np.int32) + 1,
+        int(nperm),
+        int(seed),
+    )
+    check(info, "neighbour correlation (sk_neighbour_correlation)", {6: "nperm must be >= 1", 8: "too few points"})
+    return float(rho), float(pval), nn.astype(int) - 1
+
+
 def max_score(
     a: np.ndarray,
     z: np.ndarray,

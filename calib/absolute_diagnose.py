@@ -32,14 +32,30 @@ import numpy as np
 
 from .._core import calib as core_calib
 from .._core import tree as core
+from ..errors import StiffkitError
 from ..robot.tree_model import TreeModel, tree_model_from_tables
 from .absolute_data import AbsoluteData
-from .absolute_fit import AbsoluteFit, _loads, _marker_index, fit_absolute, position_stats
+from .absolute_fit import (
+    AbsoluteFit,
+    _loads,
+    _marker_index,
+    _nonnegative,
+    _solve,
+    fit_absolute,
+    position_stats,
+    predict,
+)
 from .checks import outlier_rows, unit_slips
 from .crossval import config_folds, held_out_residuals
 from .diagnose import Candidate
 
-__all__ = ["AbsoluteDiagnosis", "diagnose_absolute", "absolute_candidates", "format_absolute_diagnosis"]
+__all__ = [
+    "AbsoluteDiagnosis",
+    "diagnose_absolute",
+    "absolute_candidates",
+    "format_absolute_diagnosis",
+    "residual_structure",
+]
 
 ALPHA = 0.01
 #: gross errors are judged against the residual of a model that may still lack effects (whose errors
@@ -54,6 +70,19 @@ CV_GAIN = 0.02
 #: a smaller candidate contained in the best one is proposed first when it achieves this share of
 #: the best one's held-out improvement (joint offsets before the frame errors that contain them)
 NESTED_SHARE = 0.5
+#: the residual's structure (when nothing is proposed): two neighbour-correlation permutation
+#: tests (neighbouring postures, configurations measured one after the other), each at half
+#: this level
+STRUCTURE_ALPHA = 0.01
+#: a proposal is checked by fitting the model with it (at most this many candidates): the fit
+#: must realise this share of the in-sample improvement the linear prediction promised
+VERIFY_TOP = 3
+VERIFY_SHARE = 0.5
+VERIFY_MAXIT = 5
+STRUCTURE_PERMUTATIONS = 999
+#: consecutive configurations closer in posture than this many times the nearest other posture:
+#: the order test cannot tell drift from a posture effect
+PATH_GAP = 1.5
 #: per joint kinds, and the template of link / base springs among the candidates
 JOINT_KINDS = ("joint_offset", "frame", "joint", "lateral")
 SPRING_TEMPLATE = "beam"
@@ -80,6 +109,8 @@ class AbsoluteDiagnosis:
     statistic: float = 0.0
     dof: float = 0.0
     log_p: float = 0.0
+    nothing_fits: bool = False
+    residual_structure: dict | None = None
 
     @property
     def floor(self) -> float:
@@ -104,6 +135,8 @@ class AbsoluteDiagnosis:
             "data_checks": self.data_checks,
             "proposal": self.proposal.effect if self.proposal is not None else None,
             "ties": self.ties,
+            "nothing_fits": self.nothing_fits,
+            "residual_structure": self.residual_structure,
             "no_proposal_reasons": self.reasons,
             "warnings": self.warnings,
             "non_identifiable_candidates": [
@@ -313,9 +346,38 @@ def diagnose_absolute(
         for c, _ in top
         if c.log_p < crit and c.cv_rms_position_m is not None and c.cv_rms_position_m < cv_base * (1 - CV_GAIN)
     ]
-    if useful:
-        best = min(useful, key=lambda c: c.cv_rms_position_m)
-        best = _smaller_first(best, useful, {id(c): cols for c, cols in top}, A, r, J, col, cv_base)
+    best = None
+    tried: set[str] = set()
+    notes: list[str] = []
+    cols_of = {id(c): cols for c, cols in top}
+    kept_set = set(kept_names)
+    for lead in sorted(useful, key=lambda c: c.cv_rms_position_m)[:VERIFY_TOP]:
+        # the linear prediction is checked by a fit with the candidate added: a compliance
+        # that would have to be negative is held at 0 there, and then nothing changes
+        cand = _smaller_first(lead, useful, cols_of, A, r, J, col, cv_base)
+        for c in [cand] + ([lead] if lead is not cand else []):
+            if c.label in tried:
+                continue
+            tried.add(c.label)
+            rms_new = _refit_rms(m, theta, kept_set, c, data, w)
+            want = fit.rms_position - c.rms_after_m
+            if rms_new is not None and fit.rms_position - rms_new >= VERIFY_SHARE * want:
+                best = c
+                break
+            notes.append(
+                f"{c.label} would lower the held-out RMS to {c.cv_rms_position_m * 1e3:.4g} mm as a linear "
+                f"change, but fitted it does not ("
+                + (f"RMS {fit.rms_position * 1e3:.4g} -> {rms_new * 1e3:.4g} mm" if rms_new is not None else "no fit")
+                + "; its values sit at a bound, e.g. a compliance held at 0)"
+            )
+        if best is not None:
+            break
+    useful = [c for c in useful if c.label not in tried or c is best]
+    if best is None:
+        dg.reasons += notes
+    else:
+        dg.warnings += [f"not proposed: {n}" for n in notes]
+    if best is not None:
         margin = best.cv_rms_position_m * CV_GAIN
         rivals = [
             c
@@ -332,17 +394,20 @@ def diagnose_absolute(
         dg.proposal = best
         dg.verdict = "inadequate"
     else:
-        if ranked and ranked[0][0].log_p < crit:
+        if ranked and ranked[0][0].log_p < crit and not tried:
             dg.reasons.append(
                 "the leading candidates are significant but none lowers the held-out error by more than "
                 f"{CV_GAIN:.0%}: they would fit noise or the fit's own flexibility"
             )
         if sig_decl and log_p < math.log(alpha):
             dg.verdict = "inadequate"
+            dg.nothing_fits = True
             dg.reasons.append(
                 "the residual is larger than the declared noise, but no catalogued effect explains it: look at "
                 "the data checks and at the residual's shape (fit --plots)"
             )
+        if not sig_decl or dg.verdict == "inadequate":
+            _structure_verdict(dg, data, fit, w)
     if not sig_decl:
         dg.warnings.append(
             "no sigma_position declared: the residual cannot be called noise by a chi-square test; the verdict "
@@ -351,6 +416,120 @@ def diagnose_absolute(
     if nres < 30:
         dg.warnings.append(f"only {nres} residual degrees of freedom: the tests have little power")
     return dg
+
+
+def residual_structure(data: AbsoluteData, residual: np.ndarray, w: np.ndarray, model: TreeModel) -> dict:
+    """Is what the model leaves a function of the posture, or of the order
+    of measurement (drift), rather than noise? Two permutation tests of the
+    neighbour correlation (core sk_calib neighbour_correlation): each
+    point's error against that of the same marker in the nearest other
+    posture (distance over the joints that move that marker), and in the
+    configuration measured just before or after it (the file's order)."""
+    tree = model.tree
+    x = np.zeros((data.n, len(data.joints)))
+    for fi, frame in enumerate(data.frames):
+        moving = {tree.leader(j.name)[0] for j in tree.path(frame) if j.moving}
+        mask = np.array([j in moving for j in data.joints], float)
+        rows = data.frame == fi
+        x[rows] = data.Q[data.posture[rows]] * mask
+    out: dict = {"permutations": STRUCTURE_PERMUTATIONS, "alpha": STRUCTURE_ALPHA}
+    gap = {}
+    for key, coords in (("posture", x), ("order", data.posture[:, None].astype(float))):
+        try:
+            rho, pval, nn = core_calib.neighbour_correlation(
+                coords, residual, w, data.posture, data.frame, STRUCTURE_PERMUTATIONS
+            )
+        except StiffkitError:  # too few points with a neighbour: no test
+            continue
+        out[key] = {"neighbour_correlation": rho, "p_value": pval}
+        has = nn >= 0
+        # how far apart in posture the neighbours of this test are (rad, over the marker's joints)
+        gap[key] = float(np.median(np.linalg.norm(x[has] - x[nn[has]], axis=1))) if has.any() else float("nan")
+    if "order" in out and "posture" in out:
+        # measured along a path, consecutive configurations are near in posture too: the
+        # order test then also sees effects of the posture
+        ratio = gap["order"] / gap["posture"] if gap["posture"] > 0 else None
+        out["order"]["posture_gap_ratio"] = ratio if ratio is not None and math.isfinite(ratio) else None
+    return out
+
+
+def _structure_verdict(dg: AbsoluteDiagnosis, data: AbsoluteData, fit: AbsoluteFit, w: np.ndarray) -> None:
+    """No candidate proposed: say whether the residual is still structured
+    (then nothing in the catalogue fits, and what the structure suggests)."""
+    st = residual_structure(data, fit.residual, w, fit.model)
+    dg.residual_structure = st
+    found = {
+        k: v
+        for k, v in st.items()
+        if isinstance(v, dict) and v["p_value"] < STRUCTURE_ALPHA / 2 and v["neighbour_correlation"] > 0
+    }
+    if not found:
+        return
+    dg.nothing_fits = True
+    dg.verdict = "inadequate"
+    rms = fit.rms_position * 1e3
+    if "posture" in found:
+        v = found["posture"]
+        dg.reasons.append(
+            f"nothing in the catalogue fits, yet the residual ({rms:.3g} mm RMS) is not noise: the errors of "
+            f"neighbouring postures are alike (correlation {v['neighbour_correlation']:.2f}, p = {v['p_value']:.2g} "
+            f"by {st['permutations']} permutations). An effect that varies with the posture is missing that no "
+            "catalogued kind describes (e.g. a transmission error cyclic in a joint angle, a deformation of "
+            "another law); its shape against each joint's angle and gravity torque: stiffkit fit --plots"
+        )
+    if "order" in found:
+        v = found["order"]
+        text = (
+            f"the errors of configurations measured one after the other are alike (correlation "
+            f"{v['neighbour_correlation']:.2f}, p = {v['p_value']:.2g}): drift during the measurement "
+            "(temperature, the tracker's own drift)? Check against reference points measured at the start "
+            "and the end; the residual against the row order: stiffkit fit --plots"
+        )
+        if v.get("posture_gap_ratio") is not None and v["posture_gap_ratio"] < PATH_GAP:
+            text += (
+                "; but consecutive configurations are also near in posture here (measured along a path): "
+                "drift and an effect of the posture cannot be told apart by these data (measure in a "
+                "shuffled order, or repeat a few postures at the start and the end)"
+            )
+        dg.reasons.append(text)
+
+
+def _refit_rms(
+    m: TreeModel,
+    theta: np.ndarray,
+    kept: set[str],
+    cand: Candidate,
+    data: AbsoluteData,
+    w: np.ndarray,
+) -> float | None:
+    """RMS point error (m) of the fitted model ``m`` plus the candidate's
+    effect, fitted: LM from the fitted values (the candidate at 0) on the
+    identified parameters and the candidate's, compliances that come out
+    negative held at 0 and the rest fitted again, as the fit does. None
+    when that fails."""
+    try:
+        mc = tree_model_from_tables(
+            m.tree, list(m.effects) + [dict(cand.effect)], m.gravity, m.iterations, "diagnosis", m.sigma_position
+        )
+        mc.arrays["rref"] = np.asfortranarray(m.arrays["rref"])
+        th = mc.theta0.copy()
+        for k, name in enumerate(mc.names):
+            if name in m.names:
+                th[k] = theta[m.index(name)]
+        free = np.array([k for k, name in enumerate(mc.names) if name in kept or name not in m.names], int)
+        free = np.array([k for k in free if mc.params[k].free], int)
+        mc, sol = _solve(mc, data, th, free, w, VERIFY_MAXIT)
+        th = sol["theta"]
+        neg = [k for k in free if _nonnegative(mc.params[k]) and th[k] < 0]
+        if neg:
+            th = th.copy()
+            th[neg] = 0.0
+            mc, sol = _solve(mc, data, th, np.array([k for k in free if k not in neg], int), w, VERIFY_MAXIT)
+            th = sol["theta"]
+        d = np.linalg.norm(data.xyz - predict(mc, data, th)["pred"], axis=1)[w > 0]
+    except StiffkitError:
+        return None
+    return float(np.sqrt(np.mean(d**2))) if d.size else None
 
 
 def _smaller_first(
@@ -452,6 +631,15 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
         )
     for t in dg.ties:
         lines.append("tied (held-out errors within the margin): " + ", ".join(t["candidates"]))
+    st = dg.residual_structure or {}
+    for key, what in (("posture", "neighbouring postures"), ("order", "consecutive configurations")):
+        if isinstance(st.get(key), dict):
+            v = st[key]
+            lines.append(
+                f"residual structure: {what}: correlation {v['neighbour_correlation']:.3f}, p = {v['p_value']:.3g}"
+            )
+    if dg.nothing_fits:
+        lines.append("NOTHING IN THE CATALOGUE FITS")
     for r in dg.reasons:
         lines.append(f"no proposal: {r}")
     if dg.proposal is not None:

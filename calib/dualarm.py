@@ -57,6 +57,8 @@ __all__ = [
     "dualarm_postures",
     "dualarm_targets",
     "synth_dualarm",
+    "add_hidden_effect",
+    "HIDDEN_EFFECTS",
 ]
 
 #: (name, type, parent, child, xyz, rpy, axis, mimic (leader, multiplier, offset) or None)
@@ -433,6 +435,44 @@ def synth_dualarm(
     write_absolute(out / "measurements.csv", data)
     atomic_write_text(out / "targets.csv", "\n".join(_csv_rows(dualarm_targets(targets), list(MARKERS), "t")) + "\n")
     return out
+
+
+#: effects outside the catalogue that add_hidden_effect can put into the data
+HIDDEN_EFFECTS = ("cyclic", "drift")
+#: joints of the cyclic transmission error
+CYCLIC_JOINTS = ("left_2", "right_2", "left_4", "right_4")
+
+
+def add_hidden_effect(out: str | Path, kind: str, amount: float, seed: int, sigma: float = DEFAULT_SIGMA) -> None:
+    """Regenerate the measurements of a ``synth_dualarm`` folder from its
+    truth with an effect no catalogued kind describes (for testing the
+    diagnosis): ``cyclic``, an eccentric gear or encoder in four joints
+    (q_true = q + amount sin 2q, amount in rad), or ``drift``, the tracker
+    drifting linearly over the measurement (amount in m at the end, along
+    a fixed direction); fresh noise ``sigma`` drawn with ``seed``. The
+    commanded joint values in the file stay as they were."""
+    from .absolute_fit import predict
+    from .absolute_report import load_absolute
+
+    if kind not in HIDDEN_EFFECTS:
+        raise InputError(f"hidden effect {kind!r}: choose one of {', '.join(HIDDEN_EFFECTS)}")
+    out = Path(out)
+    truth = tree_model_from_tables(
+        load_tree(out / "robot.urdf"), dualarm_truth(out / "robot.urdf"), GRAVITY, where=str(out / "truth.toml")
+    )
+    _model, data = load_absolute(out / "model.toml", out / "measurements.csv")
+    rng = np.random.default_rng(seed)
+    moved = AbsoluteData(**{k: getattr(data, k) for k in data.__dataclass_fields__})
+    moved.Q = data.Q.copy()
+    if kind == "cyclic":
+        for j in CYCLIC_JOINTS:
+            k = data.joints.index(j)
+            moved.Q[:, k] += amount * np.sin(2 * data.Q[:, k])
+    pts = predict(truth, moved, truth.theta0)["pred"] + sigma * rng.normal(size=data.xyz.shape)
+    if kind == "drift":
+        pts += amount * np.outer(data.posture / max(data.posture.max(), 1), [1.0, 0.5, -0.3]) / math.sqrt(1.34)
+    data.xyz = pts
+    write_absolute(out / "measurements.csv", data)
 
 
 def summary(out: str | Path, configs: int, targets: int) -> str:

@@ -102,6 +102,20 @@ subroutine sk_max_score(n, p, nz, nc1, a, z, cstart, rcond, ztol, lobs, dpe, nsi
     call max_score_test(a, z, cstart, rcond, ztol, lobs, dpe, nsim, seed, pval, info)
 end subroutine sk_max_score
 
+!> Neighbour correlation of residuals, a permutation test of structure
+!> (sk_calib%neighbour_correlation).
+subroutine sk_neighbour_correlation(d, k, n, x, e, w, grp, cls, nperm, seed, rho, pval, nn, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_calib, only: neighbour_correlation
+    implicit none
+    integer(c_int), intent(in) :: d, k, n, nperm, seed
+    real(c_double), intent(in) :: x(d, n), e(k, n), w(n)
+    integer(c_int), intent(in) :: grp(n), cls(n)
+    real(c_double), intent(out) :: rho, pval
+    integer(c_int), intent(out) :: nn(n), info
+    call neighbour_correlation(x, e, w, grp, cls, nperm, seed, rho, pval, nn, info)
+end subroutine sk_neighbour_correlation
+
 !> Sparse relations between coupled parameters (sk_calib%null_relations).
 subroutine sk_null_relations(p, nr, v, nrank, tol, rel, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int

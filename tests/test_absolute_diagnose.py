@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from stiffkit._core import tree as core
-from stiffkit.calib.absolute_diagnose import diagnose_absolute
+from stiffkit.calib.absolute_diagnose import diagnose_absolute, format_absolute_diagnosis
 from stiffkit.calib.absolute_report import load_absolute
 from stiffkit.calib.diagnose import effect_toml
-from stiffkit.calib.dualarm import synth_dualarm
+from stiffkit.calib.dualarm import add_hidden_effect, synth_dualarm
 from stiffkit.cli import main
 from stiffkit.robot.tree_model import EQ_TOL, load_tree_model
 
@@ -72,6 +72,10 @@ def test_diagnosis_json_and_no_false_proposal_at_the_end(loop, tmp_path):
         assert key in d
     assert d["verdict"] == "adequate" and d["proposal"] is None
     assert d["sigma_source"].startswith("estimated")
+    # what is left is noise: no structure in posture nor in the order of measurement
+    assert d["nothing_fits"] is False
+    st = d["residual_structure"]
+    assert st["posture"]["p_value"] > 0.005 and st["order"]["p_value"] > 0.005
     best = d["candidates"][0]
     assert {"kind", "target", "statistic", "p_value", "explained_fraction", "rms_after_m", "effect"} <= set(best)
     # the leftover candidates fit noise: none lowers the held-out error
@@ -162,3 +166,51 @@ def test_a_configuration_in_mm_is_named_and_set_aside(loop, tmp_path):
     assert [s["config"] for s in dg.data_checks["unit_slips"]] == [label]
     assert dg.proposal is None
     assert dg.fit.rms_position < 1.1 * math.sqrt(3) * 1e-4
+
+
+def _with_hidden_effect(out, kind: str, amount: float, seed: int):
+    """The dual-arm data with an effect outside the catalogue
+    (calib.dualarm.add_hidden_effect); the model: the truth's kinds on
+    every joint, values to identify."""
+    text = (out / "model.toml").read_text()
+    for k in sorted(TRUTH_KINDS - {"tracker", "marker"}):
+        text += f'\n[[effect]]\nkind = "{k}"\ntarget = "all"\n'
+    (out / "model.toml").write_text(text)
+    add_hidden_effect(out, kind, amount, seed)
+    return load_absolute(out / "model.toml", out / "measurements.csv")
+
+
+@pytest.mark.parametrize(
+    "kind, amount, reason",
+    [("cyclic", 3e-3, "errors of neighbouring postures are alike"), ("drift", 8e-4, "drift during the measurement")],
+)
+def test_an_effect_outside_the_catalogue_is_said_plainly(tmp_path, kind, amount, reason):
+    """An effect no catalogued kind describes (issue 9's nothing-fits, on
+    absolute data without a declared sigma): no proposal that does not
+    lower the held-out error, the verdict inadequate, the residual's
+    structure named (posture or order of measurement), in the text and the
+    JSON."""
+    out = synth_dualarm(tmp_path / kind, configs=300, seed=11)
+    model, data = _with_hidden_effect(out, kind, amount, seed=12)
+    # a catalogued effect may absorb part of it (a proposal that lowers the
+    # held-out error): the user adds it; within three steps nothing fits
+    for _step in range(4):
+        dg = diagnose_absolute(model, data)
+        if dg.proposal is None:
+            break
+        text = (out / "model.toml").read_text().rstrip() + "\n\n" + effect_toml(dg.proposal.effect) + "\n"
+        (out / "model.toml").write_text(text)
+        model, data = load_absolute(out / "model.toml", out / "measurements.csv")
+    assert dg.proposal is None and dg.verdict == "inadequate" and dg.nothing_fits
+    assert dg.fit.rms_position > 1.3 * math.sqrt(3) * 1e-4  # the effect is there to see
+    key, other = ("posture", "order") if kind == "cyclic" else ("order", "posture")
+    st = dg.residual_structure
+    assert st[key]["p_value"] < 0.005 and st[key]["neighbour_correlation"] > 0.05
+    assert st[other]["p_value"] > 0.005
+    assert any(reason in r for r in dg.reasons)
+    # postures in a random order: consecutive ones are not neighbours in posture
+    assert not any("cannot be told apart" in r for r in dg.reasons)
+    text = format_absolute_diagnosis(dg)
+    assert "NOTHING IN THE CATALOGUE FITS" in text and reason in text
+    js = json.loads(json.dumps(dg.to_json()))
+    assert js["nothing_fits"] is True and js["verdict"] == "inadequate"

@@ -1,6 +1,7 @@
 !> Unit tests of sk_calib: least squares with a duplicated and a zero column
 !> (groups, null-space relations), score tests, greedy selection, and the
-!> chi-square / F tail probabilities in log space.
+!> chi-square / F tail probabilities in log space, and the neighbour
+!> correlation test of a residual's structure.
 program test_calib
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
@@ -13,6 +14,7 @@ program test_calib
     call test_tails()
     call test_select()
     call test_max_score()
+    call test_neighbours()
     call finish('calib')
 
 contains
@@ -119,5 +121,57 @@ contains
         call max_score_test(a, z(:, 1:1), [1, 2], 1.0e-10_dp, 1.0e-6_dp, lobs, 0, 0, 3, p, info)
         call expect(info == sk_err_argument, 'max score: nsim >= 1')
     end subroutine test_max_score
+
+    !> Neighbour correlation: the nearest point of another group and the
+    !> same class on a line; noise gives rho ~ 0 and a large p, a smooth
+    !> function of x rho near 1 and the smallest p; bad input codes.
+    subroutine test_neighbours()
+        integer, parameter :: n = 400, nperm = 199
+        real(dp) :: x(1, n), e(3, n), w(n), rho, pval, u(3, n), xs(1, 5), es(1, 5), ws(5)
+        integer(ip) :: grp(n), cls(n), nn(n), info, g5(5), c5(5), nn5(5)
+        integer :: i
+        ! five points on a line: 0, 1, 1.2, 3 (class 1) and 5 (class 2); points 2 and 3 share a group
+        xs(1, :) = [0.0_dp, 1.0_dp, 1.2_dp, 3.0_dp, 5.0_dp]
+        es(1, :) = [1.0_dp, -1.0_dp, 2.0_dp, 0.5_dp, 1.0_dp]
+        ws = 1.0_dp
+        g5 = [1, 2, 2, 3, 4]
+        c5 = [1, 1, 1, 1, 2]
+        call neighbour_correlation(xs, es, ws, g5, c5, 9_ip, 1_ip, rho, pval, nn5, info)
+        call expect(info == sk_ok, 'neighbours: small case runs')
+        call expect(all(nn5 == [2, 1, 1, 3, 0]), 'neighbours: nearest of another group, same class')
+        call expect(abs(rho - (-1.0_dp - 1.0_dp + 2.0_dp + 1.0_dp)/(1.0_dp + 1.0_dp + 4.0_dp + 0.25_dp)) < 1e-14_dp, &
+            'neighbours: rho of the small case')
+        ! noise, then a smooth function of x plus a little noise
+        call random_seed(put=[(12345 + 7*i, i=1, 64)])
+        do i = 1, n
+            x(1, i) = real(i, dp)/real(n, dp)*6.0_dp
+            grp(i) = (i + 1)/2
+            cls(i) = 1 + mod(i, 2)
+        end do
+        call random_number(u)
+        e = u - 0.5_dp
+        w = 1.0_dp
+        call neighbour_correlation(x, e, w, grp, cls, int(nperm, ip), 7_ip, rho, pval, nn, info)
+        call expect(info == sk_ok .and. abs(rho) < 0.2_dp .and. pval > 0.01_dp, 'neighbours: noise is not structure')
+        e(1, :) = e(1, :)*0.1_dp + sin(x(1, :))
+        call neighbour_correlation(x, e, w, grp, cls, int(nperm, ip), 7_ip, rho, pval, nn, info)
+        call expect(info == sk_ok .and. rho > 0.3_dp .and. abs(pval - 1.0_dp/(nperm + 1)) < 1e-15_dp, &
+            'neighbours: a smooth function of x is structure')
+        ! the same seed, the same p
+        block
+            real(dp) :: p2, r2
+            call neighbour_correlation(x, e*0.0_dp + u - 0.5_dp, w, grp, cls, int(nperm, ip), 7_ip, rho, pval, nn, info)
+            call neighbour_correlation(x, e*0.0_dp + u - 0.5_dp, w, grp, cls, int(nperm, ip), 7_ip, r2, p2, nn, info)
+            call expect(p2 == pval .and. r2 == rho, 'neighbours: reproducible')
+        end block
+        call neighbour_correlation(x, e, w, grp, cls, 0_ip, 7_ip, rho, pval, nn, info)
+        call expect(info == sk_err_argument, 'neighbours: nperm 0 refused')
+        call neighbour_correlation(x, e(:, 1:n - 1), w, grp, cls, 9_ip, 7_ip, rho, pval, nn, info)
+        call expect(info == sk_err_size, 'neighbours: sizes checked')
+        w = 0.0_dp
+        w(1:2) = 1.0_dp
+        call neighbour_correlation(x, e, w, grp, cls, 9_ip, 7_ip, rho, pval, nn, info)
+        call expect(info == sk_err_too_few, 'neighbours: too few points in use')
+    end subroutine test_neighbours
 
 end program test_calib
