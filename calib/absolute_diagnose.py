@@ -366,9 +366,9 @@ def diagnose_absolute(
                 break
             notes.append(
                 f"{c.label} would lower the held-out RMS to {c.cv_rms_position_m * 1e3:.4g} mm as a linear "
-                f"change, but fitted it does not ("
+                f"change, but a fit with it does not ("
                 + (f"RMS {fit.rms_position * 1e3:.4g} -> {rms_new * 1e3:.4g} mm" if rms_new is not None else "no fit")
-                + "; its values sit at a bound, e.g. a compliance held at 0)"
+                + ": a compliance held at 0, or the linear step does not hold)"
             )
         if best is not None:
             break
