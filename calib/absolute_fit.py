@@ -360,19 +360,6 @@ class AbsoluteFit:
         return out
 
 
-def _lm(
-    model: TreeModel,
-    data: AbsoluteData,
-    theta: np.ndarray,
-    free: np.ndarray,
-    weight: np.ndarray,
-    maxit: int,
-    eqit: int | None = None,
-) -> dict:
-    eqit = model.eqit if eqit is None else eqit
-    return core.lm(*_observations(model, data, theta), weight, free, eqit, EQ_TOL, maxit=maxit)
-
-
 def _solve(
     model: TreeModel,
     data: AbsoluteData,
@@ -384,7 +371,8 @@ def _solve(
 ) -> tuple[TreeModel, dict]:
     """LM from theta (``eqit`` overrides the model's equilibrium mode); the
     model returned carries the re-centred tracker rotation."""
-    r = _lm(model, data, theta, free, weight, maxit, eqit)
+    eqit = model.eqit if eqit is None else eqit
+    r = core.lm(*_observations(model, data, theta), weight, free, eqit, EQ_TOL, maxit=maxit)
     m = model.copy()
     m.arrays["rref"] = np.asfortranarray(r["rref"])
     return m, r

@@ -32,6 +32,7 @@ posture, Gaussian noise) and targets.csv (a held-out smooth trajectory for
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -462,8 +463,7 @@ def add_hidden_effect(out: str | Path, kind: str, amount: float, seed: int, sigm
     )
     _model, data = load_absolute(out / "model.toml", out / "measurements.csv")
     rng = np.random.default_rng(seed)
-    moved = AbsoluteData(**{k: getattr(data, k) for k in data.__dataclass_fields__})
-    moved.Q = data.Q.copy()
+    moved = replace(data, Q=data.Q.copy())
     if kind == "cyclic":
         for j in CYCLIC_JOINTS:
             k = data.joints.index(j)

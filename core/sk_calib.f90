@@ -17,7 +17,7 @@ module sk_calib
     use, intrinsic :: iso_fortran_env, only: int64
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: svd, all_finite, matmul_tn, sym_eig
+    use sk_linalg, only: svd, all_finite, matmul_tn, sym_eig, group_by
     implicit none
     private
     public :: wls_svd, score_tests, select_independent, chi2_logsf, f_logsf
@@ -645,7 +645,7 @@ contains
         integer(ip), intent(in) :: grp(:), cls(:), nperm, seed
         real(dp), intent(out) :: rho, pval
         integer(ip), intent(out) :: nn(:), info
-        integer, allocatable :: members(:), cstart(:), order(:)
+        integer, allocatable :: members(:), cstart(:)
         integer :: n, i, j, k, c, ncls, lo, hi, cnt, iperm, tries
         integer(int64) :: st
         real(dp) :: best, d2, num, den, rp
@@ -659,28 +659,11 @@ contains
         if (.not. (all_finite(x) .and. all_finite(e) .and. all_finite(w))) return
         info = sk_err_argument
         if (nperm < 1 .or. any(cls < 1)) return
-        ! the points in use of each class, contiguous
+        ! the points in use of each class, contiguous (points out of use: class ncls + 1)
         ncls = 0
         if (n > 0) ncls = maxval(cls)
-        allocate(cstart(ncls + 1), members(n), order(max(ncls, 1)))
-        cstart = 0
-        do i = 1, n
-            if (w(i) > 0.0_dp) cstart(cls(i)) = cstart(cls(i)) + 1
-        end do
-        k = 1
-        do c = 1, ncls
-            j = cstart(c)
-            cstart(c) = k
-            k = k + j
-        end do
-        cstart(ncls + 1) = k
-        order(1:ncls) = cstart(1:ncls)
-        do i = 1, n
-            if (w(i) > 0.0_dp) then
-                members(order(cls(i))) = i
-                order(cls(i)) = order(cls(i)) + 1
-            end if
-        end do
+        call group_by(merge(cls, int(ncls + 1, ip), w > 0.0_dp), ncls + 1, cstart, members, info)
+        if (info /= sk_ok) return
         ! nearest neighbours
         do c = 1, ncls
             lo = cstart(c)

@@ -15,7 +15,7 @@ module sk_linalg
     public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
     public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small, matmul_tn, psd_defect
-    public :: solve_inplace, lu_factor, lu_solve, qr_triangle, lstsq
+    public :: solve_inplace, lu_factor, lu_solve, qr_triangle, lstsq, group_by
 
     interface all_finite
         module procedure all_finite_1, all_finite_2, all_finite_3
@@ -878,5 +878,33 @@ contains
             end do
         end do
     end subroutine sym_eigvals_small
+
+    !> Group items by their key (1..nkey; e.g. payloads or observations
+    !> by posture): item idx(start(k):start(k+1)-1) have key k.
+    !> info = sk_err_argument for a key out of range.
+    subroutine group_by(key, nkey, start, idx, info)
+        integer(ip), intent(in) :: key(:)
+        integer, intent(in) :: nkey
+        integer, allocatable, intent(out) :: start(:), idx(:)
+        integer(ip), intent(out) :: info
+        integer :: i, nxt(nkey + 1)
+        allocate(start(nkey + 1), idx(size(key)))
+        info = sk_err_argument
+        if (any(key < 1) .or. any(key > nkey)) return
+        start = 0
+        do i = 1, size(key)
+            start(key(i) + 1) = start(key(i) + 1) + 1
+        end do
+        start(1) = 1
+        do i = 1, nkey
+            start(i + 1) = start(i + 1) + start(i)
+        end do
+        nxt = start
+        do i = 1, size(key)
+            idx(nxt(key(i))) = i
+            nxt(key(i)) = nxt(key(i)) + 1
+        end do
+        info = sk_ok
+    end subroutine group_by
 
 end module sk_linalg

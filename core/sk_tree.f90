@@ -103,7 +103,7 @@
 module sk_tree
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, cross, rot_exp, all_finite, lu_factor, lu_solve
+    use sk_linalg, only: eye, cross, rot_exp, all_finite, lu_factor, lu_solve, group_by
     use sk_spatial, only: sym_index, nsym
     implicit none
     private
@@ -554,34 +554,6 @@ contains
         integer, intent(in) :: a, b
         ancestor = m%pre(a) <= m%pre(b) .and. m%pre(b) < m%pre(a) + m%sub(a)
     end function ancestor
-
-    !> Group items by their key (1..nkey; payloads or observations by
-    !> posture): item idx(start(k):start(k+1)-1) have key k.
-    !> info = sk_err_argument for a key out of range.
-    subroutine group_by(key, nkey, start, idx, info)
-        integer(ip), intent(in) :: key(:)
-        integer, intent(in) :: nkey
-        integer, allocatable, intent(out) :: start(:), idx(:)
-        integer(ip), intent(out) :: info
-        integer :: i, nxt(nkey + 1)
-        allocate(start(nkey + 1), idx(size(key)))
-        info = sk_err_argument
-        if (any(key < 1) .or. any(key > nkey)) return
-        start = 0
-        do i = 1, size(key)
-            start(key(i) + 1) = start(key(i) + 1) + 1
-        end do
-        start(1) = 1
-        do i = 1, nkey
-            start(i + 1) = start(i + 1) + start(i)
-        end do
-        nxt = start
-        do i = 1, size(key)
-            idx(nxt(key(i))) = i
-            nxt(key(i)) = nxt(key(i)) + 1
-        end do
-        info = sk_ok
-    end subroutine group_by
 
     !> A problem: the model m (model_setup), postures q[ndof,np], payloads
     !> (lpost posture, lvj frame, lw[6] = (f, m) at the frame origin, base

@@ -364,26 +364,8 @@ contains
     contains
         subroutine row_form(n)
             integer, intent(in) :: n
-            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), t(n), lmax, bound
-            logical :: ok
-            integer :: i
-            mm = matmul(a, transpose(a))
-            lmax = 0.0_dp
-            do i = 1, n
-                lmax = lmax + mm(i, i)
-            end do
-            do i = 1, n
-                mm(i, i) = mm(i, i) + 1.0e-15_dp*lmax
-            end do
-            call spd_inverse_small(n, mm, mi, bound, ok)
-            if (.not. ok) then
-                call jacobi_eig(n, mm, lam, u)
-                lmax = max(lam(n), tiny(1.0_dp))
-                mi = 0.0_dp
-                do i = 1, n
-                    if (lam(i) > 1.0e-14_dp*lmax) mi = mi + spread(u(:, i), 2, n)*spread(u(:, i), 1, n)/lam(i)
-                end do
-            end if
+            real(dp) :: mi(n, n), t(n)
+            mi = gram_inverse(n, matmul(a, transpose(a)))
             t = matmul(mi, b)
             dq = matmul(t, a)
             dqn = 0.0_dp
@@ -393,10 +375,19 @@ contains
         end subroutine row_form
         subroutine column_form(n)
             integer, intent(in) :: n
-            real(dp) :: mm(n, n), mi(n, n), lam(n), u(n, n), lmax, bound
+            dq = matmul(gram_inverse(n, matmul(transpose(a), a)), matmul(b, a))
+            dqn = 0.0_dp
+        end subroutine column_form
+        !> Inverse of a Gram matrix mm[n,n] with a 1e-15 trace ridge; where
+        !> that is not positive definite, the pseudo-inverse by eigenvalues
+        !> (those below 1e-14 of the largest dropped).
+        function gram_inverse(n, mm0) result(mi)
+            integer, intent(in) :: n
+            real(dp), intent(in) :: mm0(n, n)
+            real(dp) :: mi(n, n), mm(n, n), lam(n), u(n, n), lmax, bound
             logical :: ok
             integer :: i
-            mm = matmul(transpose(a), a)
+            mm = mm0
             lmax = 0.0_dp
             do i = 1, n
                 lmax = lmax + mm(i, i)
@@ -405,17 +396,14 @@ contains
                 mm(i, i) = mm(i, i) + 1.0e-15_dp*lmax
             end do
             call spd_inverse_small(n, mm, mi, bound, ok)
-            if (.not. ok) then
-                call jacobi_eig(n, mm, lam, u)
-                lmax = max(lam(n), tiny(1.0_dp))
-                mi = 0.0_dp
-                do i = 1, n
-                    if (lam(i) > 1.0e-14_dp*lmax) mi = mi + spread(u(:, i), 2, n)*spread(u(:, i), 1, n)/lam(i)
-                end do
-            end if
-            dq = matmul(mi, matmul(b, a))
-            dqn = 0.0_dp
-        end subroutine column_form
+            if (ok) return
+            call jacobi_eig(n, mm, lam, u)
+            lmax = max(lam(n), tiny(1.0_dp))
+            mi = 0.0_dp
+            do i = 1, n
+                if (lam(i) > 1.0e-14_dp*lmax) mi = mi + spread(u(:, i), 2, n)*spread(u(:, i), 1, n)/lam(i)
+            end do
+        end function gram_inverse
     end subroutine least_norm_step
 
 end module sk_tree_solve

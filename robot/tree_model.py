@@ -46,7 +46,6 @@ values (not identified), except the ``xyz``/``rpy`` of ``tracker`` and
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -54,6 +53,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
+from ..io.tables import read_toml
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .tree import Tree, load_tree
 
@@ -667,12 +667,7 @@ def tree_model_from_tables(
 def load_tree_model(path: str | Path) -> TreeModel:
     """Read a model TOML whose ``[measurements] kind = "absolute"`` (section 6)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such model file")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    doc = read_toml(path, "model")
     robot = doc.get("robot")
     if not isinstance(robot, dict) or not isinstance(robot.get("urdf"), str):
         raise InputError(f'{path}: missing [robot] table with urdf = "robot.urdf"')
@@ -724,12 +719,7 @@ def model_kind(path: str | Path) -> str:
     """The ``[measurements] kind`` of a model file: "deflection" (section 3,
     the default) or "absolute" (section 6)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such model file")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    doc = read_toml(path, "model")
     meas = doc.get("measurements", {})
     kind = meas.get("kind", "deflection") if isinstance(meas, dict) else "deflection"
     if kind not in MEASUREMENT_KINDS:
