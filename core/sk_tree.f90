@@ -70,6 +70,13 @@
 !> (first order: I instead of I - D G_ee, everything at delta = 0), and
 !> dx/dxi = dx/dxi|direct + dx/ddelta Z.
 !>
+!> Gravity parameters (sk_tree_grav). bpar[4,nb]: theta indices of body
+!> b's mass factor (slot 1; 0: factor 1) and of its centre's offset
+!> (slots 2-4, m, body frame; 0: no offset): mass = bmass(b) theta(bpar(1,b)),
+!> centre = bcom(:,b) + theta(bpar(2:4,b)). One index on several bodies is
+!> a subtree's factor. They move no point directly: they drive the
+!> deflections through dw/dtheta (the right-hand side of the sensitivity).
+!>
 !> Markers and tracker. Marker j rides on frame mvj(j) at the point
 !> theta(mpar(:,j)) of that frame. The tracker pose is
 !>   T_tracker = Trans(t) * rref * Rx(a1) Ry(a2) Rz(a3),
@@ -114,6 +121,7 @@ module sk_tree
     public :: poses_batch, evaluate, frame_jacobian_batch
     public :: is_rotation, group_by, q_drivers, posture_values, deflected_frames, load_state, apply_laws
     public :: deflection_change, model_fold, fold_for_frames
+    public :: model_body_params, body_effective
 
     integer, parameter, public :: vj_fixed = 0, vj_revolute = 1, vj_prismatic = 2
     integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
@@ -133,6 +141,8 @@ module sk_tree
         integer, allocatable :: evj(:), vel(:)
         integer, allocatable :: bvj(:)
         real(dp), allocatable :: bmass(:), bcom(:, :)
+        !> gravity parameters of the bodies [4,nb] (module header; 0: none)
+        integer, allocatable :: bpar(:, :)
         real(dp) :: grav(3) = 0.0_dp
         !> preorder position and subtree size of joints 0..nv (ancestor tests)
         integer, allocatable :: pre(:), sub(:)
@@ -164,6 +174,9 @@ module sk_tree
         logical, allocatable :: cok(:)
         !> joints whose generalised force and G coefficients are wanted
         logical, allocatable :: need(:)
+        !> bodies' masses and centres at theta (posture_values) [nb], [3,nb];
+        !> their centres cb[3,nb] and frames br[3,3,nb] (base) at the load state
+        real(dp), allocatable :: bm(:), bc(:, :), cb(:, :), br(:, :, :)
         integer :: nit = 0, eqit = 0
         logical :: conv = .true.
     end type tree_state
@@ -183,7 +196,33 @@ module sk_tree
         !> zcol(1:nz) their Jacobian columns; entries (vj, Z column, coef)
         integer, allocatable :: zcol(:), ent_vj(:), ent_col(:), lawcol(:, :)
         real(dp), allocatable :: ent_coef(:)
+        !> Z column of each gravity-parameter slot of each body [4,nb] (0: none)
+        integer, allocatable :: bodycol(:, :)
     end type tree_problem
+
+    interface
+        !> Set the gravity parameters bpar[4,nb] of a model (module header);
+        !> info = sk_err_size (shape) or sk_err_argument (index out of range).
+        module subroutine model_body_params(m, bpar, info)
+            type(tree_model), intent(inout) :: m
+            integer(ip), intent(in) :: bpar(:, :)
+            integer(ip), intent(out) :: info
+        end subroutine model_body_params
+        !> Masses bm[nb] and centres bc[3,nb] (body frames) at theta.
+        pure module subroutine body_effective(m, theta, bm, bc)
+            type(tree_model), intent(in) :: m
+            real(dp), intent(in) :: theta(:)
+            real(dp), intent(out) :: bm(:), bc(:, :)
+        end subroutine body_effective
+        !> rhs[ne,:] += dw/dtheta of the gravity-parameter slots with a Z
+        !> column bodycol[4,nb] (0: none), at the load state of st.
+        pure module subroutine body_rhs(m, st, bodycol, rhs)
+            type(tree_model), intent(in) :: m
+            type(tree_state), intent(in) :: st
+            integer, intent(in) :: bodycol(:, :)
+            real(dp), intent(inout) :: rhs(:, :)
+        end subroutine body_rhs
+    end interface
 
 contains
 
@@ -398,6 +437,8 @@ contains
         m%bvj = bvj
         m%bmass = bmass
         m%bcom = bcom
+        allocate(m%bpar(4, nb))
+        m%bpar = 0
         m%grav = grav
         m%tpar = tpar
         m%rref = rref
@@ -430,7 +471,8 @@ contains
         integer :: anc(0:m%nv), v, p, n, b, k, j, ng
         integer(ip), allocatable :: vparent(:), vtype(:), qcol(:), gvj(:), gpar(:), kvj(:, :), bvj(:), none(:), &
             nomp(:, :)
-        real(dp), allocatable :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), gcoef(:), bcom(:, :)
+        real(dp), allocatable :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), gcoef(:), bcom(:, :), &
+            bm(:), bc(:, :)
         kept = keep .or. m%qcol > 0 .or. m%vel > 0
         n = count(kept)
         allocate(vparent(n), vtype(n), qcol(n), vaxis(3, n), vrot(3, 3, n), vpos(3, n), qcoef(n), qconst(n))
@@ -501,21 +543,23 @@ contains
                 kvj(j, k) = newidx(m%evj(m%kfirst(k) + j - 1))
             end do
         end do
-        allocate(bvj(m%nb), bcom(3, m%nb), none(0), nomp(3, 0))
+        ! bodies at theta's gravity parameters (the folded model has none)
+        allocate(bvj(m%nb), bcom(3, m%nb), none(0), nomp(3, 0), bm(m%nb), bc(3, m%nb))
+        call body_effective(m, theta, bm, bc)
         do b = 1, m%nb
             v = m%bvj(b)
-            bcom(:, b) = m%bcom(:, b)
+            bcom(:, b) = bc(:, b)
             bvj(b) = 0
             if (v == 0) cycle
             if (kept(v)) then
                 bvj(b) = newidx(v)
             else
                 bvj(b) = newidx(anc(v))
-                bcom(:, b) = pacc(:, v) + matmul(racc(:, :, v), m%bcom(:, b))
+                bcom(:, b) = pacc(:, v) + matmul(racc(:, :, v), bc(:, b))
             end if
         end do
         call model_setup(mf, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, &
-            m%ktype, kvj, m%kpar, m%kw0, bvj, m%bmass, bcom, m%grav, m%tpar, m%rref, none, nomp, &
+            m%ktype, kvj, m%kpar, m%kw0, bvj, bm, bcom, m%grav, m%tpar, m%rref, none, nomp, &
             int(m%ndof, ip), int(m%npar, ip), int(m%ne, ip), info)
         mf%lscale = m%lscale
     end subroutine model_fold
@@ -628,6 +672,21 @@ contains
                 end if
             end do
         end do
+        ! gravity parameters of the bodies
+        allocate(pr%bodycol(4, m%nb))
+        pr%bodycol = 0
+        do k = 1, m%nb
+            do j = 1, 4
+                if (m%bpar(j, k) == 0) cycle
+                c = pr%colof(m%bpar(j, k))
+                if (c == 0) cycle
+                if (zof(c) == 0) then
+                    nz = nz + 1
+                    zof(c) = nz
+                end if
+                pr%bodycol(j, k) = zof(c)
+            end do
+        end do
         pr%nz = nz
         allocate(pr%zcol(nz), pr%ent_vj(pr%nent), pr%ent_col(pr%nent), pr%ent_coef(pr%nent), &
             pr%lawcol(nsym, m%nk))
@@ -678,6 +737,11 @@ contains
         st%cval = 0.0_dp
         st%need = .true.
         if (present(need)) st%need = need .or. m%vel > 0
+        st%bm = m%bmass
+        st%bc = m%bcom
+        allocate(st%cb(3, m%nb), st%br(3, 3, m%nb))
+        st%cb = 0.0_dp
+        st%br = 0.0_dp
     end subroutine state_init
 
     ! ---------------------------------------------------------------- gravity
@@ -700,8 +764,10 @@ contains
         do b = 1, m%nb
             v = m%bvj(b)
             if (v == 0) cycle
-            c = st%pa(:, v) + matmul(st%ra(:, :, v), m%bcom(:, b))
-            fb = m%bmass(b)*m%grav
+            c = st%pa(:, v) + matmul(st%ra(:, :, v), st%bc(:, b))
+            st%cb(:, b) = c
+            st%br(:, :, b) = st%ra(:, :, v)
+            fb = st%bm(b)*m%grav
             st%f(:, v) = st%f(:, v) + fb
             do a = 1, 3
                 st%s(:, a, v) = st%s(:, a, v) + c*fb(a)
@@ -908,6 +974,7 @@ contains
                 if (m%kpar(j, k) > 0) st%par(j, k) = theta(m%kpar(j, k))
             end do
         end do
+        if (any(m%bpar /= 0)) call body_effective(m, theta, st%bm, st%bc)
     end subroutine posture_values
 
     !> How far a change dd[ne] of the deflections moves a point, at most
@@ -982,7 +1049,8 @@ contains
     !> of the caller's few rows (lu_solve).
     !> info = sk_err_singular when I - D G_ee is singular (an unstable
     !> equilibrium).
-    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y, reuse, adjoint)
+    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y, reuse, adjoint, &
+            bodycol)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(inout) :: st
         integer, intent(in) :: ent_vj(:), ent_col(:), lawcol(:, :)
@@ -992,6 +1060,8 @@ contains
         real(dp), intent(in), optional :: resid(:)
         real(dp), intent(out), optional :: y(:)
         logical, intent(in), optional :: reuse, adjoint
+        !> Z columns of the bodies' gravity parameters [4,nb] (problem_setup)
+        integer, intent(in), optional :: bodycol(:, :)
         real(dp) :: dmat(6, 6), dpar(6, nsym), w(6)
         integer :: ne, ncol, nc, e, k, n, e0, j, a, c, i, d
         logical :: factor
@@ -1020,6 +1090,7 @@ contains
                 st%rhs(e, c) = st%rhs(e, c) + ent_coef(k)*gpair(m, st, m%evj(e), a)
             end do
         end do
+        if (present(bodycol)) call body_rhs(m, st, bodycol, st%rhs)
         if (factor) then
             ! G_ee is symmetric but for the payload moments (in the
             ! entries of a force distal to a value)
@@ -1348,7 +1419,7 @@ contains
             ! B the drivers' right-hand side (few rows, many parameters)
             if (want_jac) then
                 call elastic_sensitivity(pr%m, st, pr%ent_vj, pr%ent_col, pr%ent_coef, pr%lawcol, b, sinfo, &
-                    adjoint=.true.)
+                    adjoint=.true., bodycol=pr%bodycol)
                 if (sinfo /= sk_ok) then
                     info = sinfo
                     return
