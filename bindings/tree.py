@@ -33,11 +33,12 @@ def _f(a: object) -> np.ndarray:
 
 
 def _model(model: dict) -> dict:
-    """The model's arrays with the bodies' gravity parameters ``bpar`` (4, nb)
-    (0: none, core/sk_tree_grav.f90) added when the caller has none."""
+    """The model's arrays with the gravity-parameter entries ``bpar`` (3, nbp)
+    (body, slot, theta index; core/sk_tree_grav.f90) added, empty, when the
+    caller has none."""
     if "bpar" in model:
         return model
-    return {**model, "bpar": _i(np.zeros((4, len(model["bvj"]))))}
+    return {**model, "bpar": _i(np.zeros((3, 0)))}
 
 
 def _prior(prior: tuple | None) -> dict:

@@ -70,11 +70,12 @@
 !> (first order: I instead of I - D G_ee, everything at delta = 0), and
 !> dx/dxi = dx/dxi|direct + dx/ddelta Z.
 !>
-!> Gravity parameters (sk_tree_grav). bpar[4,nb]: theta indices of body
-!> b's mass factor (slot 1; 0: factor 1) and of its centre's offset
-!> (slots 2-4, m, body frame; 0: no offset): mass = bmass(b) theta(bpar(1,b)),
-!> centre = bcom(:,b) + theta(bpar(2:4,b)). One index on several bodies is
-!> a subtree's factor. They move no point directly: they drive the
+!> Gravity parameters (sk_tree_grav). Entries p = 1..nbp, bpar[3,nbp] =
+!> (body b, slot s, theta index t): s = 1 a mass factor (mass = bmass(b)
+!> times the product of its factors), s = 2..4 an offset of the centre
+!> along x, y, z of the body's frame (m; centre = bcom(:,b) + the sum of
+!> its offsets). One index on several bodies is a subtree's factor; a body
+!> may carry its own factor and its subtrees' (they multiply). They move no point directly: they drive the
 !> deflections through dw/dtheta (the right-hand side of the sensitivity).
 !>
 !> Markers and tracker. Marker j rides on frame mvj(j) at the point
@@ -141,7 +142,8 @@ module sk_tree
         integer, allocatable :: evj(:), vel(:)
         integer, allocatable :: bvj(:)
         real(dp), allocatable :: bmass(:), bcom(:, :)
-        !> gravity parameters of the bodies [4,nb] (module header; 0: none)
+        !> gravity-parameter entries (body, slot, theta index) [3,nbp] (module header)
+        integer :: nbp = 0
         integer, allocatable :: bpar(:, :)
         real(dp) :: grav(3) = 0.0_dp
         !> preorder position and subtree size of joints 0..nv (ancestor tests)
@@ -177,6 +179,8 @@ module sk_tree
         !> bodies' masses and centres at theta (posture_values) [nb], [3,nb];
         !> their centres cb[3,nb] and frames br[3,3,nb] (base) at the load state
         real(dp), allocatable :: bm(:), bc(:, :), cb(:, :), br(:, :, :)
+        !> d(mass)/d(factor) of each mass-factor entry at theta [nbp]
+        real(dp), allocatable :: bdm(:)
         integer :: nit = 0, eqit = 0
         logical :: conv = .true.
     end type tree_state
@@ -196,30 +200,32 @@ module sk_tree
         !> zcol(1:nz) their Jacobian columns; entries (vj, Z column, coef)
         integer, allocatable :: zcol(:), ent_vj(:), ent_col(:), lawcol(:, :)
         real(dp), allocatable :: ent_coef(:)
-        !> Z column of each gravity-parameter slot of each body [4,nb] (0: none)
-        integer, allocatable :: bodycol(:, :)
+        !> Z column of each gravity-parameter entry [nbp] (0: not free)
+        integer, allocatable :: bodycol(:)
     end type tree_problem
 
     interface
-        !> Set the gravity parameters bpar[4,nb] of a model (module header);
-        !> info = sk_err_size (shape) or sk_err_argument (index out of range).
+        !> Set the gravity-parameter entries bpar[3,nbp] of a model (module
+        !> header); info = sk_err_size (shape) or sk_err_argument (a body,
+        !> slot or theta index out of range).
         module subroutine model_body_params(m, bpar, info)
             type(tree_model), intent(inout) :: m
             integer(ip), intent(in) :: bpar(:, :)
             integer(ip), intent(out) :: info
         end subroutine model_body_params
-        !> Masses bm[nb] and centres bc[3,nb] (body frames) at theta.
-        pure module subroutine body_effective(m, theta, bm, bc)
+        !> Masses bm[nb] and centres bc[3,nb] (body frames) at theta, and
+        !> dm[nbp]: d(mass)/d(factor) of each mass-factor entry.
+        pure module subroutine body_effective(m, theta, bm, bc, dm)
             type(tree_model), intent(in) :: m
             real(dp), intent(in) :: theta(:)
-            real(dp), intent(out) :: bm(:), bc(:, :)
+            real(dp), intent(out) :: bm(:), bc(:, :), dm(:)
         end subroutine body_effective
-        !> rhs[ne,:] += dw/dtheta of the gravity-parameter slots with a Z
-        !> column bodycol[4,nb] (0: none), at the load state of st.
+        !> rhs[ne,:] += dw/dtheta of the gravity-parameter entries with a Z
+        !> column bodycol[nbp] (0: none), at the load state of st.
         pure module subroutine body_rhs(m, st, bodycol, rhs)
             type(tree_model), intent(in) :: m
             type(tree_state), intent(in) :: st
-            integer, intent(in) :: bodycol(:, :)
+            integer, intent(in) :: bodycol(:)
             real(dp), intent(inout) :: rhs(:, :)
         end subroutine body_rhs
     end interface
@@ -437,8 +443,7 @@ contains
         m%bvj = bvj
         m%bmass = bmass
         m%bcom = bcom
-        allocate(m%bpar(4, nb))
-        m%bpar = 0
+        allocate(m%bpar(3, 0))
         m%grav = grav
         m%tpar = tpar
         m%rref = rref
@@ -472,7 +477,7 @@ contains
         integer(ip), allocatable :: vparent(:), vtype(:), qcol(:), gvj(:), gpar(:), kvj(:, :), bvj(:), none(:), &
             nomp(:, :)
         real(dp), allocatable :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), gcoef(:), bcom(:, :), &
-            bm(:), bc(:, :)
+            bm(:), bc(:, :), dm(:)
         kept = keep .or. m%qcol > 0 .or. m%vel > 0
         n = count(kept)
         allocate(vparent(n), vtype(n), qcol(n), vaxis(3, n), vrot(3, 3, n), vpos(3, n), qcoef(n), qconst(n))
@@ -544,8 +549,8 @@ contains
             end do
         end do
         ! bodies at theta's gravity parameters (the folded model has none)
-        allocate(bvj(m%nb), bcom(3, m%nb), none(0), nomp(3, 0), bm(m%nb), bc(3, m%nb))
-        call body_effective(m, theta, bm, bc)
+        allocate(bvj(m%nb), bcom(3, m%nb), none(0), nomp(3, 0), bm(m%nb), bc(3, m%nb), dm(m%nbp))
+        call body_effective(m, theta, bm, bc, dm)
         do b = 1, m%nb
             v = m%bvj(b)
             bcom(:, b) = bc(:, b)
@@ -673,19 +678,16 @@ contains
             end do
         end do
         ! gravity parameters of the bodies
-        allocate(pr%bodycol(4, m%nb))
+        allocate(pr%bodycol(m%nbp))
         pr%bodycol = 0
-        do k = 1, m%nb
-            do j = 1, 4
-                if (m%bpar(j, k) == 0) cycle
-                c = pr%colof(m%bpar(j, k))
-                if (c == 0) cycle
-                if (zof(c) == 0) then
-                    nz = nz + 1
-                    zof(c) = nz
-                end if
-                pr%bodycol(j, k) = zof(c)
-            end do
+        do k = 1, m%nbp
+            c = pr%colof(m%bpar(3, k))
+            if (c == 0) cycle
+            if (zof(c) == 0) then
+                nz = nz + 1
+                zof(c) = nz
+            end if
+            pr%bodycol(k) = zof(c)
         end do
         pr%nz = nz
         allocate(pr%zcol(nz), pr%ent_vj(pr%nent), pr%ent_col(pr%nent), pr%ent_coef(pr%nent), &
@@ -739,7 +741,8 @@ contains
         if (present(need)) st%need = need .or. m%vel > 0
         st%bm = m%bmass
         st%bc = m%bcom
-        allocate(st%cb(3, m%nb), st%br(3, 3, m%nb))
+        allocate(st%cb(3, m%nb), st%br(3, 3, m%nb), st%bdm(m%nbp))
+        st%bdm = 0.0_dp
         st%cb = 0.0_dp
         st%br = 0.0_dp
     end subroutine state_init
@@ -974,7 +977,7 @@ contains
                 if (m%kpar(j, k) > 0) st%par(j, k) = theta(m%kpar(j, k))
             end do
         end do
-        if (any(m%bpar /= 0)) call body_effective(m, theta, st%bm, st%bc)
+        if (m%nbp > 0) call body_effective(m, theta, st%bm, st%bc, st%bdm)
     end subroutine posture_values
 
     !> How far a change dd[ne] of the deflections moves a point, at most
@@ -1060,8 +1063,8 @@ contains
         real(dp), intent(in), optional :: resid(:)
         real(dp), intent(out), optional :: y(:)
         logical, intent(in), optional :: reuse, adjoint
-        !> Z columns of the bodies' gravity parameters [4,nb] (problem_setup)
-        integer, intent(in), optional :: bodycol(:, :)
+        !> Z columns of the gravity-parameter entries [nbp] (problem_setup)
+        integer, intent(in), optional :: bodycol(:)
         real(dp) :: dmat(6, 6), dpar(6, nsym), w(6)
         integer :: ne, ncol, nc, e, k, n, e0, j, a, c, i, d
         logical :: factor

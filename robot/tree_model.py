@@ -648,7 +648,7 @@ def tree_model_from_tables(
     arrays["rref"] = np.asfortranarray(rref)
     arrays["mvj"] = np.array([vj_of_link[f] for f in frames], np.int32)
     arrays["mpar"] = np.asfortranarray(np.array(mpar_list, np.int32).T)
-    arrays["bpar"] = np.zeros((4, len(bodies)), np.int32, order="F")  # gravity parameters: model_bodies
+    arrays["bpar"] = np.zeros((3, 0), np.int32, order="F")  # gravity parameters: model_bodies
     return TreeModel(
         tree=tree,
         effects=list(effects),

@@ -51,7 +51,7 @@ def arm():
         rref=rot(z, 1.0),
         mvj=[4],
         mpar=np.array([[7], [8], [9]]),
-        bpar=np.zeros((4, 3), int),  # no gravity parameters (core/sk_tree_grav.f90)
+        bpar=np.zeros((3, 0), int),  # no gravity parameters (core/sk_tree_grav.f90)
     )
     m["kvj"][0] = [2, 3]
     m["kpar"][0] = [11, 12]

@@ -14,16 +14,16 @@ from stiffkit._core import errors as _errors
 
 
 def arm_with_masses():
-    """test_tree_core.arm with gravity parameters: theta 13 = mass factor
-    of body 3, 14 = one factor of bodies 1 and 2 (a subtree's), 15-17 =
-    the centre offset of body 2 (m, its frame), 18-20 = that of body 3."""
+    """test_tree_core.arm with gravity parameters (entries body, slot,
+    theta index; 1-based): theta 14 = mass factor of body 3, 15 = one
+    factor of bodies 1 and 2 (a subtree's), 16-18 = the centre offset of
+    body 2 (m, its frame), 19-21 = that of body 3, 22 = body 2's own factor
+    (times the subtree's)."""
     model, theta = arm()
-    bpar = np.zeros((4, 3), np.int32, order="F")
-    bpar[0] = [15, 15, 14]
-    bpar[1:, 1] = [16, 17, 18]
-    bpar[1:, 2] = [19, 20, 21]
-    model["bpar"] = bpar
-    theta = np.concatenate([theta, [1.2, 0.85, 0.01, -0.02, 0.015, -0.01, 0.005, 0.02]])
+    entries = [(3, 1, 14), (1, 1, 15), (2, 1, 15), (2, 2, 16), (2, 3, 17), (2, 4, 18)]
+    entries += [(3, 2, 19), (3, 3, 20), (3, 4, 21), (2, 1, 22)]
+    model["bpar"] = np.asfortranarray(np.array(entries, np.int32).T)
+    theta = np.concatenate([theta, [1.2, 0.85, 0.01, -0.02, 0.015, -0.01, 0.005, 0.02, 1.1]])
     return model, theta
 
 
@@ -35,7 +35,7 @@ def test_mass_and_com_jacobian_matches_central_differences(eqit):
     pred, res, jac, delta, nit, eqinfo, info = evaluate(model, theta, q, free, eqit)
     _errors.check(info, "sk_tree_evaluate")
     for k in range(13, theta.size):
-        h = 1e-4 if k >= 15 else 1e-3
+        h = 1e-4 if 15 <= k <= 20 else 1e-3
         tp, tm = theta.copy(), theta.copy()
         tp[k] += h
         tm[k] -= h
@@ -53,9 +53,9 @@ def test_mass_factor_one_is_the_urdf_model():
     model, theta = arm_with_masses()
     q = np.random.default_rng(2).uniform(-1, 1, (3, 4))
     th = theta.copy()
-    th[13:15] = 1.0
-    th[15:] = 0.0
-    plain = dict(model, bpar=np.zeros((4, 3), np.int32, order="F"))
+    th[[13, 14, 21]] = 1.0
+    th[15:21] = 0.0
+    plain = dict(model, bpar=np.zeros((3, 0), np.int32, order="F"))
     np.testing.assert_allclose(evaluate(model, th, q, [])[0], evaluate(plain, theta[:13], q, [])[0], atol=1e-15)
     th[13] = 2.0
     doubled = dict(plain, bmass=np.asfortranarray(plain["bmass"] * [1, 1, 2]))
@@ -64,8 +64,10 @@ def test_mass_factor_one_is_the_urdf_model():
 
 def test_bad_gravity_parameter_index_is_an_argument_error():
     model, theta = arm_with_masses()
-    model["bpar"][0, 0] = theta.size + 1  # beyond theta
-    assert evaluate(model, theta, np.zeros((3, 2)), [1])[-1] == 6
+    for row, bad in ((0, 4), (1, 5), (2, theta.size + 1)):  # body, slot, theta index out of range
+        m = dict(model, bpar=model["bpar"].copy(order="F"))
+        m["bpar"][row, 0] = bad
+        assert evaluate(m, theta, np.zeros((3, 2)), [1])[-1] == 6
 
 
 def test_prior_rows_pull_toward_their_centre():
