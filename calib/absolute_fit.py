@@ -37,6 +37,7 @@ from .._core import calib as core_calib
 from .._core import field as core_field
 from .._core import tree as core
 from ..errors import InputError
+from ..robot.model_bodies import prior_rows
 from ..robot.tree_model import ABS_KINDS, DEADZONE_TAU0_FRACTION, EQ_TOL, LAW_DEADZONE, TreeModel, rpy_from_matrix
 from .absolute_data import AbsoluteData
 from .crossval import config_folds
@@ -372,7 +373,8 @@ def _solve(
     """LM from theta (``eqit`` overrides the model's equilibrium mode); the
     model returned carries the re-centred tracker rotation."""
     eqit = model.eqit if eqit is None else eqit
-    r = core.lm(*_observations(model, data, theta), weight, free, eqit, EQ_TOL, maxit=maxit)
+    prior = prior_rows(model, free)  # weak priors of the gravity parameters toward the URDF
+    r = core.lm(*_observations(model, data, theta), weight, free, eqit, EQ_TOL, maxit=maxit, prior=prior)
     m = model.copy()
     m.arrays["rref"] = np.asfortranarray(r["rref"])
     return m, r
