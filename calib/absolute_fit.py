@@ -40,6 +40,7 @@ from ..errors import InputError
 from ..robot.model_bodies import prior_rows
 from ..robot.tree_model import ABS_KINDS, DEADZONE_TAU0_FRACTION, EQ_TOL, LAW_DEADZONE, TreeModel, rpy_from_matrix
 from .absolute_data import AbsoluteData
+from .absolute_masses import gravity_notes, gravity_start
 from .crossval import config_folds
 
 __all__ = ["AbsoluteFit", "Reduction", "fit_absolute", "position_stats", "predict", "DROP_TOL", "MERGE_TOL"]
@@ -413,6 +414,7 @@ def fit_absolute(
         theta = sol0["theta"]
     ev = predict(model, data, theta, free, w)
     before = data.xyz - ev["pred"]
+    model, theta, ev = gravity_start(model, data, theta, free, w, maxit, ev)  # masses act through compliances
     red = reduce_parameters(model, ev["jac"], free)
     nobs = 3 * int(np.sum(w > 0))
     if red.kept.size > nobs:
@@ -483,6 +485,7 @@ def fit_absolute(
         weight=w,
         robust=robust_info,
     )
+    fit.notes += gravity_notes(model, red.dropped, red.merged)
     if not sol["converged"]:
         fit.notes.append(f"the fit did not converge: {fit.reason}; the values are the best found")
     if cv:
