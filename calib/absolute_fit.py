@@ -414,7 +414,11 @@ def fit_absolute(
         theta = sol0["theta"]
     ev = predict(model, data, theta, free, w)
     before = data.xyz - ev["pred"]
-    model, theta, ev = gravity_start(model, data, theta, free, w, maxit, ev)  # masses act through compliances
+    # masses act through the compliances: fit those first when they start at zero
+    model, theta, ev = gravity_start(
+        model, theta, free, ev, reduce_parameters,
+        lambda m, t, f: _solve(m, data, t, f, w, maxit), lambda m, t: predict(m, data, t, free, w),
+    )  # fmt: skip
     red = reduce_parameters(model, ev["jac"], free)
     nobs = 3 * int(np.sum(w > 0))
     if red.kept.size > nobs:

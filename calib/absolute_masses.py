@@ -18,11 +18,12 @@ weight separates them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..robot.model_bodies import BODY_KINDS
 from ..robot.tree_model import TreeModel
-from .absolute_data import AbsoluteData
 
 __all__ = ["gravity_start", "gravity_notes"]
 
@@ -31,30 +32,36 @@ ELASTIC_KINDS = ("joint", "lateral", "link", "base")
 
 
 def gravity_start(
-    model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, w: np.ndarray, maxit: int, ev: dict
+    model: TreeModel,
+    theta: np.ndarray,
+    free: np.ndarray,
+    ev: dict,
+    reduce: Callable,
+    solve: Callable,
+    evaluate: Callable,
 ) -> tuple[TreeModel, np.ndarray, dict]:
     """(model, theta, evaluation) at which the fit takes its reduction: the
     compliances fitted with the gravity parameters held at the URDF's
     values when both are free and the compliances start at zero, else the
-    arguments as they are."""
-    from .absolute_fit import _solve, predict, reduce_parameters
-
+    arguments as they are. The fit's tools: ``reduce(model, jac, free)``
+    (its reduction), ``solve(model, theta, free) -> (model, solution)``
+    and ``evaluate(model, theta)`` (``ev``: its value at theta)."""
     grav = [i for i in free if model.params[i].kind in BODY_KINDS]
     zero_elastic = [i for i in free if model.params[i].kind in ELASTIC_KINDS and theta[i] == 0.0]
     if not grav or not zero_elastic:
         return model, theta, ev
     rest = np.array([i for i in free if model.params[i].kind not in BODY_KINDS], dtype=int)
     cols = np.flatnonzero(np.isin(free, rest))
-    red = reduce_parameters(model, ev["jac"][:, cols], rest)
+    red = reduce(model, ev["jac"][:, cols], rest)
     if red.kept.size == 0:
         return model, theta, ev
-    model, sol = _solve(model, data, theta, red.kept, w, maxit)
+    model, sol = solve(model, theta, red.kept)
     theta = sol["theta"]
     # a compliance below 0 at this start would turn the gravity columns around: start it at 0
     for i in red.kept:
         if model.params[i].kind in ELASTIC_KINDS and theta[i] < 0:
             theta[i] = 0.0
-    return model, theta, predict(model, data, theta, free, w)
+    return model, theta, evaluate(model, theta)
 
 
 def gravity_notes(model: TreeModel, dropped: list, merged: list) -> list[str]:
