@@ -33,6 +33,7 @@ import numpy as np
 from .._core import calib as core_calib
 from .._core import tree as core
 from ..errors import StiffkitError
+from ..robot.model_bodies import body_candidates
 from ..robot.tree_model import TreeModel, tree_model_from_tables
 from .absolute_data import AbsoluteData
 from .absolute_fit import (
@@ -169,7 +170,7 @@ def absolute_candidates(model: TreeModel) -> list[dict]:
             out.append({"kind": "link", "target": link, "template": SPRING_TEMPLATE})
     if ("base", "base") not in have and massive:
         out.append({"kind": "base", "template": "full"})
-    return out
+    return out + body_candidates(model)  # mass factors (robot/model_bodies.py)
 
 
 def _links_carrying_mass(model: TreeModel) -> list[str]:

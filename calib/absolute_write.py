@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from ..io.files import atomic_write_text
 from ..robot.model import SYM
+from ..robot.model_bodies import BODY_KINDS, body_table
 from ..robot.tree import TreeJoint
 from ..robot.tree_model import (
     EQ_ITERATIONS,
@@ -195,6 +196,8 @@ def model_effects(
                 for a, b in SYM:
                     C[a, b] = C[b, a] = vals.get(f"c{a + 1}{b + 1}", 0.0)
                 tab["value"] = C.tolist()
+            elif kind in BODY_KINDS:
+                tab.update(body_table(kind, vals))
             else:  # pragma: no cover - every kind of ABS_KINDS is handled above
                 raise InputError(f"cannot write an effect of kind {kind!r}")
             tables.append({**tab, **keep})
