@@ -48,6 +48,7 @@ __all__ = [
     "overlap_deflection",
     "overlap_absolute",
     "overlap_warning",
+    "check_kind",
     "MM",
 ]
 
@@ -66,6 +67,29 @@ def _where(model: Model | TreeModel) -> str:
 
 def _no_rows(path: str) -> InputError:
     return InputError(f"{path}: no measurement rows (a header only): nothing to evaluate")
+
+
+def check_kind(model_path: str | Path, kind: str, meas_path: str | Path) -> None:
+    """InputError when the measurement file's header is of the other data
+    kind than the model's ``[measurements] kind`` (a clearer message than
+    the columns it lacks)."""
+    try:
+        with open(meas_path, encoding="utf-8-sig") as fh:
+            head = {h.strip() for h in fh.readline().split(",")}
+    except (OSError, UnicodeDecodeError):
+        return  # the reader names the problem
+    absolute = {"x", "y", "z"} <= head and not {"dx", "dy", "dz"} & head
+    deflection = {"dx", "dy", "dz"} <= head and not {"x", "y", "z"} & head
+    if kind == "deflection" and absolute:
+        raise InputError(
+            f"{meas_path}: tracker points (columns x, y, z) but {model_path} is a model of deflections under "
+            'known loads (section 3); for absolute data the model says [measurements] kind = "absolute"'
+        )
+    if kind == "absolute" and deflection:
+        raise InputError(
+            f"{meas_path}: deflections under loads (columns dx, dy, dz) but {model_path} is a model of absolute "
+            'data ([measurements] kind = "absolute"); use a model of deflections (section 2)'
+        )
 
 
 # ------------------------------------------------------------------ deflection data

@@ -17,6 +17,7 @@ from pathlib import Path
 from ..calib.absolute_plots import absolute_plots
 from ..calib.absolute_report import load_absolute
 from ..calib.evaluation import (
+    check_kind,
     evaluate_absolute,
     evaluate_deflection,
     evaluation_json,
@@ -86,7 +87,9 @@ def run(args: argparse.Namespace) -> int:
         V.output_path(args.json, "--json", [args.model, args.measurements])
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
         raise InputError(f"--plots {args.plots}: a file, not a folder")
-    if model_kind(args.model) == "absolute":
+    kind = model_kind(args.model)
+    check_kind(args.model, kind, args.measurements)
+    if kind == "absolute":
         model, data = load_absolute(args.model, args.measurements)
         for w in data.warnings:
             V.warn(w, key=("data", w))

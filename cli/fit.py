@@ -30,6 +30,7 @@ from ..calib.absolute_write import write_model as write_model_absolute
 from ..calib.absolute_write import write_urdf
 from ..calib.compare import compare
 from ..calib.evaluation import (
+    check_kind,
     evaluate_absolute,
     evaluate_deflection,
     evaluation_json,
@@ -173,7 +174,11 @@ def _outputs(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     _outputs(args)
-    if model_kind(args.model) == "absolute":
+    kind = model_kind(args.model)
+    for path in (args.measurements, args.validate):
+        if path:
+            check_kind(args.model, kind, path)
+    if kind == "absolute":
         return run_absolute(args)
     if args.write_urdf:
         raise InputError(
