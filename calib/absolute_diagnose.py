@@ -34,7 +34,7 @@ from .._core import calib as core_calib
 from .._core import tree as core
 from ..errors import StiffkitError
 from ..robot.tree_model import TreeModel, tree_model_from_tables
-from .absolute_data import AbsoluteData
+from .absolute_data import AbsoluteData, row_values
 from .absolute_fit import (
     AbsoluteFit,
     _loads,
@@ -45,7 +45,7 @@ from .absolute_fit import (
     position_stats,
     predict,
 )
-from .checks import outlier_rows, unit_slips
+from .checks import cannot_judge, drop_copies, outlier_rows, unit_slips
 from .crossval import config_folds, held_out_residuals
 from .diagnose import Candidate
 
@@ -220,6 +220,7 @@ def diagnose_absolute(
 ) -> AbsoluteDiagnosis:
     """Fit ``model`` to ``data``, check the data, rank the missing effects
     (module docstring)."""
+    data, copies = drop_copies(data, row_values(data))  # copies are not replicates
     fit = fit_absolute(model, data, sigma_position=sigma_position)
     sig_decl = sigma_position if sigma_position is not None else model.sigma_position
     # 1. the data first
@@ -279,7 +280,11 @@ def diagnose_absolute(
     nobs = 3 * int(np.sum(w > 0))
     rss = float(r @ r)
     p = int(fit.reduction.kept.size)
-    nres = max(nobs - p, 1)
+    if nobs <= p:
+        raise cannot_judge(
+            data.path, data.n, copies, f"{nobs} coordinates for {p} identified parameters leave no residual"
+        )
+    nres = nobs - p
     s2 = (sig_decl**2) if sig_decl else rss / nres
     sigma = math.sqrt(s2)
     # adequacy

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
+from ..io import tomlw
 from ..robot.model import JOINT_KINDS, SYM, Model
 from ..robot.model_file import effects_toml
 from .problem import Problem
@@ -237,4 +237,4 @@ def write_model(res: FitResult, path: Path | str) -> None:
         f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
         f"# non-identifiable and semi-identifiable parameters hold the minimum-norm solution\n"
     )
-    path.write_text(head + tomli_w.dumps(doc) + effects_toml(model_tables_with_values(res)))
+    path.write_text(tomlw.dumps(doc, head) + effects_toml(model_tables_with_values(res)))

@@ -617,6 +617,12 @@ def compensate(
     cm = load_compensation_model(model)
     tg = read_targets(targets, cm, frame)
     res = cm.compensate(tg.Q, tg.frames, tg.wrench, check_plausible=False)
+    if np.array_equal(res.q, tg.Q):
+        raise InputError(
+            f"{cm.path}: the model changes no command: its effects have no identified value other than 0 (or it "
+            f"has none), so the {res.n} command(s) of {tg.table.path} would be the targets unchanged; compensate "
+            "with a fitted model (stiffkit fit --write-model)"
+        )
     rep = CompensationReport(cm, tg, res, None)
     if out is not None:
         rep.out = write_commands(out, tg, res)

@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_text
+from .urdf_checks import check_inertials, joint_limit
 
 MOVING = ("revolute", "continuous", "prismatic")
 SUPPORTED = MOVING + ("fixed",)
@@ -43,6 +44,7 @@ class TreeJoint:
     axis: np.ndarray
     mimic: tuple[str, float, float] | None = None  # (leader, multiplier, offset)
     index: int = 0  # position in the URDF file
+    limit: tuple[float, float] | None = None  # <limit lower upper> of a revolute or prismatic joint
 
     @property
     def moving(self) -> bool:
@@ -177,7 +179,7 @@ def check_urdf_text(text: str, path: Path | str) -> None:
                 vals = None
             if vals is None or len(vals) != n or not all(math.isfinite(v) for v in vals):
                 raise InputError(f'{path}: {_owner(el, parents)}: <{tag} {attr}="{raw}"> must be {n} finite number(s)')
-            if tag == "origin" and attr == "xyz":
+            if tag == "origin" and attr == "xyz" and getattr(parents.get(el), "tag", "") == "joint":
                 far = max(far, max(abs(v) for v in vals))
     if far > V.QUANTITIES["position"].plausible[1]:
         V.warn(
@@ -185,6 +187,7 @@ def check_urdf_text(text: str, path: Path | str) -> None:
             "a URDF is in m (is it in mm? multiply by 0.001)",
             key=("urdf", str(path)),
         )
+    check_inertials(root, path)
 
 
 def parse_urdf(path: str | Path) -> object:
@@ -286,7 +289,7 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: object | Non
             if not (math.isfinite(m) and math.isfinite(o)):
                 raise InputError(f"{path}: mimic of joint {j.name!r} has a non-finite multiplier or offset")
             mimic = (j.mimic.joint, m, o)
-        joints.append(TreeJoint(j.name, j.type, j.parent, j.child, T, ax, mimic, position[id(j)]))
+        joints.append(TreeJoint(j.name, j.type, j.parent, j.child, T, ax, mimic, position[id(j)], joint_limit(j)))
     inertials = {}
     for ln in robot.links:
         if ln.name not in out_links or ln.inertial is None:
