@@ -221,7 +221,12 @@ def diagnose_absolute(
     """Fit ``model`` to ``data``, check the data, rank the missing effects
     (module docstring)."""
     data, copies = drop_copies(data, row_values(data))  # copies are not replicates
-    fit = fit_absolute(model, data, sigma_position=sigma_position)
+    try:
+        fit = fit_absolute(model, data, sigma_position=sigma_position)
+    except StiffkitError as exc:  # too few rows: with copies, say what is left
+        if not copies:
+            raise
+        raise cannot_judge(data.path, data.n, copies, str(exc).removeprefix(f"{data.path}: ")) from None
     sig_decl = sigma_position if sigma_position is not None else model.sigma_position
     # 1. the data first
     dchecks: dict = {"outliers": [], "unit_slips": [], "warnings": list(data.warnings)}

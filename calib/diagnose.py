@@ -389,7 +389,12 @@ def diagnose(
     cterms = [expand_effect(model.chain, table, n0 + i, "candidate") for i, (table, _) in enumerate(cands)]
     flat = [t for ts in cterms for t in ts]
     pb = Problem(model, meas, extra_terms=flat, sigma_position=sigma_position)
-    res_all = fit(model, meas, problem=pb)
+    try:
+        res_all = fit(model, meas, problem=pb)
+    except InputError as exc:  # too few rows: with copies, say what is left
+        if not copies:
+            raise
+        raise cannot_judge(meas.path, meas.n, copies, str(exc).removeprefix(f"{meas.path}: ")) from None
     test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res_all, pb, meas, copies)
     dc = check_data(res_all, alpha=alpha) if checks else None
     res, log_p_all, verdict_all = res_all, None, None

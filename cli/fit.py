@@ -156,6 +156,11 @@ def run(args: argparse.Namespace) -> int:
             "cross-validates deflection data"
         )
     model = load_model(args.model)
+    if not model.effects:
+        raise InputError(
+            f'{args.model}: the model has no [[effect]] table: nothing to fit (start with kind = "joint", '
+            'target = "all"; stiffkit diagnose proposes what to add)'
+        )
     meas = read_measurements(args.measurements, model.chain.dof)
     checks = None
     if args.robust:

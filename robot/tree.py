@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_text
-from .urdf_checks import check_inertials, joint_limit
+from .urdf_checks import check_inertials, joint_limit, library_messages
 
 MOVING = ("revolute", "continuous", "prismatic")
 SUPPORTED = MOVING + ("fixed",)
@@ -200,13 +200,16 @@ def parse_urdf(path: str | Path) -> object:
     path = Path(path)
     check_urdf_text(read_text(path, "URDF"), path)
     try:
-        return yourdfpy.URDF.load(
-            str(path),
-            build_scene_graph=False,
-            load_meshes=False,
-            build_collision_scene_graph=False,
-            load_collision_meshes=False,
-        )
+        with library_messages(path):
+            return yourdfpy.URDF.load(
+                str(path),
+                build_scene_graph=False,
+                load_meshes=False,
+                build_collision_scene_graph=False,
+                load_collision_meshes=False,
+            )
+    except InputError:
+        raise
     except Exception as exc:  # the library raises many kinds on malformed XML
         raise InputError(f"{path}: cannot parse the URDF ({type(exc).__name__}: {exc})") from None
 

@@ -11,17 +11,20 @@ the first row, the value and the limit (and how many rows are beyond).
 
 from __future__ import annotations
 
+import logging
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
+from ..errors import InputError
 from ..io import validate as V
 
-__all__ = ["MAX_LINK_MASS", "MAX_COM", "joint_limit", "check_inertials", "limit_warnings"]
+__all__ = ["MAX_LINK_MASS", "MAX_COM", "joint_limit", "check_inertials", "limit_warnings", "library_messages"]
 
 #: kg; one link of an industrial robot weighs far less (a 16,000 kg link is a mass in grams)
 MAX_LINK_MASS = 2000.0
@@ -74,7 +77,7 @@ def check_inertials(root: ET.Element, path: Path | str) -> None:
         m, name = max(heavy)
         more = f" ({len(heavy)} links above {MAX_LINK_MASS:g} kg)" if len(heavy) > 1 else ""
         V.warn(
-            f"{path}: link {name!r} has mass {m:g} kg{more}, implausible for one link of a robot: is the mass "
+            f"{path}: link {name!r} has mass {m:.6g} kg{more}, implausible for one link of a robot: is the mass "
             "in grams? (a URDF mass is in kg: divide by 1000)",
             key=("urdf-mass", str(path)),
         )
@@ -82,7 +85,7 @@ def check_inertials(root: ET.Element, path: Path | str) -> None:
         d, name = max(far)
         more = f" ({len(far)} links)" if len(far) > 1 else ""
         V.warn(
-            f"{path}: the centre of mass of link {name!r} is {d:g} m from the link frame{more}, implausible "
+            f"{path}: the centre of mass of link {name!r} is {d:.4g} m from the link frame{more}, implausible "
             "for a robot in metres: is the <inertial> origin in mm? (a URDF is in m: multiply by 0.001)",
             key=("urdf-com", str(path)),
         )
@@ -117,3 +120,41 @@ def limit_warnings(
             "degrees, or an offset?)"
         )
     return out
+
+
+class _Collect(logging.Handler):
+    def __init__(self) -> None:
+        super().__init__(logging.DEBUG)
+        self.records: list[logging.LogRecord] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append(record)
+
+
+@contextmanager
+def library_messages(path: Path | str) -> Iterator[None]:
+    """What the URDF library (yourdfpy, on lxml) logs while it reads
+    ``path`` is not printed as stray lines: an error (lxml could not parse
+    the file strictly, and the library fell back to a recovery mode that
+    drops what it cannot read) becomes an InputError naming the file; a
+    warning becomes one PlausibilityWarning line naming the file."""
+    log = logging.getLogger("yourdfpy")
+    grab = _Collect()
+    old = log.propagate
+    log.addHandler(grab)
+    log.propagate = False
+    try:
+        yield
+    finally:
+        log.removeHandler(grab)
+        log.propagate = old
+    errors = [r for r in grab.records if r.levelno >= logging.ERROR]
+    if errors:
+        first = " ".join(str(errors[0].getMessage()).split())
+        raise InputError(
+            f"{path}: cannot parse the URDF strictly (lxml: {first}); the library's recovery mode would drop "
+            "what it cannot read"
+        )
+    for r in grab.records:
+        if r.levelno >= logging.WARNING:
+            V.warn(f"{path}: the URDF library: {' '.join(str(r.getMessage()).split())}", key=("urdf-log", r.msg))
