@@ -35,7 +35,7 @@ from .._core import tree as core
 from ..errors import StiffkitError
 from ..robot.model_bodies import body_candidates
 from ..robot.tree_model import TreeModel, tree_model_from_tables
-from .absolute_data import AbsoluteData
+from .absolute_data import AbsoluteData, row_values
 from .absolute_fit import (
     AbsoluteFit,
     _loads,
@@ -46,7 +46,7 @@ from .absolute_fit import (
     position_stats,
     predict,
 )
-from .checks import outlier_rows, unit_slips
+from .checks import cannot_judge, drop_copies, outlier_rows, unit_slips
 from .crossval import config_folds, held_out_residuals
 from .diagnose import Candidate
 
@@ -221,7 +221,13 @@ def diagnose_absolute(
 ) -> AbsoluteDiagnosis:
     """Fit ``model`` to ``data``, check the data, rank the missing effects
     (module docstring)."""
-    fit = fit_absolute(model, data, sigma_position=sigma_position)
+    data, copies = drop_copies(data, row_values(data))  # copies are not replicates
+    try:
+        fit = fit_absolute(model, data, sigma_position=sigma_position)
+    except StiffkitError as exc:  # too few rows: with copies, say what is left
+        if not copies:
+            raise
+        raise cannot_judge(data.path, data.n, copies, str(exc).removeprefix(f"{data.path}: ")) from None
     sig_decl = sigma_position if sigma_position is not None else model.sigma_position
     # 1. the data first
     dchecks: dict = {"outliers": [], "unit_slips": [], "warnings": list(data.warnings)}
@@ -280,7 +286,11 @@ def diagnose_absolute(
     nobs = 3 * int(np.sum(w > 0))
     rss = float(r @ r)
     p = int(fit.reduction.kept.size)
-    nres = max(nobs - p, 1)
+    if nobs <= p:
+        raise cannot_judge(
+            data.path, data.n, copies, f"{nobs} coordinates for {p} identified parameters leave no residual"
+        )
+    nres = nobs - p
     s2 = (sig_decl**2) if sig_decl else rss / nres
     sigma = math.sqrt(s2)
     # adequacy

@@ -52,9 +52,11 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
+from ..io.tomlw import effect_toml
 from ..robot.model import Model, compensator_h, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
+from .checks import cannot_judge, drop_copies
 from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
 from .robust import DataChecks, check_data, format_checks
@@ -294,9 +296,14 @@ def logsf_f(f: float, d1: float, d2: float) -> float:
 
 
 def _adequacy(
-    res: FitResult, pb: Problem, meas: Measurements
+    res: FitResult, pb: Problem, meas: Measurements, copies: int = 0
 ) -> tuple[str, float, int, float, float, str, float, int | None]:
-    """(test, statistic, dof, log p, sigma, source, scale2, d_pe)."""
+    """(test, statistic, dof, log p, sigma, source, scale2, d_pe); ``meas``
+    holds distinct rows only, ``copies`` rows were exact copies (dropped)."""
+    if res.dof <= 0:
+        raise cannot_judge(
+            meas.path, meas.n, copies, f"{res.nobs} observations for {res.rank} identified parameters leave no residual"
+        )
     if pb.sigma_declared:
         stat, dof = res.chi2, res.dof
         return (
@@ -311,11 +318,13 @@ def _adequacy(
         )
     ss_pe, d_pe = pure_error(pb, meas)
     if d_pe == 0:
-        raise InputError(
-            f"{meas.path}: no [measurements] sigma_position in the model and no "
-            f"replicated rows (same posture, wrench and point): the noise level is "
-            f"unknown, so adequacy cannot be tested; declare sigma_position or "
-            f"repeat measurements"
+        raise cannot_judge(
+            meas.path,
+            meas.n,
+            copies,
+            "no [measurements] sigma_position in the model and no replicated rows (same posture, wrench and "
+            "point, measured again): the noise level is unknown, so adequacy cannot be tested; declare "
+            "sigma_position or repeat measurements",
         )
     s2 = ss_pe / d_pe
     if not s2 > 0:
@@ -368,6 +377,8 @@ def diagnose(
     """
 
     model, meas = as_inputs(model, meas)
+    rows = np.hstack([meas.q, meas.w, meas.p, meas.d] + ([meas.r] if meas.r is not None else []))
+    meas, copies = drop_copies(meas, rows)  # copies are not replicates
     tau_all = model.chain.joint_torques(meas.q, meas.w)
     tau0 = {j: default_tau0(tau_all[:, k]) for k, j in enumerate(model.chain.joint_names) if model.chain.qidx[k] > 0}
     cands = candidate_tables(model, tau0)
@@ -378,8 +389,13 @@ def diagnose(
     cterms = [expand_effect(model.chain, table, n0 + i, "candidate") for i, (table, _) in enumerate(cands)]
     flat = [t for ts in cterms for t in ts]
     pb = Problem(model, meas, extra_terms=flat, sigma_position=sigma_position)
-    res_all = fit(model, meas, problem=pb)
-    test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res_all, pb, meas)
+    try:
+        res_all = fit(model, meas, problem=pb)
+    except InputError as exc:  # too few rows: with copies, say what is left
+        if not copies:
+            raise
+        raise cannot_judge(meas.path, meas.n, copies, str(exc).removeprefix(f"{meas.path}: ")) from None
+    test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res_all, pb, meas, copies)
     dc = check_data(res_all, alpha=alpha) if checks else None
     res, log_p_all, verdict_all = res_all, None, None
     if dc is not None and dc.set_aside:
@@ -389,7 +405,7 @@ def diagnose(
         meas = meas.subset(keep)
         pb = Problem(model, meas, extra_terms=flat, sigma_position=sigma_position)
         res = fit(model, meas, problem=pb)
-        test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res, pb, meas)
+        test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res, pb, meas, copies)
     nobs = res.nobs
     omnibus = log_p < math.log(alpha)
 
@@ -998,10 +1014,3 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
             "not ranked): " + ", ".join(c.label for c in dg.non_identifiable)
         )
     return "\n".join(lines)
-
-
-def effect_toml(effect: dict) -> str:
-    out = ["[[effect]]"]
-    for k, v in effect.items():
-        out.append(f"{k} = {v!r}".replace("'", '"'))
-    return "\n".join(out)

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
+from ..io import tomlw
 from ..io.files import atomic_write_text
 from ..robot.model import JOINT_KINDS, SYM, Model, model_from_tables
 from ..robot.model_file import effects_toml
@@ -325,5 +325,5 @@ def write_model(res: FitResult, path: Path | str) -> list[str]:
         f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
         f"# semi-identifiable parameters hold the minimum-norm solution; non-identifiable ones 0 (see the notes)\n"
     )
-    atomic_write_text(path, head + tomli_w.dumps(doc) + effects_toml(tables))
+    atomic_write_text(path, tomlw.dumps(doc, head) + effects_toml(tables))
     return notes

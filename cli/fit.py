@@ -191,6 +191,11 @@ def run(args: argparse.Namespace) -> int:
             "cross-validates deflection data"
         )
     model = load_model(args.model)
+    if not model.effects:
+        raise InputError(
+            f'{args.model}: the model has no [[effect]] table: nothing to fit (start with kind = "joint", '
+            'target = "all"; stiffkit diagnose proposes what to add)'
+        )
     meas = read_measurements(args.measurements, model.chain.dof)
     val = read_measurements(args.validate, model.chain.dof) if args.validate else None
     checks = None

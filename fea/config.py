@@ -270,6 +270,11 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     _check_keys(data, path)
     g = data["geometry"]
     units = _get(g, "units", "geometry", path, str, "mm")
+    if "units" not in g:
+        V.warn(
+            f'{path}: [geometry] has no units: millimetres assumed (write units = "mm", or "m")',
+            key=("link-units", str(path)),
+        )
     if units not in UNITS:
         raise ConfigError(f"{path}: [geometry] units = {units!r}{_suggest(units, UNITS)}: one of {', '.join(UNITS)}")
     scale = UNITS[units]
