@@ -14,7 +14,6 @@ coupled sets are listed).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from ..calib.absolute_fit import fit_absolute
 from ..calib.absolute_plots import absolute_plots
@@ -29,7 +28,7 @@ from ..calib.reduce import format_reduction, reduce_model, reduced_model
 from ..calib.robust import format_checks, robust_fit
 from ..errors import InputError
 from ..io import validate as V
-from ..io.files import write_json
+from ..io.files import check_plots_folder, model_inputs, write_json
 from ..robot.model import load_model
 from ..robot.tree_model import model_kind
 from . import args as A
@@ -127,8 +126,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _outputs(args: argparse.Namespace) -> None:
-    """Every output path checked before anything runs (not an input, not a folder, suffixes)."""
-    inputs = [args.model, args.measurements]
+    """Every output path checked before anything runs (not an input, its folder writable, suffixes)."""
+    inputs = [*model_inputs(args.model), args.measurements, args.compare]
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--write-model", args.write_model, (".toml",)),
@@ -136,8 +135,7 @@ def _outputs(args: argparse.Namespace) -> None:
     ):
         if path:
             V.output_path(path, opt, inputs, suffixes)
-    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
-        raise InputError(f"--plots {args.plots}: a file, not a folder")
+    check_plots_folder(args.plots, "--plots")
     V.distinct_outputs({"--json": args.json, "--write-model": args.write_model, "--write-urdf": args.write_urdf})
 
 

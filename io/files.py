@@ -26,6 +26,7 @@ import os
 import shutil
 import stat
 import tempfile
+import tomllib
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -42,6 +43,9 @@ if TYPE_CHECKING:
 __all__ = [
     "check_output",
     "check_folder",
+    "check_plots_folder",
+    "model_inputs",
+    "link_inputs",
     "atomic_path",
     "atomic_open",
     "atomic_write_bytes",
@@ -147,6 +151,51 @@ def check_output(path: Path | str, what: str) -> Path:
     target = Path(os.path.realpath(path))
     check_folder(target.parent, what, path)
     return path
+
+
+def check_plots_folder(folder: Path | str | None, what: str) -> Path | None:
+    """A folder of figures (``--plots DIR``), checked before the work: not a
+    file, and a folder files can be created in (it is created when missing)."""
+    if not folder:
+        return None
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"{what} {folder}: a file, not a folder")
+    return check_folder(folder, what)
+
+
+def _referenced(path: Path | str | None, table: str, keys: tuple[str, ...]) -> list[Path]:
+    """``path`` and the files its TOML names in [table] keys (relative to
+    its folder). A file that cannot be read yields only itself: the command
+    reports its error when it reads it."""
+    if not path:
+        return []
+    path = Path(path)
+    out = [path]
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, ValueError):
+        return out
+    sec = doc.get(table)
+    if not isinstance(sec, dict):
+        return out
+    for k in keys:
+        v = sec.get(k)
+        if isinstance(v, str) and v.strip():
+            f = Path(v)
+            out.append(f if f.is_absolute() else path.parent / f)
+    return out
+
+
+def model_inputs(path: Path | str | None) -> list[Path]:
+    """A model TOML and the files it reads ([robot] urdf, nominal_urdf): the
+    inputs no output of a command may overwrite."""
+    return _referenced(path, "robot", ("urdf", "nominal_urdf"))
+
+
+def link_inputs(path: Path | str | None) -> list[Path]:
+    """A LINK.toml and its CAD file ([geometry] step)."""
+    return _referenced(path, "geometry", ("step",))
 
 
 def _write_in_place(src: Path, path: Path) -> None:

@@ -57,7 +57,7 @@ from numpy.typing import ArrayLike
 from .._core import tree as core
 from ..errors import InputError, StiffkitWarning
 from ..io import validate as V
-from ..io.files import atomic_write_text
+from ..io.files import atomic_write_text, model_inputs
 from ..io.tables import Table, read_table, read_toml
 from .model import LOAD_NONLINEAR, SPRING_BASE, SPRING_FRAME, SPRING_TOOL, Model, load_model
 from .tree import Tree, load_tree
@@ -613,7 +613,7 @@ def compensate(
     that do not converge are flagged in the file and given as a warning
     (StiffkitWarning)."""
     if out is not None:
-        out = V.output_path(out, "--out", [model, targets])
+        out = V.output_path(out, "--out", [*model_inputs(model), targets])
     cm = load_compensation_model(model)
     tg = read_targets(targets, cm, frame)
     res = cm.compensate(tg.Q, tg.frames, tg.wrench, check_plausible=False)
