@@ -14,7 +14,6 @@ coupled sets are listed).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from ..calib.absolute_data import AbsoluteData
 from ..calib.absolute_fit import AbsoluteFit, fit_absolute
@@ -48,7 +47,7 @@ from ..calib.results import written_model
 from ..calib.robust import format_checks, robust_fit
 from ..errors import InputError
 from ..io import validate as V
-from ..io.files import write_json
+from ..io.files import check_plots_folder, model_inputs, write_json
 from ..robot.model import load_model
 from ..robot.tree_model import model_kind
 from . import args as A
@@ -158,8 +157,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _outputs(args: argparse.Namespace) -> None:
-    """Every output path checked before anything runs (not an input, not a folder, suffixes)."""
-    inputs = [args.model, args.measurements, args.validate]
+    """Every output path checked before anything runs (not an input, its folder writable, suffixes)."""
+    inputs = [*model_inputs(args.model), args.measurements, args.compare, args.validate]
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--write-model", args.write_model, (".toml",)),
@@ -167,8 +166,7 @@ def _outputs(args: argparse.Namespace) -> None:
     ):
         if path:
             V.output_path(path, opt, inputs, suffixes)
-    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
-        raise InputError(f"--plots {args.plots}: a file, not a folder")
+    check_plots_folder(args.plots, "--plots")
     V.distinct_outputs({"--json": args.json, "--write-model": args.write_model, "--write-urdf": args.write_urdf})
 
 

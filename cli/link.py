@@ -17,7 +17,7 @@ from ..errors import InputError
 from ..fea.config import load_link
 from ..fea.job import run_link
 from ..io import validate as V
-from ..io.files import FIGURE_SUFFIXES
+from ..io.files import FIGURE_SUFFIXES, check_folder, link_inputs
 from . import args as A
 
 HELP = """\
@@ -83,7 +83,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    inputs = [args.link]
+    inputs = link_inputs(args.link)
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--vtu", args.vtu, (".vtu",)),
@@ -94,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     V.distinct_outputs({"--json": args.json, "--vtu": args.vtu, "--png": args.png})
     if not args.no_cache and Path(args.cache).exists() and not Path(args.cache).is_dir():
         raise InputError(f"--cache {args.cache}: a file, not a folder")
+    if not args.no_cache:
+        check_folder(args.cache, "--cache")
     job = load_link(args.link)
     if args.route:
         job.route = args.route

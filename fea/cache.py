@@ -201,11 +201,13 @@ def fea_cached(
         workdir = Path(tempfile.mkdtemp(prefix=f"run-{key}-", dir=base))
     try:
         sol = solve_fea(job, workdir, route, progress)
-    except KeyboardInterrupt:  # Ctrl-C, SIGTERM: no half-run folder left behind
-        if own:
+    except BaseException as exc:
+        # the folder stays for inspection only when the error names a file in
+        # it (a ccx log); Ctrl-C, SIGTERM, a missing solver: nothing left behind
+        if own and (isinstance(exc, KeyboardInterrupt) or str(workdir) not in str(exc)):
             shutil.rmtree(workdir, ignore_errors=True)
         raise
-    if own:  # on failure the folder stays for inspection (the error names its files)
+    if own:
         shutil.rmtree(workdir, ignore_errors=True)
     if entry is not None:
         store_solution(entry, sol, key)
