@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from .absolute_prune import format_backward_steps
+from .backward import format_backward_steps
 from .diagnose_report import effect_toml
 
 if TYPE_CHECKING:

@@ -52,6 +52,7 @@ from .._core import calib as core
 from ..robot.model import Model, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
+from .backward import backward_steps
 from .diagnose_candidates import Candidate, candidate_tables, inert_reasons
 from .diagnose_rank import (
     COMPENSATOR_MATCH,
@@ -82,7 +83,7 @@ from .diagnose_stats import (
     logsf_f,
     pure_error,
 )
-from .fit import Problem, as_inputs, fit, identified_model
+from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
 from .robust import check_data
 
@@ -126,6 +127,7 @@ def diagnose(
     cv_folds: int = CV_FOLDS,
     nsim: int = NSIM,
     seed: int = 20240601,
+    prune: bool = False,
 ) -> Diagnosis:
     """Check the data, fit ``model``, test its adequacy and rank the missing
     effects (contract s4 and its extensions).
@@ -141,6 +143,8 @@ def diagnose(
         set aside the rows they list
     cv_folds : folds of the cross-validation by configuration (0: none)
     nsim, seed : Monte Carlo draws of the max-score test
+    prune : propose removals only (the backward steps are made in every
+        case; an addition is then not proposed)
 
     Returns
     -------
@@ -305,6 +309,14 @@ def diagnose(
         scale2=scale2,
     )
     _rank_honestly(dg, pb, res, A, model, cterms, cands, sig)
+    _backward(dg, pb, res, folds, obs_rows, npts, wp, meas, d_pe, alpha)
+    if dg.proposal is not None and (prune or dg.removal is not None):
+        dg.reasons.append(
+            f"{dg.proposal.label} is held back: "
+            + (f"first remove {dg.removal.label}, which no longer earns its place" if dg.removal else "--prune")
+        )
+        dg.proposal = None
+    dg.pruned = prune
     _warnings(dg, nobs)
     if verdict == "inadequate" and (dg.nothing_fits or dg.proposal is None):
         feats = RM.features(pb)
@@ -313,3 +325,44 @@ def diagnose(
     for c in ranked:
         del c._pr, c._cols, c._index, c._cv
     return dg
+
+
+def _backward(
+    dg: Diagnosis,
+    pb: Problem,
+    res: FitResult,
+    folds: list[np.ndarray],
+    obs_rows: np.ndarray,
+    npts: int,
+    wp: float,
+    meas: Measurements,
+    d_pe: int | None,
+    alpha: float,
+) -> None:
+    """The backward steps (calib/backward.py) of the model's effects,
+    linearised at the fit: A's columns are the free parameters times their
+    equilibration scale."""
+    free = [t for t in pb.terms if t.free]
+    owner = np.array([t.effect for t in free for _ in t.names], int)
+    eq = res.col_scale if res.col_scale is not None and res.col_scale.size else np.ones(owner.size)
+    coef = res.theta / eq if owner.size else np.zeros(0)
+
+    def cv(Ab: np.ndarray, rb: np.ndarray) -> float | None:
+        return _cv(Ab, rb, obs_rows, folds, npts, wp, meas.config)[0] if len(folds) >= 2 else None
+
+    dg.backward, dg.removal = backward_steps(
+        list(pb.model.effects),
+        owner,
+        coef,
+        res.A,
+        res.r,
+        dg.scale2,
+        d_pe is None,
+        d_pe or res.dof,
+        cv,
+        dg.cv_rms_position_m,
+        lambda e: CV.rms_rows(e, npts, coords=(0, 1, 2), scale=1.0 / wp),
+        alpha,
+        values=lambda cols: res.theta[cols],
+        free_effects={t.effect for t in free},
+    )

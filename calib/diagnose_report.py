@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import residual_map as RM
+from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
 from .diagnose_rank import TIE_LOG10
 from .diagnose_stats import ALPHA
@@ -56,6 +57,9 @@ class Diagnosis:
     warnings: list[str] = field(default_factory=list)
     residual_map: list[RM.Feature] = field(default_factory=list)
     shapes: list[dict] = field(default_factory=list)  # binned residual along the leading features
+    backward: list[BackwardStep] = field(default_factory=list)  # the model's effects tested without them
+    removal: BackwardStep | None = None
+    pruned: bool = False
 
     @property
     def p_value(self) -> float:
@@ -103,6 +107,9 @@ class Diagnosis:
             "nothing_fits": self.nothing_fits,
             "together_excess_fraction": self.together_fraction,
             "proposal": self.proposal.effect if self.proposal is not None else None,
+            "removal": self.removal.to_json() if self.removal is not None else None,
+            "backward_steps": [s.to_json() for s in self.backward],
+            "prune": self.pruned,
             "no_proposal_reasons": self.reasons,
             "warnings": self.warnings,
             "residual_map": [f.to_json() for f in self.residual_map],
@@ -254,6 +261,9 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
             "dead zone), angle -> a posture-dependent joint, row order -> drift of the instrument, "
             "configuration offsets -> a reference error per posture (see --plots)"
         )
+    if dg.backward:
+        lines.append("")
+        lines += format_backward_steps(dg.backward, dg.removal)
     if dg.proposal is not None:
         best = dg.proposal
         lines.append("")

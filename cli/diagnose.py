@@ -33,7 +33,7 @@ Fits the model, then
      nothing in the catalogue fits, and the residual's shape is shown
      (against each joint's torque and angle, the row order, the
      configurations; --plots draws them).
-On absolute data, every effect already in the model is also tested without
+Every effect already in the model is also tested without
 it (backward steps: its values against the noise, the held-out error
 without it); one that no longer earns its place is proposed for removal
 before any addition (--prune: only these steps, the verdict from the
@@ -74,9 +74,10 @@ ties [{candidates, separate_by}], nothing_fits, proposal (the [[effect]] table
 or null), no_proposal_reasons, warnings, residual_map, residual_shapes,
 non_identifiable_candidates [{kind, target, effect, reason}]; per candidate
 excess_fraction (the share of the residual above the noise it explains,
-null when the noise is unknown); absolute data also: backward_steps
+null when the noise is unknown); backward_steps
 [{effect_index, effect, statistic, dof, log10_p_value, max_abs_value,
-rms_without_m, cv_rms_position_m_without, remove, why}], removal (or null).
+rms_without_m, cv_rms_position_m_without, remove, why}], removal (or null),
+prune.
 
 extension kinds (docs/calibration.md s7), also usable in MODEL.toml:
   joint_cubic     dq = c tau + c3 tau^3, tau the torque of the row's wrench about the joint
@@ -130,8 +131,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "--prune",
         action="store_true",
         help="backward steps only: test every effect of the model without it (its values against the noise, "
-        "the held-out error without it) and propose removing one that no longer earns its place; the verdict "
-        "is the adequacy test's (absolute data)",
+        "the held-out error without it) and propose removing one that no longer earns its place, no addition; "
+        "the verdict is the adequacy test's",
     )
     p.add_argument(
         "--kinds", help="comma-separated candidate kinds to score (default: every kind), e.g. joint,link,point_offset"
@@ -148,11 +149,6 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--cv 1: cross-validation needs at least 2 folds (0 switches it off)")
     if model_kind(args.model) == "absolute":
         return run_absolute(args)
-    if args.prune:
-        raise InputError(
-            "--prune: backward steps are made on absolute data (a model with [measurements] kind = "
-            '"absolute"); on deflection data the diagnosis proposes additions only'
-        )
     model = load_model(args.model)
     meas = read_measurements(args.measurements, model.chain.dof)
     kinds = None
@@ -169,6 +165,7 @@ def run(args: argparse.Namespace) -> int:
         kinds=kinds,
         checks=not args.no_checks,
         cv_folds=args.cv,
+        prune=args.prune,
     )
     print(format_table(dg.fit_all if dg.fit_all is not None else dg.fit))
     print()

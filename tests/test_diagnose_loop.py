@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,7 +20,6 @@ from stiffkit.calib.absolute_write import model_text
 from stiffkit.calib.synth_trees import NO_MARKER_LINKS, TRUTH_KINDS, tree_case, twofixed_case
 from stiffkit.cli import main
 
-KR270 = Path(__file__).resolve().parents[1] / "examples" / "kr270"
 SIGMA = 1e-4
 FLOOR = math.sqrt(3) * SIGMA
 #: joints below which no marker sits (the head, the mimic fingers)
@@ -196,11 +194,6 @@ def test_cli_prune_json(case0, tmp_path):
     assert rm["cv_rms_position_m_without"] <= d["cv_rms_position_m"] * 1.005 and rm["log10_p_value"] > -2
 
 
-def test_prune_refused_on_deflection_data(capsys):
-    assert main(["diagnose", str(KR270 / "model.toml"), str(KR270 / "measurements.csv"), "--prune"]) == 2
-    assert "--prune: backward steps are made on absolute data" in capsys.readouterr().err
-
-
 def test_all_candidate_scores_only_the_joints_that_act(case0):
     """joint_offset:all has as many degrees of freedom as the joint offsets
     that act (the head's and the fingers' left out)."""
@@ -210,3 +203,28 @@ def test_all_candidate_scores_only_the_joints_that_act(case0):
     assert every is not None and every.dof <= sum(c.dof for c in single)
     assert not any(c.target in NO_MARKER_JOINTS for c in single)
     assert np.isfinite(every.statistic)
+
+
+def test_backward_steps_on_deflection_data():
+    """Deflection data (serial robot, joint compliances the truth): a base
+    spring the truth lacks is proposed for removal with its numbers; the
+    joints are kept; with prune=True no addition is proposed."""
+    from _calib_util import data, joints_truth, model
+
+    from stiffkit.calib.diagnose import diagnose, format_diagnosis
+
+    sig = 1e-5
+    chain, _tm, meas = data(joints_truth(), sigma=sig, seed=8)
+    effects = [{"kind": "joint", "target": "all"}, {"kind": "base", "template": "diagonal"}]
+    dg = diagnose(model(chain, effects, sigma=sig), meas, nsim=199)
+    steps = {s.label: s for s in dg.backward}
+    assert dg.removal is steps["base:base"] and dg.removal.index == 1
+    assert dg.removal.log_p >= math.log(0.01) and dg.removal.cv_rms_position_m <= 1.005 * dg.cv_rms_position_m
+    joints = steps["joint:all"]
+    assert not joints.remove and joints.n_identified == 6 and joints.rms_without_m > 10 * dg.fit.rms_position
+    assert "suggested removal: delete [[effect]] #2 (base:base)" in format_diagnosis(dg)
+    js = json.loads(json.dumps(dg.to_json()))
+    assert js["removal"]["label"] == "base:base" and len(js["backward_steps"]) == 2
+    # the joints alone: nothing to remove
+    dg = diagnose(model(chain, effects[:1], sigma=sig), meas, nsim=199, prune=True)
+    assert dg.removal is None and dg.proposal is None and dg.verdict == "adequate" and dg.pruned

@@ -1,8 +1,9 @@
-"""Backward steps of the absolute diagnosis (``calib.absolute_diagnose``):
-does every effect already in the model still earn its place?
+"""Backward steps of the diagnosis (``calib.absolute_diagnose`` and
+``calib.diagnose``): does every effect already in the model still earn its
+place?
 
-For each ``[[effect]]`` table of the model (the tracker and the markers
-excepted), linearised at the fit (the Jacobian and the residual of the
+For each ``[[effect]]`` table of the model (the tracker and the markers of
+absolute data excepted), linearised at the fit (the Jacobian and the residual of the
 diagnosis):
 
 - its fitted values against the noise: the Wald statistic of its
@@ -32,7 +33,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core import calib as core_calib
-from ..robot.tree_model import TreeModel
 
 __all__ = ["BackwardStep", "backward_steps", "format_backward_steps", "PRUNE_CV_TOL", "FRAME_KINDS"]
 
@@ -82,9 +82,9 @@ class BackwardStep:
 
 
 def backward_steps(
-    model: TreeModel,
-    theta: np.ndarray,
-    kept: np.ndarray,
+    effects: list[dict],
+    owner: np.ndarray,
+    coef: np.ndarray,
     A: np.ndarray,
     r: np.ndarray,
     s2: float,
@@ -92,45 +92,55 @@ def backward_steps(
     nres: int,
     cv: Callable[[np.ndarray, np.ndarray], float | None],
     cv_base: float | None,
-    npts: int,
+    rms: Callable[[np.ndarray], float],
     alpha: float,
+    values: Callable[[np.ndarray], np.ndarray] | None = None,
+    free_effects: set[int] | None = None,
 ) -> tuple[list[BackwardStep], BackwardStep | None]:
-    """Test every effect of ``model`` (module docstring). ``kept``: the
-    model's identified parameters, in the order of the columns of ``A``
-    (weighted Jacobian at the fit; ``r`` its weighted residual, measured
-    minus predicted); ``s2`` the noise variance in those units; ``cv(A, r)``
-    the held-out RMS of a linearised model; ``npts`` the points in use.
-    Returns the steps and the removal proposed (None when every effect
-    earns its place)."""
-    rss = float(r @ r)
+    """Test every effect of the model (module docstring), on either data
+    kind. ``effects``: the model's [[effect]] tables; ``A``: the weighted
+    Jacobian at the fit of the identified parameters (columns), ``owner``
+    the effect table (index into ``effects``) of each column, ``coef`` the
+    fitted value of each column in A's units (so that A @ coef is the part
+    of the prediction the parameters make, relative to their absence); ``r``
+    the weighted residual, measured minus predicted; ``s2`` the noise
+    variance in those units; ``cv(A, r)`` the held-out positional RMS of a
+    linearised model; ``rms(e)`` the positional RMS of a weighted residual;
+    ``values(cols)`` the fitted values of those columns in the parameters'
+    units (default ``coef``); ``free_effects``: the effects with a
+    parameter to identify (the others hold known values and are not
+    tested; default: every effect). Returns the steps and the removal
+    proposed (None when every effect earns its place)."""
     steps = []
-    for e, table in enumerate(model.effects):
-        if table.get("kind") in FRAME_KINDS:
+    for e, table in enumerate(effects):
+        if table.get("kind") in FRAME_KINDS or (free_effects is not None and e not in free_effects):
             continue
-        own = np.array([k for k, i in enumerate(kept) if model.params[i].effect == e], int)
-        ids = kept[own] if own.size else np.zeros(0, int)
+        own = np.flatnonzero(owner == e)
         st = BackwardStep(index=e, effect=dict(table), n_identified=int(own.size))
         if own.size == 0:
             st.remove, st.why = True, "no parameter of it is identified (dropped, or a compliance held at 0)"
-            st.rms_without_m = math.sqrt(rss / max(npts, 1))
+            st.rms_without_m = rms(r)
             st.cv_rms_position_m = cv_base
             steps.append(st)
             continue
         Ae = A[:, own]
         rest = np.setdiff1d(np.arange(A.shape[1]), own)
         Ar = A[:, rest] if rest.size else np.zeros((A.shape[0], 1))
-        r_without = r + Ae @ theta[ids]  # its parameters at zero (its absence)
-        stat, dof, _pr = core_calib.score(Ar, r_without, Ae, np.array([1, own.size + 1], np.int32), 1e-10, ZTOL)
+        r_without = r + Ae @ coef[own]  # its parameters at zero (its absence)
+        stat, dof, pr = core_calib.score(Ar, r_without, Ae, np.array([1, own.size + 1], np.int32), 1e-10, ZTOL)
         st.dof = int(dof[0])
         st.statistic = float(stat[0] / s2)
-        st.max_abs_value = float(np.max(np.abs(theta[ids])))
+        vals = coef[own] if values is None else values(own)
+        st.max_abs_value = float(np.max(np.abs(vals)))
         if st.dof == 0:
             st.log_p = 0.0
         elif declared:
             st.log_p = core_calib.chi2_logsf(st.statistic, st.dof)
         else:
             st.log_p = core_calib.f_logsf(st.statistic / st.dof, st.dof, max(nres, 1))
-        st.rms_without_m = math.sqrt((rss + float(stat[0])) / max(npts, 1))
+        # the rest refitted without it: r is orthogonal to every column, so its residual is r
+        # plus the part of r_without that the effect's columns explain off the rest
+        st.rms_without_m = rms(r + pr[:, 0])
         st.cv_rms_position_m = cv(A[:, rest] if rest.size else np.zeros((A.shape[0], 0)), r_without)
         noise = st.log_p >= math.log(alpha)
         same_cv = (
@@ -172,7 +182,7 @@ def format_backward_steps(steps: list[BackwardStep], removal: BackwardStep | Non
         cv = f"{s.cv_rms_position_m / mm:9.4f}" if s.cv_rms_position_m is not None else f"{'-':>9s}"
         rms = f"{s.rms_without_m / mm:9.4f}" if s.rms_without_m is not None else f"{'-':>9s}"
         lines.append(
-            f"  {s.label[:31]:32s}{s.n_identified:7d}{s.max_abs_value:13.4g}{s.log_p / math.log(10):9.2f}{rms}{cv}"
+            f"  {s.label[:31]:32s}{s.n_identified:7d}{s.max_abs_value:13.4g}{s.log_p / math.log(10):9.3g}{rms}{cv}"
             f"  {'REMOVE' if s.remove else 'keep'}"
         )
     if removal is not None:
