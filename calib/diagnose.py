@@ -130,7 +130,7 @@ def diagnose(
     prune: bool = False,
 ) -> Diagnosis:
     """Check the data, fit ``model``, test its adequacy and rank the missing
-    effects (contract s4 and its extensions).
+    effects (docs/calibration.md §4 and its extensions).
 
     Parameters
     ----------
