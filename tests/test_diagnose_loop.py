@@ -228,3 +228,27 @@ def test_backward_steps_on_deflection_data():
     # the joints alone: nothing to remove
     dg = diagnose(model(chain, effects[:1], sigma=sig), meas, nsim=199, prune=True)
     assert dg.removal is None and dg.proposal is None and dg.verdict == "adequate" and dg.pruned
+
+
+def test_below_the_noise_at_a_plausible_size(case0):
+    """A frame error whose columns move no point by as much as sigma at its
+    plausible size (0.01 m, 0.1 rad) is inert, with the ratio; ten times
+    larger columns act; compliances (no plausible size) are judged by zero
+    columns only."""
+    from stiffkit.calib.absolute_candidates import PLAUSIBLE_SIZE, numerical_inert
+
+    m = case0.model(list(case0.start) + [{"kind": "frame", "target": "l2"}, {"kind": "joint", "target": "l2"}])
+    frame = np.array([i for i, p in enumerate(m.params) if p.kind == "frame"])
+    joint = np.array([i for i, p in enumerate(m.params) if p.kind == "joint"])
+    n = 3 * case0.data.n
+    rng = np.random.default_rng(5)
+    J = rng.uniform(-1, 1, (n, 6))
+    sizes = np.array([PLAUSIBLE_SIZE["frame"][p.name.rsplit(".", 1)[1]] for p in (m.params[i] for i in frame)])
+    # the largest point displacement of any one parameter at its size: exactly 0.5 sigma
+    J = J / np.max(np.sqrt(np.add.reduceat((J * sizes) ** 2, np.arange(0, n, 3), axis=0))) * 0.5 * SIGMA
+    biggest = {"frame": 1.0, "joint": 1.0}
+    why = numerical_inert(m, frame, J, biggest, SIGMA)
+    assert why.startswith("below the noise") and "0.5 sigma" in why
+    assert numerical_inert(m, frame, 10 * J, biggest, SIGMA) == ""
+    assert numerical_inert(m, joint, J[:, :1], biggest, SIGMA) == ""  # small, but no size to judge it by
+    assert "columns are zero" in numerical_inert(m, joint, 1e-10 * J[:, :1], biggest, SIGMA)
