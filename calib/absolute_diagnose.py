@@ -37,6 +37,7 @@ effect of the model no longer earns its place?
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -72,6 +73,7 @@ from .diagnose_candidates import Candidate
 __all__ = [
     "AbsoluteDiagnosis",
     "diagnose_absolute",
+    "diagnose_loop",
     "absolute_candidates",
     "format_absolute_diagnosis",
     "residual_structure",
@@ -306,6 +308,40 @@ def diagnose_absolute(
     if nres < 30:
         dg.warnings.append(f"only {nres} residual degrees of freedom: the tests have little power")
     return dg
+
+
+def diagnose_loop(
+    model_of: Callable[[list[dict]], TreeModel],
+    data: AbsoluteData,
+    start: list[dict],
+    steps: int = 8,
+    prune_steps: int = 4,
+    **kw: object,
+) -> tuple[list[dict], list[AbsoluteDiagnosis]]:
+    """The user's loop on absolute data: diagnose; delete the effect proposed
+    for removal, or append the proposal; again, at most ``steps`` times;
+    then diagnose with ``prune=True`` until nothing is proposed for removal
+    (at most ``prune_steps`` times). ``model_of(effects)`` builds the model
+    of a list of [[effect]] tables; ``kw`` goes to :func:`diagnose_absolute`.
+    Returns the final effects and every diagnosis, in order."""
+    effects = [dict(e) for e in start]
+    seen: list[AbsoluteDiagnosis] = []
+    for _ in range(steps):
+        dg = diagnose_absolute(model_of(effects), data, **kw)
+        seen.append(dg)
+        if dg.removal is not None:
+            effects.pop(dg.removal.index)
+        elif dg.proposal is not None:
+            effects.append(dict(dg.proposal.effect))
+        else:
+            break
+    for _ in range(prune_steps):
+        dg = diagnose_absolute(model_of(effects), data, prune=True, **kw)
+        seen.append(dg)
+        if dg.removal is None:
+            break
+        effects.pop(dg.removal.index)
+    return effects, seen
 
 
 def _prune_verdict(

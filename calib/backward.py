@@ -175,14 +175,14 @@ def format_backward_steps(steps: list[BackwardStep], removal: BackwardStep | Non
         return []
     mm = 1e-3
     lines = [
-        "backward steps (each effect of the model tested without it):",
-        f"  {'effect':32s}{'ident.':>7s}{'|value| max':>13s}{'log10 p':>9s}{'RMS w/o':>9s}{'CV w/o':>9s}  verdict",
+        "backward steps (each effect of the model tested without it; RMS and CV in mm):",
+        f"  {'effect':32s}{'ident.':>7s}{'|value| max':>13s}{'log10 p':>10s}{'RMS w/o':>10s}{'CV w/o':>10s}  verdict",
     ]
     for s in steps:
-        cv = f"{s.cv_rms_position_m / mm:9.4f}" if s.cv_rms_position_m is not None else f"{'-':>9s}"
-        rms = f"{s.rms_without_m / mm:9.4f}" if s.rms_without_m is not None else f"{'-':>9s}"
+        cv = f"{s.cv_rms_position_m / mm:10.4f}" if s.cv_rms_position_m is not None else f"{'-':>10s}"
+        rms = f"{s.rms_without_m / mm:10.4f}" if s.rms_without_m is not None else f"{'-':>10s}"
         lines.append(
-            f"  {s.label[:31]:32s}{s.n_identified:7d}{s.max_abs_value:13.4g}{s.log_p / math.log(10):9.3g}{rms}{cv}"
+            f"  {s.label[:31]:32s}{s.n_identified:7d}{s.max_abs_value:13.4g} {s.log_p / math.log(10):9.3g}{rms}{cv}"
             f"  {'REMOVE' if s.remove else 'keep'}"
         )
     if removal is not None:

@@ -15,7 +15,7 @@ import pytest
 
 from stiffkit.calib.absolute_candidates import moved_links
 from stiffkit.calib.absolute_data import write_absolute
-from stiffkit.calib.absolute_diagnose import diagnose_absolute, format_absolute_diagnosis
+from stiffkit.calib.absolute_diagnose import diagnose_absolute, diagnose_loop, format_absolute_diagnosis
 from stiffkit.calib.absolute_write import model_text
 from stiffkit.calib.synth_trees import NO_MARKER_LINKS, TRUTH_KINDS, tree_case, twofixed_case
 from stiffkit.cli import main
@@ -38,28 +38,12 @@ def _acts(dg) -> None:
                 assert "moves no marker" in inert[j]
 
 
-def run_loop(case, steps: int = 6, sigma_declared: bool = True, start: list[dict] | None = None):
-    """Diagnose, then remove what the diagnosis says no longer earns its
-    place or append its proposal, and again; then prune. Returns the final
-    effects and every diagnosis."""
-    effects = list(case.start if start is None else start)
-    seen = []
-    for _ in range(steps):
-        dg = diagnose_absolute(case.model(effects, sigma_declared), case.data, cv_folds=4)
+def run_loop(case, start: list[dict] | None = None):
+    """calib.absolute_diagnose.diagnose_loop on a tree case (4 folds),
+    checking every diagnosis on the way."""
+    effects, seen = diagnose_loop(case.model, case.data, case.start if start is None else start, cv_folds=4)
+    for dg in seen:
         _acts(dg)
-        seen.append(dg)
-        if dg.removal is not None:
-            effects.pop(dg.removal.index)
-        elif dg.proposal is not None:
-            effects.append(dict(dg.proposal.effect))
-        else:
-            break
-    for _ in range(3):
-        dg = diagnose_absolute(case.model(effects, sigma_declared), case.data, cv_folds=4, prune=True)
-        seen.append(dg)
-        if dg.removal is None:
-            break
-        effects.pop(dg.removal.index)
     return effects, seen
 
 
