@@ -5,9 +5,10 @@ points at all.
 A candidate is an ``[[effect]]`` table the model lacks: every per-joint kind
 (JOINT_KINDS) on every joint it applies to and on ``all``, a link spring on
 every link that carries mass beyond it, the base spring. To add a kind:
-append its tables in :func:`absolute_candidates`, say in
-:func:`moved_links` which links its effect moves, and (if its size has a
-physical bound) give PLAUSIBLE_SIZE an entry.
+append its tables in :func:`absolute_candidates`; if its effect moves
+links directly (not only through the weights), say which in
+:func:`moved_links` (a kind it does not know is judged by its columns
+only); if its size has a physical bound, give PLAUSIBLE_SIZE an entry.
 
 A candidate that cannot move any measured point is *inert*: listed with the
 reason, never scored, ranked or proposed (:func:`inert_reason`):
@@ -93,15 +94,23 @@ def _subtree(model: TreeModel, link: str) -> set[str]:
     return out
 
 
-def moved_links(model: TreeModel, cand: dict) -> set[str]:
+#: kinds whose target is a joint and whose effect moves the links below it
+JOINT_TARGET_KINDS = JOINT_KINDS + ("joint_cubic", "joint_deadzone")
+
+
+def moved_links(model: TreeModel, cand: dict) -> set[str] | None:
     """The links whose pose the candidate's effect changes directly (not
     through the weights it shifts): below the joint for the per-joint kinds
     (every target's union for ``all``); below the spring for a link spring
     (a link with one child joint carries it at that joint's origin, any
-    other at its own frame); every link for the base spring."""
+    other at its own frame); every link for the base spring. None for a
+    kind this does not know (e.g. one that acts through the weights, such
+    as a mass): it is then judged by its columns only."""
     tree = model.tree
     kind = cand["kind"]
     target = cand.get("target", kind)
+    if kind not in JOINT_TARGET_KINDS + ("link", "base"):
+        return None
     if kind == "base":
         return set(tree.links)
     if kind == "link":
@@ -118,8 +127,9 @@ def moved_links(model: TreeModel, cand: dict) -> set[str]:
 
 def inert_reason(model: TreeModel, cand: dict) -> str:
     """Why the candidate cannot move a measured point by its structure
-    ("" when it can)."""
-    if moved_links(model, cand) & set(model.frames):
+    ("" when it can, or when its kind is not judged by its structure)."""
+    moved = moved_links(model, cand)
+    if moved is None or moved & set(model.frames):
         return ""
     kind, target = cand["kind"], cand.get("target", cand["kind"])
     where = f"below {'link' if kind == 'link' else 'joint'} {target!r}"

@@ -93,6 +93,8 @@ def test_the_two_fixed_joint_robot_with_a_head_without_marker(tmp_path):
     # the structural rule: every ranked candidate moves a marker
     m = case.model(effects)
     assert all(moved_links(m, c.effect) & set(m.frames) for c in first.candidates)
+    # a kind acting through the weights only (a mass) is not judged by the structure
+    assert moved_links(m, {"kind": "mass", "target": "head"}) is None
 
 
 @pytest.fixture(scope="module")
