@@ -14,6 +14,7 @@ from ..io.files import atomic_path, pyplot, save_figure, write_json
 from ..meshing import Mesh
 from ..version import __version__
 from .config import LinkJob
+from .facesets import set_label
 from .solve import FeaSolution
 
 __all__ = ["LinkResult"]
@@ -80,9 +81,10 @@ class LinkResult:
             "deflections": self.deflections().tolist(),
             "route": sol.route,
             "coupling": self.job.coupling,
-            "boundary_condition": f"nodes of {self.job.support_plane} clamped in x, y, z; "
+            "boundary_condition": f"nodes of {set_label(self.job, 'support')} clamped in x, y, z; "
             f"loads at the reference point through a {self.job.coupling} "
-            f"coupling to {self.job.load_plane}",
+            f"coupling to {set_label(self.job, 'load')}",
+            "reference_point_m": list(self.job.reference_point),
             "field": {"region": self.job.region, "size_m": self.job.region_size, "nodes": int(self.field_nodes.size)},
             "fit": {
                 "method": self.job.method,
