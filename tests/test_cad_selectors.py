@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from _cad_parts import PLATE, plate_areas, plate_geo, plate_step
+
 from stiffkit.fea.config import parse_link
 from stiffkit.fea.facesets import mesh_set, resolve_job_sets
 from stiffkit.fea.solve import mesh_job, support_and_load
