@@ -63,7 +63,8 @@ outputs:
   the compliance table (SI: m/N, 1/N, rad/(N m)), the reference node's own
   compliance as a check, the closed form (eq. 22) for built-in straight shapes;
   --json OUT.json (contract keys), --vtu OUT.vtu (six displacement fields for
-  ParaView), --png OUT.png (residual histograms, paper Fig. 3).
+  ParaView; with the clamped, loaded and field nodes marked), --png OUT.png (residual
+  histograms, paper Fig. 3), --faces-png OUT.png (the mesh with the selected faces).
   FEA results are cached in --cache (default .stiffkit-cache): a rerun with
   other [field]/[fit] settings reuses them.
 
@@ -95,6 +96,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--json", help="write the results (contract keys) to this JSON file")
     p.add_argument("--vtu", help="write the mesh and the six displacement fields (VTU)")
     p.add_argument("--png", help="write histograms of the fit residuals (PNG)")
+    p.add_argument("--faces-png", help="write a picture of the mesh with the clamped and loaded faces (PNG)")
     p.add_argument("--route", choices=["auto", "ccx", "matrix"], help="override [solver] route")
     p.add_argument("--order", type=int, choices=[1, 2], help="override [mesh] order")
     p.add_argument(
@@ -134,10 +136,11 @@ def run(args: argparse.Namespace) -> int:
         ("--json", args.json, None),
         ("--vtu", args.vtu, (".vtu",)),
         ("--png", args.png, FIGURE_SUFFIXES),
+        ("--faces-png", args.faces_png, (".png",)),
     ):
         if path:
             V.output_path(path, opt, inputs, suffixes)
-    V.distinct_outputs({"--json": args.json, "--vtu": args.vtu, "--png": args.png})
+    V.distinct_outputs({"--json": args.json, "--vtu": args.vtu, "--png": args.png, "--faces-png": args.faces_png})
     if not args.no_cache and Path(args.cache).exists() and not Path(args.cache).is_dir():
         raise InputError(f"--cache {args.cache}: a file, not a folder")
     job = load_link(args.link)
@@ -155,4 +158,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {res.write_vtu(args.vtu)}")
     if args.png:
         print(f"wrote {res.write_residual_png(args.png)}")
+    if args.faces_png:
+        print(f"wrote {res.write_faces_png(args.faces_png)}")
     return 0

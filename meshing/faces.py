@@ -98,7 +98,7 @@ def groups(gmsh: ModuleType) -> dict[str, list[int]]:
     for dim, ptag in gmsh.model.getPhysicalGroups(2):
         name = gmsh.model.getPhysicalName(dim, ptag)
         tags = [int(t) for t in gmsh.model.getEntitiesForPhysicalGroup(dim, ptag)]
-        for key in {name, str(ptag)} if name else {str(ptag)}:
+        for key in [name or str(ptag)]:
             out.setdefault(key, [])
             out[key] = sorted(set(out[key]) | set(tags))
     for _dim, tag in gmsh.model.getEntities(2):

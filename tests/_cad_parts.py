@@ -99,3 +99,26 @@ def pinned_tube_step(path: Path, L: float, Do: float, Di: float, pin_x: tuple, d
     finally:
         gmsh.finalize()
     return path
+
+
+def bored_tube_step(
+    path: Path, L: float, Do: float, Di: float, Dc: float, Lc: float, pin_x: float, d_pin: float
+) -> Path:
+    """A tube along +x (outer/inner diameters Do, Di) whose first Lc of bore
+    is a seat of diameter Dc > Di (the clamped bore: a shaft fitted in it),
+    with a transverse pin hole along z (diameter d_pin) through both walls
+    at x = pin_x."""
+    gmsh = _gmsh()
+    try:
+        occ = gmsh.model.occ
+        o = occ.addCylinder(0, 0, 0, L, 0, 0, Do / 2)
+        i = occ.addCylinder(0, 0, 0, L, 0, 0, Di / 2)
+        seat = occ.addCylinder(0, 0, 0, Lc, 0, 0, Dc / 2)
+        t, _ = occ.cut([(3, o)], [(3, i), (3, seat)])
+        pin = occ.addCylinder(pin_x, 0, -Do, 0, 0, 2 * Do, d_pin / 2)
+        occ.cut(t, [(3, pin)])
+        occ.synchronize()
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
