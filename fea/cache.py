@@ -66,6 +66,8 @@ def cache_key(job: LinkJob, route: str) -> str:
         "tol": job.plane_tolerance,
         "optimize": job.optimize,
     }
+    if job.features:  # only then: keys of plain meshes stay as they were
+        key["features"] = {"across": job.across, "around": job.around}
     if job.structured:  # only then: keys of unstructured runs stay as they were
         key["structured"] = True
         key["across_factor"] = job.across_factor
