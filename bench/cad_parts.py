@@ -2,7 +2,7 @@
 written as STEP files for bench/bench_cad.py. Lengths in mm; every part
 starts at x = 0 so its clamp face is the bounding-box plane x-min.
 
-* ``arm``: an L-shaped hollow cast arm (rectangular hollow section, 8 mm
+* ``arm``: an L-shaped hollow cast arm (40 x 30 mm hollow section, 8 mm
   walls) ending in two bearing housings (bore 40 mm, wall 10 mm): the first
   housing's axis is x (its end annulus is the plane x-min), the second's is
   y (its end annulus is the plane y-max).
@@ -21,24 +21,29 @@ from pathlib import Path
 
 #: the parts: name -> (load plane, reference point, mm)
 PARTS = {
-    "arm": ("y-max", [200.0, 170.0, 0.0]),
+    "arm": ("y-max", [140.0, 130.0, 0.0]),
     "clevis": ("x-max", [110.0, 0.0, 0.0]),
     "tapered": ("x-max", [300.0, 0.0, 0.0]),
 }
 
 
 def _arm(occ) -> None:
-    L1, L2, b, h, t = 200.0, 150.0, 40.0, 30.0, 8.0
-    ro, ri, w = 30.0, 20.0, 40.0
-    a = occ.addBox(0.0, -b / 2, -h / 2, L1, b, h)
-    a_in = occ.addBox(0.0, -b / 2 + t, -h / 2 + t, L1 - b / 2, b - 2 * t, h - 2 * t)
-    c = occ.addBox(L1 - b / 2, -b / 2, -h / 2, b, L2 + b / 2, h)
-    c_in = occ.addBox(L1 - b / 2 + t, -b / 2 + t, -h / 2 + t, b - 2 * t, L2 + b / 2, h - 2 * t)
+    b, h, t = 40.0, 30.0, 8.0  # the arm's hollow section and wall
+    ro, ri, w = 30.0, 20.0, 40.0  # bearing housings: outer and bore radius, width
+    X, Y = 140.0, 130.0  # the second housing: its axis at x = X, its end at y = Y
+    # arm A along x from the first housing, arm B along y into the second
+    a = occ.addBox(w - 10.0, -b / 2, -h / 2, X + b / 2 - w + 10.0, b, h)
+    c = occ.addBox(X - b / 2, -b / 2, -h / 2, b, Y - w + 10.0 + b / 2, h)
     h1 = occ.addCylinder(0.0, 0.0, 0.0, w, 0.0, 0.0, ro)
-    h2 = occ.addCylinder(L1, L2 + b / 2 - w, 0.0, 0.0, w, 0.0, ro)
+    h2 = occ.addCylinder(X, Y - w, 0.0, 0.0, w, 0.0, ro)
     body, _ = occ.fuse([(3, a), (3, c)], [(3, h1), (3, h2)])
-    bores = [occ.addCylinder(-1.0, 0.0, 0.0, w + 2, 0.0, 0.0, ri), occ.addCylinder(L1, L2 + b / 2 - w - 1, 0.0, 0.0, w + 2, 0.0, ri)]
-    occ.cut(body, [(3, a_in), (3, c_in)] + [(3, x) for x in bores])
+    cavity_a = occ.addBox(w + t, -b / 2 + t, -h / 2 + t, X + b / 2 - t - w - t, b - 2 * t, h - 2 * t)
+    cavity_b = occ.addBox(X - b / 2 + t, -b / 2 + t, -h / 2 + t, b - 2 * t, Y - w - t + b / 2 - t, h - 2 * t)
+    bores = [
+        occ.addCylinder(-1.0, 0.0, 0.0, w + 1, 0.0, 0.0, ri),
+        occ.addCylinder(X, Y - w, 0.0, 0.0, w + 1, 0.0, ri),
+    ]
+    occ.cut(body, [(3, cavity_a), (3, cavity_b)] + [(3, x) for x in bores])
 
 
 def _clevis(occ) -> None:
@@ -62,7 +67,8 @@ def _rect(occ, x: float, b: float, h: float) -> int:
 
 def _tapered(occ, gmsh) -> None:
     L, t = 300.0, 5.0
-    outer = occ.addThruSections([_rect(occ, 0.0, 60.0, 40.0), _rect(occ, L, 36.0, 24.0)], makeSolid=True, makeRuled=True)
+    ends = [_rect(occ, 0.0, 60.0, 40.0), _rect(occ, L, 36.0, 24.0)]
+    outer = occ.addThruSections(ends, makeSolid=True, makeRuled=True)
     occ.synchronize()
     edges = []
     for _d, e in gmsh.model.getEntities(1):
@@ -75,7 +81,10 @@ def _tapered(occ, gmsh) -> None:
         makeSolid=True,
         makeRuled=True,
     )
-    holes = [occ.addCylinder(x, -40.0, 0.0, 0.0, 80.0, 0.0, r) for x, r in ((50.0, 9.0), (120.0, 8.0), (190.0, 7.0), (250.0, 5.0))]
+    holes = [
+        occ.addCylinder(x, -40.0, 0.0, 0.0, 80.0, 0.0, r)
+        for x, r in ((50.0, 9.0), (120.0, 8.0), (190.0, 7.0), (250.0, 5.0))
+    ]
     occ.cut(outer, [(3, inner[0][1])] + [(3, x) for x in holes])
 
 

@@ -23,8 +23,15 @@ from types import ModuleType
 import numpy as np
 
 from ..errors import InputError, PlausibilityWarning
-from .refine import estimate_nodes, feature_fields, plane_surfaces, prism_across_factor, set_background
 from .mesh import PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
+from .refine import (
+    estimate_nodes,
+    feature_fields,
+    plane_surfaces,
+    prism_across_factor,
+    prism_mesh,
+    set_background,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -255,8 +262,9 @@ def mesh_part(
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
         gmsh.option.setNumber("Mesh.OptimizeNetgen", 1 if optimize == "netgen" else 0)
         extra: tuple = ()
-        if features and _prismatic(geometry, mesher, refine, optimize, structured):
-            structured, across_factor = True, prism_across_factor(extent, size, features["across"])
+        prism = bool(features) and _prismatic(geometry, mesher, refine, optimize, structured)
+        if prism:
+            structured, across_factor = True, prism_across_factor(geometry["size"], size, features["across"])
         elif features:
             extra = _feature_fields(gmsh, size, order, features, where)
             if not refine:
@@ -270,10 +278,15 @@ def mesh_part(
                 axis = "xyz".index(name[0])
                 planes.append((axis, lo_hi[axis] if name.endswith("min") else lo_hi[axis + 3]))
             _refinement(gmsh, size, refine, refine_radius or 4 * size, refine_points or [], planes, extra[:2])
-        if structured:
+        if structured and not prism:
             _structured_box(gmsh, size, across_factor)
         where = geometry.get("step", geometry.get("shape"))
-        if mesher == "gmsh":
+        if prism:
+            L, b, h = geometry["size"]  # exact (OCC pads its bounding box)
+            mesh = prism_mesh(
+                np.array([0.0, -b / 2, -h / 2]), np.array([L, b / 2, h / 2]), size, across_factor, order, scale
+            )
+        elif mesher == "gmsh":
             gmsh.option.setNumber("Mesh.ElementOrder", order)
             try:
                 gmsh.model.mesh.generate(3)
