@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import StiffkitWarning
 from ..io.files import atomic_open
 from ..meshing import Mesh
+from ..meshing.refine import PRISM_ARRANGEMENT
 from .config import LinkJob
 from .solve import FeaSolution, resolve_route, solve_fea
 
@@ -78,6 +79,8 @@ def cache_key(job: LinkJob, route: str) -> str:
             "field": [s.key() for s in job.field_sel],
             "load_tol": job.load_tolerance,
         }
+    if job.features:  # only then: keys of plain meshes stay as they were
+        key["features"] = {"across": job.across, "around": job.around, "prism": PRISM_ARRANGEMENT}
     if job.structured:  # only then: keys of unstructured runs stay as they were
         key["structured"] = True
         key["across_factor"] = job.across_factor
