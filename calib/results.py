@@ -197,7 +197,7 @@ def _psd(C: np.ndarray) -> np.ndarray | None:
 
 def written_tables(res: FitResult) -> tuple[list[dict], list[str]]:
     """The model's [[effect]] tables with the values ``write_model`` writes
-    (contract s5), and notes on the values that differ from the fit's.
+    (docs/calibration.md §5), and notes on the values that differ from the fit's.
 
     The values are the fitted ones, made to satisfy the model reader's own
     rules (docs/calibration.md section 5): a non-identifiable parameter
@@ -279,7 +279,7 @@ def written_tables(res: FitResult) -> tuple[list[dict], list[str]]:
 
 
 def model_tables_with_values(res: FitResult) -> list[dict]:
-    """The model's [[effect]] tables with every identified value (contract s5;
+    """The model's [[effect]] tables with every identified value (docs/calibration.md §5;
     the values of ``written_tables``)."""
     return written_tables(res)[0]
 
