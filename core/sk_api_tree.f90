@@ -25,6 +25,10 @@
 !> Observations: opost[no], omark[no], oxyz[3,no] (m, tracker frame),
 !> owt[no] (weights >= 0). Equilibrium: eqit (0 rigid, 1 first order,
 !> >= 2 iterated, at most eqit times), etol (m).
+!> Every routine returns errloc[2] = [argument code, index] with an argument
+!> error (info = size, nonfinite or argument): which argument and which
+!> joint, entry, block, parameter, posture, payload, observation or row
+!> (the codes and indices of sk_tree_check), 0 otherwise.
 
 !> Frames after motion ra[3,3,nv,np], pa[3,nv,np], generalised gravity
 !> forces of every joint wv[nv,np] and joint coordinate tauq[ndof,np],
@@ -33,10 +37,11 @@
 subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, q, lpost, lvj, lw, eqit, etol, &
-        ra, pa, wv, tauq, delta, nit, eqinfo, info)
+        ra, pa, wv, tauq, delta, nit, eqinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_setup, poses_batch
+    use sk_tree_check, only: inputs_check
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, np, nl
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
@@ -46,7 +51,7 @@ subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), etol
     integer(c_int), intent(in) :: lpost(nl), lvj(nl), eqit
     real(c_double), intent(out) :: ra(3, 3, nv, np), pa(3, nv, np), wv(nv, np), tauq(ndof, np), delta(ne, np)
-    integer(c_int), intent(out) :: nit(np), eqinfo(np), info
+    integer(c_int), intent(out) :: nit(np), eqinfo(np), info, errloc(2)
     type(tree_model) :: m
     ra = 0
     pa = 0
@@ -55,8 +60,11 @@ subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
     delta = 0
     nit = 0
     eqinfo = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
     if (info /= sk_ok) return
     call poses_batch(m, theta, q, lpost, lvj, lw, eqit, etol, ra, pa, wv, tauq, delta, nit, eqinfo, info)
 end subroutine sk_tree_poses
@@ -67,10 +75,11 @@ end subroutine sk_tree_poses
 subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
-        free, eqit, etol, pred, res, jac, delta, nit, eqinfo, info)
+        free, eqit, etol, pred, res, jac, delta, nit, eqinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, tree_problem, model_setup, problem_setup, evaluate
+    use sk_tree_check, only: inputs_check, observations_check
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
@@ -80,7 +89,7 @@ subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfre
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), oxyz(3, no), owt(no), etol
     integer(c_int), intent(in) :: lpost(nl), lvj(nl), opost(no), omark(no), free(nfree), eqit
     real(c_double), intent(out) :: pred(3, no), res(3*no), jac(3*no, nfree), delta(ne, np)
-    integer(c_int), intent(out) :: nit(np), eqinfo(np), info
+    integer(c_int), intent(out) :: nit(np), eqinfo(np), info, errloc(2)
     type(tree_model) :: m
     type(tree_problem) :: pr
     pred = 0
@@ -89,8 +98,13 @@ subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfre
     delta = 0
     nit = 0
     eqinfo = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
+    if (info /= sk_ok) return
+    call observations_check(np, m%nm, m%npar, opost, omark, oxyz, owt, free, info, errloc)
     if (info /= sk_ok) return
     call problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
     if (info /= sk_ok) return
@@ -105,10 +119,12 @@ end subroutine sk_tree_evaluate
 subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta0, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
-        free, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, rrefout, info)
+        free, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, rrefout, info, &
+        errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, tree_problem, model_setup, problem_setup
+    use sk_tree_check, only: inputs_check, observations_check
     use sk_tree_solve, only: tree_lm
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree
@@ -119,7 +135,7 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
     real(c_double), intent(in) :: theta0(npar), q(ndof, np), lw(6, nl), oxyz(3, no), owt(no), etol, ftol, xtol, gtol
     integer(c_int), intent(in) :: lpost(nl), lvj(nl), opost(no), omark(no), free(nfree), eqit, maxit
     real(c_double), intent(out) :: theta(npar), hist(maxit + 1), jac(3*no, nfree), res(3*no), rrefout(3, 3)
-    integer(c_int), intent(out) :: nhist, niter, reason, info
+    integer(c_int), intent(out) :: nhist, niter, reason, info, errloc(2)
     type(tree_model) :: m
     type(tree_problem) :: pr
     theta = theta0
@@ -130,8 +146,13 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
     nhist = 0
     niter = 0
     reason = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta0, q, lpost, lvj, lw, etol, info, errloc)
+    if (info /= sk_ok) return
+    call observations_check(np, m%nm, m%npar, opost, omark, oxyz, owt, free, info, errloc)
     if (info /= sk_ok) return
     call problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
     if (info /= sk_ok) return
@@ -147,10 +168,11 @@ end subroutine sk_tree_lm
 subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, frame, q, lpost, lvj, lw, eqit, etol, &
-        rf, pf, jq, delta, nit, eqinfo, info)
+        rf, pf, jq, delta, nit, eqinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_setup, frame_jacobian_batch
+    use sk_tree_check, only: inputs_check, rows_check
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, np, nl
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
@@ -160,7 +182,7 @@ subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), etol
     integer(c_int), intent(in) :: frame(np), lpost(nl), lvj(nl), eqit
     real(c_double), intent(out) :: rf(3, 3, np), pf(3, np), jq(6, ndof, np), delta(ne, np)
-    integer(c_int), intent(out) :: nit(np), eqinfo(np), info
+    integer(c_int), intent(out) :: nit(np), eqinfo(np), info, errloc(2)
     type(tree_model) :: m
     rf = 0
     pf = 0
@@ -168,8 +190,13 @@ subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
     delta = 0
     nit = 0
     eqinfo = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
+    if (info /= sk_ok) return
+    call rows_check(m%nv, np, frame, info, errloc)
     if (info /= sk_ok) return
     call frame_jacobian_batch(m, theta, frame, q, lpost, lvj, lw, eqit, etol, rf, pf, jq, delta, nit, eqinfo, info)
 end subroutine sk_tree_frame_jacobian
@@ -182,10 +209,11 @@ end subroutine sk_tree_frame_jacobian
 subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, npr, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, &
-        prow, trow, full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
+        prow, trow, full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_setup
+    use sk_tree_check, only: inputs_check, rows_check, params_check
     use sk_tree_solve, only: compensate_batch
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, npr
@@ -197,15 +225,22 @@ subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, npr, &
         trow(npr, nr), etol, ptol, rtol
     integer(c_int), intent(in) :: frame(nr), lpost(nl), lvj(nl), prow(npr), full6, eqit, maxit
     real(c_double), intent(out) :: qout(ndof, nr), resp(nr), resr(nr)
-    integer(c_int), intent(out) :: nit(nr), rinfo(nr), info
+    integer(c_int), intent(out) :: nit(nr), rinfo(nr), info, errloc(2)
     type(tree_model) :: m
     qout = qcmd
     resp = 0
     resr = 0
     nit = 0
     rinfo = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, qcmd, lpost, lvj, lw, etol, info, errloc)
+    if (info /= sk_ok) return
+    call rows_check(m%nv, nr, frame, info, errloc, rtarget, ptarget)
+    if (info /= sk_ok) return
+    call params_check(m%npar, prow, trow, info, errloc)
     if (info /= sk_ok) return
     call compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, maxit, &
         ptol, rtol, qout, resp, resr, nit, rinfo, info, prow, trow)
