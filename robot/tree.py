@@ -9,7 +9,7 @@ broken references, mimic chains that close on themselves, negative or
 non-finite masses, a zero or non-unit axis) and names the file and the
 element in every message.
 
-Convention (contract s1): a child frame is ``T_parent * T(origin xyz rpy) *
+Convention (docs/calibration.md §1): a child frame is ``T_parent * T(origin xyz rpy) *
 Motion(axis, q)``; a mimic joint turns by ``multiplier * q_leader + offset``.
 """
 
