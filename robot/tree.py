@@ -467,6 +467,8 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
     dup = _duplicates([j.name for j in doc.joints])
     if dup:
         raise InputError(f"{path}: duplicate joint name(s) {', '.join(dup)}")
+    if not names:
+        raise InputError(f"{path}: the URDF has no <link> (is it an unexpanded xacro wrapper?)")
     links = set(names)
     if root not in links:
         roots = doc.roots
@@ -549,7 +551,10 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
             continue
         lead = j.mimic[0]
         if lead not in tree._by_name:
-            raise InputError(f"{path}: joint {j.name!r} mimics {lead!r}, which is not a joint below {root!r}")
+            where = (
+                "which is not a joint of the URDF" if lead not in position else f"which is not a joint below {root!r}"
+            )
+            raise InputError(f"{path}: joint {j.name!r} mimics {lead!r}, {where}")
         if not tree._by_name[lead].moving:
             raise InputError(f"{path}: joint {j.name!r} mimics the fixed joint {lead!r}")
         tree.leader(j.name)  # raises on a mimic loop

@@ -211,3 +211,19 @@ def test_non_unit_axes(tmp_path, text, ok):
             load_tree(p)
         norm = np.linalg.norm([float(v) for v in text.split()])
         assert f"joint 'j1': axis {text} has norm {norm:.9g}" in str(exc.value)
+
+
+def test_an_empty_robot_and_an_undefined_mimic_leader_are_named(tmp_path):
+    """Two defects found in public descriptions (bench/urdf_sweep.py): an
+    unexpanded xacro wrapper with no link, a mimic naming a joint the file
+    does not have."""
+    p = tmp_path / "empty.urdf"
+    p.write_text('<?xml version="1.0"?>\n<robot name="ur3"><!-- xacro wrapper --></robot>\n')
+    with pytest.raises(stiffkit.InputError, match=r"empty.urdf: the URDF has no <link>"):
+        load_tree(p)
+    p = _write(
+        tmp_path,
+        [C.J("j1", "revolute", "base_link", "a"), C.J("j2", "revolute", "a", "b", mimic=("index_q1", 1.0, 0.0))],
+    )
+    with pytest.raises(stiffkit.InputError, match=r"joint 'j2' mimics 'index_q1', which is not a joint of the URDF"):
+        load_tree(p)
