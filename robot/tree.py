@@ -224,7 +224,7 @@ class _Vectors:
                     if _parse(self.raw[k], self.n) is None:
                         owner = f"{self.kind} {self.names[k]!r}"
                         raise _bad_numbers(path, owner, self.tag, self.attr, self.raw[k], self.n) from None
-                raise
+                vals = np.array([_parse(self.raw[k], self.n) for k in given], float)  # numpy and Python differ
             out[given] = vals
         return out
 
