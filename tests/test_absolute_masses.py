@@ -196,10 +196,10 @@ def test_written_model_reads_back_with_the_same_numbers(masses, tmp_path):
     [
         ({"kind": "mass", "target": "nowhere"}, "target must be a link"),
         ({"kind": "mass", "target": "l_tcp"}, "has no mass in the URDF"),
-        ({"kind": "mass", "target": "l1", "value": 0.0}, "a mass factor must be in (0, 10]"),
+        ({"kind": "mass", "target": "l1", "value": -0.5}, "a mass factor must be in [0, 100]"),
         ({"kind": "mass", "target": "l1", "value": True}, "value must be a finite number"),
         ({"kind": "mass", "target": "all", "value": 1.1}, "needs one target link"),
-        ({"kind": "mass", "target": "l1", "prior": -0.1}, "prior = -0.1 must be a sigma in [0, 10]"),
+        ({"kind": "mass", "target": "l1", "prior": -0.1}, "prior = -0.1 must be a sigma in [0, 100]"),
         ({"kind": "com", "target": "l1", "value": [30, 0, 0]}, "beyond 1 m"),
         ({"kind": "com", "target": "l1", "value": [0.1, 0]}, "value must be [dx, dy, dz] in m"),
         ({"kind": "com", "target": "l1", "prior": 2.0}, "must be a sigma in [0, 1] m"),
