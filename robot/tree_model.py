@@ -600,7 +600,8 @@ def tree_model_from_tables(
             i, table, w = links[j.child]
             vj_of_link[j.child] = b.spring6(cur.vj, "link", j.child, i, table, w, 0)
 
-    # arrays for the core (1-based indices; at least one entry per array)
+    # arrays for the core (1-based indices); a list with no entry is an
+    # array of size 0 (the core's interface takes empty lists: no placeholder)
     nv = len(b.v)
     if nv == 0:
         raise InputError(f"{where}: the tree below {tree.root!r} has no joint")
@@ -614,17 +615,14 @@ def tree_model_from_tables(
         "qcoef": np.array([v["qcoef"] for v in b.v], float),
         "qconst": np.array([v["qconst"] for v in b.v], float),
     }
-    g = b.g or [(1, 0, 0.0)]
-    arrays["gvj"] = np.array([e[0] for e in g], np.int32)
-    arrays["gpar"] = np.array([e[1] for e in g], np.int32)
-    arrays["gcoef"] = np.array([e[2] for e in g], float)
-    if not b.g:  # no geometric entry: one inert entry (coefficient 0 of parameter 1)
-        arrays["gpar"][:] = 1
+    arrays["gvj"] = np.array([e[0] for e in b.g], np.int32)
+    arrays["gpar"] = np.array([e[1] for e in b.g], np.int32)
+    arrays["gcoef"] = np.array([e[2] for e in b.g], float)
     nk = len(b.k)
-    kvj = np.zeros((6, max(nk, 1)), np.int32, order="F")
-    kpar = np.zeros((21, max(nk, 1)), np.int32, order="F")
-    ktype = np.zeros(max(nk, 1), np.int32)
-    kw0 = np.ones(max(nk, 1))
+    kvj = np.zeros((6, nk), np.int32, order="F")
+    kpar = np.zeros((21, nk), np.int32, order="F")
+    ktype = np.zeros(nk, np.int32)
+    kw0 = np.ones(nk)
     ne = 0
     for k, (law, vjs, kp, w0) in enumerate(b.k):
         ktype[k] = law
@@ -632,13 +630,6 @@ def tree_model_from_tables(
         kpar[:, k] = kp
         kw0[k] = w0
         ne += len(vjs)
-    if nk == 0:
-        ktype, kvj, kpar, kw0 = (
-            np.zeros(0, np.int32),
-            np.zeros((6, 0), np.int32, order="F"),
-            np.zeros((21, 0), np.int32, order="F"),
-            np.zeros(0),
-        )
     arrays.update(ktype=ktype, kvj=kvj, kpar=kpar, kw0=kw0)
     bodies = [(vj_of_link[ln], ine.mass, ine.com, ln) for ln, ine in tree.inertials.items() if ln in vj_of_link]
     arrays["bvj"] = np.array([x[0] for x in bodies], np.int32)
