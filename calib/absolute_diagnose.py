@@ -400,7 +400,7 @@ def _score_candidates(
         if not why and c.get("target") != "all":
             why = numerical_inert(ext, cols, J[:, [col[x] for x in cols]], biggest, sigma)
         inert.append(why)
-        if not why and c.get("target") not in (None, "all") and c["kind"] in JOINT_KINDS:
+        if not why and c.get("target") not in (None, "all"):  # per-joint kinds, and `mass` per link
             acting_cols.setdefault(c["kind"], []).append(cols)
     blocks = []
     for c, cols, why in zip(cands, cand_cols, inert):

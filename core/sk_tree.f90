@@ -75,8 +75,10 @@
 !> times the product of its factors), s = 2..4 an offset of the centre
 !> along x, y, z of the body's frame (m; centre = bcom(:,b) + the sum of
 !> its offsets). One index on several bodies is a subtree's factor; a body
-!> may carry its own factor and its subtrees' (they multiply). They move no point directly: they drive the
-!> deflections through dw/dtheta (the right-hand side of the sensitivity).
+!> may carry its own factor and its subtrees' (they multiply). They move
+!> no point directly: they drive the deflections through dw/dtheta (the
+!> right-hand side of the sensitivity). A folded model (model_fold) takes
+!> them at theta into its masses and centres.
 !>
 !> Markers and tracker. Marker j rides on frame mvj(j) at the point
 !> theta(mpar(:,j)) of that frame. The tracker pose is

@@ -116,3 +116,26 @@ def test_prior_rows_pull_toward_their_centre():
     # the minimiser of |J (x - 1.2)|^2 + sw^2 (x - 1)^2 (linear near the truth)
     expect = (jac @ jac * 1.2 + sw**2 * 1.0) / (jac @ jac + sw**2)
     assert abs(fit[13] - expect) < 1e-9 and abs(fit[13] - 1.2) > 1e-8
+
+
+def test_frame_jacobian_of_the_folded_model_takes_the_gravity_parameters_at_theta():
+    """The frame pose and Jacobian (computed on the folded model) with
+    gravity parameters equal those of the model whose masses and centres
+    are written in."""
+    model, theta = arm_with_masses()
+    q = np.random.default_rng(4).uniform(-1, 1, (3, 5))
+    plain = dict(model, bpar=np.zeros((3, 0), np.int32, order="F"))
+    plain["bmass"] = np.asfortranarray(model["bmass"] * [0.85, 0.85 * 1.1, 1.2])
+    plain["bcom"] = np.asfortranarray(model["bcom"] + np.column_stack([[0, 0, 0], theta[15:18], theta[18:21]]))
+    nl = np.zeros(0, np.int32)
+
+    def frames(m, th):
+        out = _tree.sk_tree_frame_jacobian(
+            2, **m, theta=th, frame=np.full(5, 4, np.int32), q=np.asfortranarray(q),
+            lpost=nl, lvj=nl, lw=np.zeros((6, 0), order="F"), eqit=100, etol=1e-14,
+        )  # fmt: skip
+        _errors.check(out[-1], "sk_tree_frame_jacobian")
+        return out[:3]
+
+    for a, b in zip(frames(model, theta), frames(plain, theta[:13])):
+        np.testing.assert_allclose(a, b, atol=1e-14)
