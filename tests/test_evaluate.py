@@ -66,6 +66,40 @@ def test_non_identified_round_off_negative_is_written_as_its_bound_and_marked(tm
             assert back[name] == v, name  # the same number, to the last bit
 
 
+def test_spring_fitted_not_positive_semidefinite_is_written_as_the_nearest_that_is(tmp_path):
+    """Full 6x6 springs on link_2 and the tool with one marker: 26
+    semi-identifiable parameters, and the minimum-norm springs have
+    negative eigenvalues; the reader refused such a file. Now each is
+    written as the nearest positive semi-definite matrix, said in its note,
+    and the file loads with its numbers."""
+    effects = [
+        {"kind": "joint", "target": "all"},
+        {"kind": "link", "target": "link_2", "template": "full"},
+        {"kind": "tool", "template": "full"},
+    ]
+    chain, _tm, meas = data(joints_truth(), sigma=1e-5, seed=0, n_configs=10, markers=((0, 0, 0.25),))
+    res = fit(model(chain, effects, sigma=1e-5), meas)
+    (tmp_path / "robot.urdf").write_text(open(chain.urdf).read())
+    notes = write_model(res, tmp_path / "m.toml")
+    assert len(notes) == 2 and all("negative eigenvalue" in n for n in notes)
+    doc = tomllib.loads((tmp_path / "m.toml").read_text())
+    loaded = load_model(tmp_path / "m.toml")
+    for t in loaded.terms:
+        if t.kind == "six":
+            tab = next(e for e in doc["effect"] if e.get("target", e["kind"]) in (t.target, "tool") and "value" in e
+                       and e["kind"] != "joint" and (e["kind"] == "tool") == (t.target == "tool"))  # fmt: skip
+            C = np.array(tab["value"])
+            assert np.linalg.eigvalsh(C)[0] > -1e-20 and np.array_equal(C, C.T)
+            assert "nearest positive semi-definite" in tab["note"] and "semi-identifiable" in tab["note"]
+            from stiffkit.robot.model import SYM
+
+            assert [C[a, b] for a, b in SYM] == list(t.value)  # read back: the file's numbers
+    fitted = dict(zip(res.names, res.values))
+    back = _values(loaded)
+    for n in ("joint_a1.c", "joint_a2.c", "joint_a3.c"):
+        assert back[n] == fitted[n]
+
+
 def test_deflection_round_trip_every_kind(tmp_path):
     """fit -> write -> read: every value of every kind as fitted (the file's
     numbers are the fit's, bit for bit), and the read model predicts the
