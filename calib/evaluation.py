@@ -326,7 +326,7 @@ def format_absolute_evaluation(
 
 
 def evaluation_json(res: FitResult | AbsoluteEvaluation, rows: bool = True) -> dict:
-    """The evaluation's JSON: the summary keys of fit's JSON (contract s4;
+    """The evaluation's JSON: the summary keys of fit's JSON (docs/calibration.md §4;
     section 6.4 for absolute data) and, with ``rows``, every row's error."""
     if isinstance(res, AbsoluteEvaluation):
         return res.to_json(rows)

@@ -1,6 +1,6 @@
 """The result of a fit: identified parameters with their groups and
 standard errors, residuals, the klimchik Table 2 statistics, and the
-identified model written back as a model file (contract s4, s5)."""
+identified model written back as a model file (docs/calibration.md §4, §5)."""
 
 from __future__ import annotations
 
@@ -197,7 +197,7 @@ def _psd(C: np.ndarray) -> np.ndarray | None:
 
 def written_tables(res: FitResult) -> tuple[list[dict], list[str]]:
     """The model's [[effect]] tables with the values ``write_model`` writes
-    (contract s5), and notes on the values that differ from the fit's.
+    (docs/calibration.md §5, §6.8), and notes on the values that differ from the fit's.
 
     The values are the fitted ones, made to satisfy the model reader's own
     rules (docs/calibration.md section 5): a non-identifiable parameter
@@ -279,8 +279,8 @@ def written_tables(res: FitResult) -> tuple[list[dict], list[str]]:
 
 
 def model_tables_with_values(res: FitResult) -> list[dict]:
-    """The model's [[effect]] tables with every identified value (contract s5;
-    the values of ``written_tables``)."""
+    """The model's [[effect]] tables with every identified value
+    (docs/calibration.md §5; the values of ``written_tables``)."""
     return written_tables(res)[0]
 
 
