@@ -312,3 +312,62 @@ def test_validate_on_the_fitted_rows_warns(tmp_path, capsys):
     n = len(b) - 1 + 3
     assert f"3 of {n} validation row(s) equal rows of the fitted" in err
     assert f"lines {len(b) + 1}, {len(b) + 2}, {len(b) + 3}" in err
+
+
+def test_evaluate_absolute_noisy_equals_forward_kinematics_of_another_library(tmp_path):
+    """Geometric model (tracker, markers, joint offsets, frame errors) on the
+    small tree, 0.05 mm noise: fitted on one half, the errors evaluate
+    reports on the other half are the measured points minus the points of
+    the fitted robot computed by another library (yourdfpy's forward
+    kinematics of the URDF with the fit folded in, the written tracker pose
+    and markers), to 1e-12 m."""
+    import yourdfpy
+    from test_absolute_fit import rows, small_effects, small_urdf
+
+    from stiffkit.robot.model import rpy_matrix
+    from stiffkit.robot.tree import load_tree
+    from stiffkit.robot.tree_model import tree_model_from_tables
+
+    urdf = small_urdf(tmp_path)
+    tree = load_tree(urdf)
+    rng = np.random.default_rng(5)
+    ranges = np.array([(-1.0, 1.0), (-0.3, 0.6)] + [(-2.5, 0.5), (-0.3, 1.3), (-2.0, 0.0)] * 2)
+    Q = rng.uniform(ranges[:, 0], ranges[:, 1], (60, len(ranges)))
+    kinds = [e for e in small_effects() if e["kind"] in ("tracker", "marker", "joint_offset", "frame")]
+    nominal = tree_model_from_tables(tree, kinds, where="small")
+    truth = nominal.theta0.copy()
+    for i, prm in enumerate(nominal.params):
+        if prm.kind in ("joint_offset", "frame"):
+            truth[i] = 2e-3 * rng.normal()
+    d = rows(nominal, Q, truth)
+    d.xyz = d.xyz + 5e-5 * rng.normal(size=d.xyz.shape)
+    half = np.arange(d.n) < d.n // 2
+    write_absolute(tmp_path / "a.csv", d.subset(half))
+    B = d.subset(~half)
+    write_absolute(tmp_path / "b.csv", B)
+    text = "".join("\n[[effect]]\n" + "".join(f"{k} = {json.dumps(v)}\n" for k, v in e.items()) for e in kinds)
+    (tmp_path / "model.toml").write_text(
+        f'[robot]\nurdf = "{urdf.name}"\nbase_link = "base_link"\n\n[measurements]\nkind = "absolute"\n' + text
+    )
+    p = tmp_path
+    args = ["fit", str(p / "model.toml"), str(p / "a.csv"), "--quiet", "--write-model", str(p / "f.toml")]
+    assert main(args + ["--write-urdf", str(p / "folded.urdf")]) == 0
+    assert main(["evaluate", str(p / "f.toml"), str(p / "b.csv"), "--json", str(p / "e.json")]) == 0
+    err = np.array([r["error_m"] for r in json.loads((p / "e.json").read_text())["rows"]])
+    doc = tomllib.loads((p / "f.toml").read_text())
+    tracker = next(e for e in doc["effect"] if e["kind"] == "tracker")
+    markers = {e["target"]: np.array(e["xyz"]) for e in doc["effect"] if e["kind"] == "marker"}
+    R, t = rpy_matrix(np.array(tracker["rpy"])), np.array(tracker["xyz"])
+    robot = yourdfpy.URDF.load(str(p / "folded.urdf"), load_meshes=False, build_scene_graph=True)
+    pred = np.empty((B.n, 3))
+    for k in range(B.n_postures):
+        q = dict(zip(B.joints, B.Q[k]))
+        q["pitch_m"] = -q["pitch"]  # the mimic follower
+        robot.update_cfg({j: v for j, v in q.items() if j in robot.joint_map})
+        for i in np.flatnonzero(B.posture == k):
+            f = B.frames[B.frame[i]]
+            T = robot.get_transform(frame_to=f, frame_from="base_link")
+            pred[i] = R @ (T[:3, :3] @ markers[f] + T[:3, 3]) + t
+    assert np.abs(err - (B.xyz - pred)).max() < 1e-12
+    rms = np.sqrt(np.mean(np.sum(err**2, axis=1)))
+    assert rms < 1.5 * np.sqrt(3) * 5e-5  # the fit holds on fresh postures, near the noise floor
