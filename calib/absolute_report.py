@@ -27,7 +27,8 @@ def load_absolute(model_path: str | Path, meas_path: str | Path) -> tuple:
     tree = model.tree
     mimic = {j.name: tree.leader(j.name) for j in tree.joints if j.mimic is not None}
     needed = {tree.leader(j.name)[0] for f in model.frames for j in tree.path(f) if j.moving}
-    data = read_absolute(meas_path, model.actuated, model.frames, mimic, needed)
+    limits = {j.name: j.limit for j in tree.joints}
+    data = read_absolute(meas_path, model.actuated, model.frames, mimic, needed, limits)
     return model, data
 
 

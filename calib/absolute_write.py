@@ -32,7 +32,6 @@ Both files are written atomically (``stiffkit.io.files``).
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import xml.etree.ElementTree as ET
@@ -44,8 +43,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
+from ..io import tomlw
 from ..io.files import atomic_write_text
 from ..robot.model import SYM
+from ..robot.model_bodies import BODY_KINDS, body_table
 from ..robot.tree import TreeJoint
 from ..robot.tree_model import (
     EQ_ITERATIONS,
@@ -64,30 +65,6 @@ __all__ = ["write_model", "write_urdf", "model_text", "model_effects", "folded_o
 FOLDED_KINDS = ("joint_offset", "frame")
 
 
-def _toml(v: object) -> str:
-    """A TOML value: numbers exactly (repr), arrays inline (a matrix one row a line)."""
-    if isinstance(v, (bool, np.bool_)):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        if not math.isfinite(float(v)):
-            raise InputError(f"cannot write the non-finite value {v} to a model file")
-        return repr(float(v))
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple, np.ndarray)):
-        items = [_toml(x) for x in v]
-        if any(isinstance(x, (list, tuple, np.ndarray)) for x in v):
-            return "[\n" + "".join(f"    {x},\n" for x in items) + "]"
-        return "[" + ", ".join(items) + "]"
-    raise InputError(f"cannot write a value of type {type(v).__name__} to a model file")
-
-
-def _table(d: dict) -> str:
-    return "".join(f"{k if k.replace('_', '').isalnum() else json.dumps(k)} = {_toml(v)}\n" for k, v in d.items())
-
-
 def model_text(
     effects: list[dict],
     urdf: str = "robot.urdf",
@@ -103,21 +80,18 @@ def model_text(
     [gravity] when given, and the [[effect]] tables; ``header``: comment
     lines at the top."""
     rob = {k: v for k, v in (robot or {}).items() if k not in ("urdf", "base_link")}
-    out = [header.rstrip("\n") + "\n"] if header else []
-    out.append("[robot]\n" + _table({"urdf": str(urdf), "base_link": base_link, **rob}))
-    meas: dict = {"kind": "absolute"}
+    doc: dict = {"robot": {"urdf": str(urdf), "base_link": base_link, **rob}}
+    doc["measurements"] = {"kind": "absolute"}
     if sigma_position is not None:
-        meas["sigma_position"] = float(sigma_position)
-    out.append("\n[measurements]\n" + _table(meas))
+        doc["measurements"]["sigma_position"] = float(sigma_position)
     if gravity is not None or iterations is not None:
         g: dict = {}
         if gravity is not None:
             g["vector"] = [float(v) for v in gravity]
         if iterations is not None:
             g["iterations"] = int(iterations)
-        out.append("\n[gravity]\n" + _table(g))
-    out += ["\n[[effect]]\n" + _table(e) for e in effects]
-    return "".join(out)
+        doc["gravity"] = g
+    return tomlw.dumps(doc, header) + tomlw.effect_tables(effects)
 
 
 def _by_target(model: TreeModel, theta: np.ndarray, effect: int) -> dict[str, dict[str, float]]:
@@ -217,6 +191,8 @@ def model_effects(
                 for a, b in SYM:
                     C[a, b] = C[b, a] = vals.get(f"c{a + 1}{b + 1}", 0.0)
                 tab["value"] = C.tolist()
+            elif kind in BODY_KINDS:
+                tab.update(body_table(kind, vals))
             else:  # pragma: no cover - every kind of ABS_KINDS is handled above
                 raise InputError(f"cannot write an effect of kind {kind!r}")
             extra = [f"{HELD_NOTE}: " + ", ".join(said)] if said else []

@@ -1,6 +1,6 @@
 """The errors of a model as it is, on measurements it was not fitted to
 (``stiffkit evaluate`` and ``stiffkit fit --validate``; docs/calibration.md
-section 6.8).
+section 6.10).
 
 Nothing is fitted: every parameter takes the value the model file gives.
 A model of deflections under known loads (section 3) must give a value to

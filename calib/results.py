@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
+from ..io import tomlw
 from ..io.files import atomic_write_text
 from ..robot.model import JOINT_KINDS, SYM, Model, model_from_tables
 from ..robot.model_file import effects_toml
@@ -197,7 +197,7 @@ def _psd(C: np.ndarray) -> np.ndarray | None:
 
 def written_tables(res: FitResult) -> tuple[list[dict], list[str]]:
     """The model's [[effect]] tables with the values ``write_model`` writes
-    (docs/calibration.md §5, §6.8), and notes on the values that differ from the fit's.
+    (docs/calibration.md §5), and notes on the values that differ from the fit's.
 
     The values are the fitted ones, made to satisfy the model reader's own
     rules (docs/calibration.md section 5): a non-identifiable parameter
@@ -279,8 +279,8 @@ def written_tables(res: FitResult) -> tuple[list[dict], list[str]]:
 
 
 def model_tables_with_values(res: FitResult) -> list[dict]:
-    """The model's [[effect]] tables with every identified value
-    (docs/calibration.md §5; the values of ``written_tables``)."""
+    """The model's [[effect]] tables with every identified value (docs/calibration.md §5;
+    the values of ``written_tables``)."""
     return written_tables(res)[0]
 
 
@@ -325,5 +325,5 @@ def write_model(res: FitResult, path: Path | str) -> list[str]:
         f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
         f"# semi-identifiable parameters hold the minimum-norm solution; non-identifiable ones 0 (see the notes)\n"
     )
-    atomic_write_text(path, head + tomli_w.dumps(doc) + effects_toml(tables))
+    atomic_write_text(path, tomlw.dumps(doc, head) + effects_toml(tables))
     return notes

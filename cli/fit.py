@@ -14,7 +14,6 @@ coupled sets are listed).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
@@ -50,7 +49,7 @@ from ..calib.results import written_model
 from ..calib.robust import format_checks, robust_fit
 from ..errors import InputError
 from ..io import validate as V
-from ..io.files import write_json
+from ..io.files import check_plots_folder, model_inputs, write_json
 from ..robot.model import load_model
 from ..robot.tree_model import model_kind
 from . import args as A
@@ -160,8 +159,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _outputs(args: argparse.Namespace) -> None:
-    """Every output path checked before anything runs (not an input, not a folder, suffixes)."""
-    inputs = [args.model, args.measurements, args.validate]
+    """Every output path checked before anything runs (not an input, its folder writable, suffixes)."""
+    inputs = [*model_inputs(args.model), args.measurements, args.compare, args.validate]
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--write-model", args.write_model, (".toml",)),
@@ -169,8 +168,7 @@ def _outputs(args: argparse.Namespace) -> None:
     ):
         if path:
             V.output_path(path, opt, inputs, suffixes)
-    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
-        raise InputError(f"--plots {args.plots}: a file, not a folder")
+    check_plots_folder(args.plots, "--plots")
     V.distinct_outputs({"--json": args.json, "--write-model": args.write_model, "--write-urdf": args.write_urdf})
 
 
@@ -193,6 +191,11 @@ def run(args: argparse.Namespace) -> int:
             "cross-validates deflection data"
         )
     model = load_model(args.model)
+    if not model.effects:
+        raise InputError(
+            f'{args.model}: the model has no [[effect]] table: nothing to fit (start with kind = "joint", '
+            'target = "all"; stiffkit diagnose proposes what to add)'
+        )
     meas = read_measurements(args.measurements, model.chain.dof)
     val = read_measurements(args.validate, model.chain.dof) if args.validate else None
     checks = None

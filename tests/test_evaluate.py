@@ -1,6 +1,6 @@
 """A fitted model written, read back with the same numbers, and evaluated on
 fresh data (``stiffkit evaluate``, ``fit --validate``; docs/calibration.md
-section 6.8), for both data kinds: the errors on the held-out half equal an
+section 6.10), for both data kinds: the errors on the held-out half equal an
 independent computation with the fitted parameters, to 1e-12 m."""
 
 from __future__ import annotations
