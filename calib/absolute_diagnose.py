@@ -33,6 +33,7 @@ import numpy as np
 from .._core import calib as core_calib
 from .._core import tree as core
 from ..errors import StiffkitError
+from ..io.tomlw import effect_toml
 from ..robot.tree_model import TreeModel, tree_model_from_tables
 from .absolute_data import AbsoluteData, row_values
 from .absolute_fit import (
@@ -657,7 +658,5 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
         if dg.proposal.hint:
             lines.append(f"note: {dg.proposal.hint}")
         lines.append("proposal: append to the model and fit again:")
-        lines.append("[[effect]]")
-        for k, v in dg.proposal.effect.items():
-            lines.append(f"{k} = {v!r}".replace("'", '"'))
+        lines.append(effect_toml(dg.proposal.effect))
     return "\n".join(lines)
