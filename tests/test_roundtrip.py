@@ -18,7 +18,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from _profiles import examples
+from _profiles import PROFILE, examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -40,6 +40,19 @@ SETTINGS = settings(
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
+
+
+def test_make_test_draws_the_same_examples_every_run():
+    """Under the default profile (make test) every property test is
+    derandomized and ignores the example database: a run cannot pass or
+    fail by luck. ``make fuzz`` (profile fuzz) draws fresh examples."""
+    if PROFILE == "ci":
+        assert settings.default.derandomize and settings.default.database is None
+        assert SETTINGS.derandomize and SETTINGS.max_examples == 25  # explicit settings inherit it
+    else:
+        assert not settings.default.derandomize and SETTINGS.max_examples == examples(25)
+
+
 #: doubles of every magnitude a compliance, an offset or a length takes
 POSITIVE = st.floats(min_value=1e-12, max_value=1e-3, allow_nan=False, allow_subnormal=False)
 SIGNED = st.floats(min_value=-0.05, max_value=0.05, allow_nan=False, allow_subnormal=False)
