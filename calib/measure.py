@@ -74,6 +74,12 @@ def read_measurements(path: Path | str, dof: int) -> Measurements:
     qcols = [f"q{i}" for i in range(1, dof + 1)]
     table = read_table(path, "measurement")
     table.require(qcols + WRENCH + DEFL, f" (the robot has {dof} joints)")
+    extra = [c for c in table.header if c[:1] == "q" and c[1:].isdigit() and int(c[1:]) > dof]
+    if extra:
+        V.warn(
+            f"{path}, line 1: column(s) {', '.join(extra)} ignored: the robot has {dof} joints (q1..q{dof}); "
+            "are these measurements of another robot?"
+        )
     for group, name in ((POINT, "point"), (ROT, "rotation")):
         present = [c for c in group if table.has(c)]
         if present and len(present) != 3:

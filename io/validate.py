@@ -418,7 +418,8 @@ def output_path(
 ) -> Path:
     """The path of an output file, checked before any work is done: not a
     folder, not one of the ``inputs`` (overwriting what is being read), and
-    with one of ``suffixes`` when given (e.g. (".png", ".svg", ".pdf"))."""
+    with one of ``suffixes`` when given (e.g. (".png", ".svg", ".pdf")); not
+    a block device or socket, and its folder writable (io.files.check_output)."""
     p = Path(path)
     if str(path).strip() == "":
         raise InputError(f"{what}: empty file name")
@@ -437,7 +438,9 @@ def output_path(
             same = False
         if same or p.resolve() == s.resolve():
             raise InputError(f"{what} {p}: is an input file of this command; choose another output name")
-    return p
+    from .files import check_output  # io.files imports this module
+
+    return check_output(p, what)
 
 
 def distinct_outputs(items: dict) -> None:

@@ -11,20 +11,17 @@ the first row, the value and the limit (and how many rows are beyond).
 
 from __future__ import annotations
 
-import logging
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-from ..errors import InputError
 from ..io import validate as V
 
-__all__ = ["MAX_LINK_MASS", "MAX_COM", "joint_limit", "check_inertials", "limit_warnings", "library_messages"]
+__all__ = ["MAX_LINK_MASS", "MAX_COM", "joint_limit", "check_inertials", "limit_warnings"]
 
 #: kg; one link of an industrial robot weighs far less (a 16,000 kg link is a mass in grams)
 MAX_LINK_MASS = 2000.0
@@ -34,14 +31,10 @@ MAX_COM = 10.0
 LIMIT_TOL = 1e-9
 
 
-def joint_limit(j: object) -> tuple[float, float] | None:
-    """(lower, upper) of a yourdfpy revolute or prismatic joint, or None
+def joint_limit(jtype: str, lo: float | None, hi: float | None) -> tuple[float, float] | None:
+    """(lower, upper) of a revolute or prismatic joint's ``<limit>``, or None
     (continuous, fixed, no or incomplete ``<limit>``, non-finite bounds)."""
-    if getattr(j, "type", None) not in ("revolute", "prismatic"):
-        return None
-    lim = getattr(j, "limit", None)
-    lo, hi = getattr(lim, "lower", None), getattr(lim, "upper", None)
-    if lo is None or hi is None:
+    if jtype not in ("revolute", "prismatic") or lo is None or hi is None:
         return None
     lo, hi = float(lo), float(hi)
     if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi or lo == hi == 0.0:
@@ -120,41 +113,3 @@ def limit_warnings(
             "degrees, or an offset?)"
         )
     return out
-
-
-class _Collect(logging.Handler):
-    def __init__(self) -> None:
-        super().__init__(logging.DEBUG)
-        self.records: list[logging.LogRecord] = []
-
-    def emit(self, record: logging.LogRecord) -> None:
-        self.records.append(record)
-
-
-@contextmanager
-def library_messages(path: Path | str) -> Iterator[None]:
-    """What the URDF library (yourdfpy, on lxml) logs while it reads
-    ``path`` is not printed as stray lines: an error (lxml could not parse
-    the file strictly, and the library fell back to a recovery mode that
-    drops what it cannot read) becomes an InputError naming the file; a
-    warning becomes one PlausibilityWarning line naming the file."""
-    log = logging.getLogger("yourdfpy")
-    grab = _Collect()
-    old = log.propagate
-    log.addHandler(grab)
-    log.propagate = False
-    try:
-        yield
-    finally:
-        log.removeHandler(grab)
-        log.propagate = old
-    errors = [r for r in grab.records if r.levelno >= logging.ERROR]
-    if errors:
-        first = " ".join(str(errors[0].getMessage()).split())
-        raise InputError(
-            f"{path}: cannot parse the URDF strictly (lxml: {first}); the library's recovery mode would drop "
-            "what it cannot read"
-        )
-    for r in grab.records:
-        if r.levelno >= logging.WARNING:
-            V.warn(f"{path}: the URDF library: {' '.join(str(r.getMessage()).split())}", key=("urdf-log", r.msg))
