@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike
 
 from .._core.tree import CoreArrays
 from ..errors import InputError
+from ..io import validate as V
 from ..io.tables import read_toml
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
@@ -441,7 +442,7 @@ def tree_model_from_tables(
         unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
         if unknown:
             raise InputError(
-                f"{w}: unknown key(s) {', '.join(unknown)} for kind {kind!r} "
+                f"{w}: unknown key(s) {', '.join(map(V.shown, unknown))} for kind {kind!r} "
                 f"(allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)"
             )
         by_kind[kind].append((i, table, w))
@@ -712,7 +713,8 @@ def load_tree_model(path: str | Path) -> TreeModel:
         raise InputError(f"{path}: [gravity] must be a table")
     unknown = sorted(set(grav) - {"vector", "iterations"})
     if unknown:
-        raise InputError(f"{path}: [gravity] has unknown key(s) {', '.join(unknown)} (allowed: vector, iterations)")
+        names = ", ".join(map(V.shown, unknown))
+        raise InputError(f"{path}: [gravity] has unknown key(s) {names} (allowed: vector, iterations)")
     vector = grav.get("vector", list(GRAVITY))
     g = np.asarray(vector, dtype=float) if isinstance(vector, list) else None
     if g is None or g.shape != (3,) or not np.all(np.isfinite(g)):
