@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import tomli_w
 
+from ..io.files import atomic_write_text
 from ..robot.model import JOINT_KINDS, SYM, Model
 from ..robot.model_file import effects_toml
 from .problem import Problem
@@ -237,4 +238,4 @@ def write_model(res: FitResult, path: Path | str) -> None:
         f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
         f"# non-identifiable and semi-identifiable parameters hold the minimum-norm solution\n"
     )
-    path.write_text(head + tomli_w.dumps(doc) + effects_toml(model_tables_with_values(res)))
+    atomic_write_text(path, head + tomli_w.dumps(doc) + effects_toml(model_tables_with_values(res)))
