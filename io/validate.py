@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import re
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -30,6 +31,7 @@ import numpy as np
 from ..errors import InputError, PlausibilityWarning, StiffkitError
 
 __all__ = [
+    "shown",
     "Quantity",
     "QUANTITIES",
     "quantity",
@@ -137,6 +139,16 @@ def _range_text(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool
     if lo is not None:
         return f"{'>' if lo_open else '>='} {_fmt(lo)}"
     return f"{'<' if hi_open else '<='} {_fmt(hi)}"
+
+
+_PLAIN = re.compile(r"[A-Za-z0-9_.+\-/]+")
+
+
+def shown(v: object) -> str:
+    """A user's word as a message shows it: as it is when it is a plain name
+    (letters, digits, _ . + - /), else quoted with escapes (repr), so that a
+    newline or a control character never breaks a one-line message."""
+    return v if isinstance(v, str) and _PLAIN.fullmatch(v) else repr(v)
 
 
 def warn(message: str, stacklevel: int = 3, key: object = None) -> None:

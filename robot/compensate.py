@@ -501,6 +501,16 @@ class CompensationReport:
         ]
 
 
+def _has_values(cm: CompensationModel) -> bool:
+    """Whether the model holds a value other than 0 (beyond the tracker and
+    markers): else it is the nominal robot and compensates nothing."""
+    if cm.source is not None:
+        return any(t.value is not None and np.any(np.asarray(t.value) != 0) for t in cm.source.terms)
+    m = cm.model
+    free = [cm.theta[i] for i, p in enumerate(m.params) if p.kind not in ("tracker", "marker")]
+    return bool(np.any(np.asarray(free) != 0)) or "nominal_urdf" in m.robot_table
+
+
 def compensate(
     model: str | Path, targets: str | Path, out: str | Path | None = None, frame: str | None = None
 ) -> CompensationReport:
@@ -514,6 +524,12 @@ def compensate(
     cm = load_compensation_model(model)
     tg = read_targets(targets, cm, frame)
     res = cm.compensate(tg.Q, tg.frames, tg.wrench, check_plausible=False)
+    if np.array_equal(res.q, tg.Q) and not _has_values(cm):
+        raise InputError(
+            f"{cm.path}: the model changes no command: its effects have no identified value other than 0 (or it "
+            f"has none), so the {res.n} command(s) of {tg.table.path} would be the targets unchanged; compensate "
+            "with a fitted model (stiffkit fit --write-model)"
+        )
     rep = CompensationReport(cm, tg, res, None)
     if out is not None:
         rep.out = write_commands(out, tg, res)
