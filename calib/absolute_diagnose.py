@@ -49,6 +49,7 @@ from .absolute_candidates import (
     JOINT_KINDS,
     SPRING_TEMPLATE,
     absolute_candidates,
+    duplicate_of,
     extended_model,
     inert_reason,
     numerical_inert,
@@ -391,6 +392,14 @@ def _score_candidates(
         inert.append(why)
         if not why and c.get("target") not in (None, "all") and c["kind"] in JOINT_KINDS:
             acting_cols.setdefault(c["kind"], []).append(cols)
+    # the same columns as an earlier candidate of its kind: one effect under two names
+    for kind in {c["kind"] for c in cands}:
+        idx = [k for k, c in enumerate(cands) if c["kind"] == kind and c.get("target") != "all" and not inert[k]]
+        dup = duplicate_of([J[:, [col[x] for x in cand_cols[k]]] for k in idx])
+        for k, d in zip(idx, dup):
+            if d >= 0:
+                first = cands[idx[d]]
+                inert[k] = f"duplicates {first['kind']}:{first.get('target', first['kind'])} (the same columns)"
     blocks = []
     for c, cols, why in zip(cands, cand_cols, inert):
         cand = Candidate(kind=c["kind"], target=c.get("target", c["kind"]), effect=dict(c))
