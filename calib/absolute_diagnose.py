@@ -66,7 +66,7 @@ from .absolute_fit import (
 )
 from .absolute_propose import propose
 from .absolute_structure import PATH_GAP, STRUCTURE_ALPHA, STRUCTURE_PERMUTATIONS, residual_structure, structure_verdict
-from .backward import BackwardStep, backward_steps
+from .backward import BackwardStep, backward_steps, held_for_addition
 from .checks import outlier_rows, unit_slips
 from .crossval import config_folds, held_out_residuals
 from .diagnose_candidates import Candidate
@@ -296,11 +296,7 @@ def diagnose_absolute(
             cand.cv_rms_position_m = _cv_rms(Ac, r, obs_rows, folds, w)
         # 3. the proposal
         propose(dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, sig_decl, log_p, alpha)
-    if dg.removal is not None and dg.proposal is not None:
-        dg.reasons.append(
-            f"{dg.proposal.label} is held back: first remove {dg.removal.label}, which no longer earns its place"
-        )
-        dg.proposal = None
+    held_for_addition(dg)
     if not sig_decl:
         dg.warnings.append(
             "no sigma_position declared: the residual cannot be called noise by a chi-square test; the verdict "

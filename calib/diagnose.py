@@ -52,7 +52,7 @@ from .._core import calib as core
 from ..robot.model import Model, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
-from .backward import backward_steps
+from .backward import backward_steps, held_for_addition
 from .diagnose_candidates import Candidate, candidate_tables, inert_reasons
 from .diagnose_rank import (
     COMPENSATOR_MATCH,
@@ -310,12 +310,10 @@ def diagnose(
     )
     _rank_honestly(dg, pb, res, A, model, cterms, cands, sig)
     _backward(dg, pb, res, folds, obs_rows, npts, wp, meas, d_pe, alpha)
-    if dg.proposal is not None and (prune or dg.removal is not None):
-        dg.reasons.append(
-            f"{dg.proposal.label} is held back: "
-            + (f"first remove {dg.removal.label}, which no longer earns its place" if dg.removal else "--prune")
-        )
+    if dg.proposal is not None and prune:
+        dg.reasons.append(f"{dg.proposal.label} is not proposed: --prune proposes removals only")
         dg.proposal = None
+    held_for_addition(dg)
     dg.pruned = prune
     _warnings(dg, nobs)
     if verdict == "inadequate" and (dg.nothing_fits or dg.proposal is None):
