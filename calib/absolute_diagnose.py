@@ -295,7 +295,9 @@ def diagnose_absolute(
             Ac = np.hstack([A, J[:, [col[x] for x in cols]]])
             cand.cv_rms_position_m = _cv_rms(Ac, r, obs_rows, folds, w)
         # 3. the proposal
-        propose(dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, sig_decl, log_p, alpha)
+        propose(
+            dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, ext.names, sig_decl, log_p, alpha
+        )
     held_for_addition(dg)
     if not sig_decl:
         dg.warnings.append(
