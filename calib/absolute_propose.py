@@ -22,7 +22,7 @@ from .absolute_structure import structure_verdict
 from .diagnose_candidates import Candidate
 
 if TYPE_CHECKING:
-    from .absolute_diagnose import AbsoluteDiagnosis
+    from .absolute_diagnose_report import AbsoluteDiagnosis
 
 __all__ = ["propose", "CV_GAIN"]
 
