@@ -345,7 +345,7 @@ def diagnose(
     seed: int = 20240601,
 ) -> Diagnosis:
     """Check the data, fit ``model``, test its adequacy and rank the missing
-    effects (contract s4 and its extensions).
+    effects (docs/calibration.md §4 and its extensions).
 
     Parameters
     ----------

@@ -299,7 +299,7 @@ def fit(
     problem: Problem | None = None,
     theta0: npt.ArrayLike | None = None,
 ) -> FitResult:
-    """Identify the free parameters of ``model`` from ``meas`` (contract s4).
+    """Identify the free parameters of ``model`` from ``meas`` (docs/calibration.md §4).
 
     Parameters
     ----------

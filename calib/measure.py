@@ -1,4 +1,4 @@
-"""Measured deflections under known wrenches: the CSV of contract s3.
+"""Measured deflections under known wrenches: the CSV of docs/calibration.md §3.
 
 One row per measured point and load: ``config`` (label; optional, rows are
 then labelled by line), ``q1..qN`` (rad),

@@ -1,6 +1,6 @@
 """The result of a fit: identified parameters with their groups and
 standard errors, residuals, the klimchik Table 2 statistics, and the
-identified model written back as a model file (contract s4, s5)."""
+identified model written back as a model file (docs/calibration.md §4, §5)."""
 
 from __future__ import annotations
 
@@ -177,7 +177,7 @@ def format_parameters(res: FitResult) -> str:
 
 
 def model_tables_with_values(res: FitResult) -> list[dict]:
-    """The model's [[effect]] tables with every identified value (contract s5)."""
+    """The model's [[effect]] tables with every identified value (docs/calibration.md §5)."""
     model = identified_model(res)
     out = []
     for i, table in enumerate(model.effects):

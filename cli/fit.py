@@ -1,7 +1,7 @@
 """``stiffkit fit``: identify the elastostatic parameters of a robot model.
 
-Reads the model (URDF + TOML effects, contract s2) and the measured
-deflections under known wrenches (CSV, contract s3); solves the weighted
+Reads the model (URDF + TOML effects, docs/calibration.md §2) and the measured
+deflections under known wrenches (CSV, docs/calibration.md §3); solves the weighted
 least squares by a rank-revealing SVD (klimchik eqs. 7-9, 15-20; nonlinear
 effects by Levenberg-Marquardt); prints the residual table of klimchik
 Table 2 (MAX and RMS per axis and positional, before and after
@@ -60,14 +60,14 @@ effects (where each virtual spring acts; parameter names as printed):
                     the RMS torque about the joint in the data, written back) -> J.backlash
   a parameter that the loads do not excite (its joint's torque, or its spring column, below 1e-6 of
   the best-excited of its kind) is non-identifiable: value 0 (a placeholder) and a reason
-  any effect with value = ... is known, not identified (contract s5)
+  any effect with value = ... is known, not identified (docs/calibration.md §5)
   [measurements] sigma_position (m) weights the rows and scales the standard errors
   (else estimated from the residual); sigma_rotation (rad) for rx ry rz rows.
 
 outputs:
-  --json OUT.json        residuals, compensated fraction, parameters (contract s4)
+  --json OUT.json        residuals, compensated fraction, parameters (docs/calibration.md §4)
   --plots DIR            residual vectors, residual histograms, measured vs predicted
-  --write-model OUT.toml the model with every identified value (contract s5),
+  --write-model OUT.toml the model with every identified value (docs/calibration.md §5),
                          ready for `stiffkit stiffness`
   --compare OLD.json     side-by-side with an earlier fit
   --robust               check the data first (robust Huber fit; gross errors, unit slips,

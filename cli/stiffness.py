@@ -1,6 +1,6 @@
 """``stiffkit stiffness``: the tool's 6x6 compliance and stiffness of a model with values.
 
-The model TOML (contract s2, s5) gives the robot and every spring's value:
+The model TOML (docs/calibration.md §2, §5) gives the robot and every spring's value:
 joint compliances, 6x6 link/base/tool compliances (numbers, or the JSON of
 `stiffkit link`, or the output of `stiffkit fit --write-model`). For each
 posture: the compliance C = sum_i J_i C_i J_i^T of the tool frame (base

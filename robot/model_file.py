@@ -1,4 +1,4 @@
-"""Writing model files (contract s2, s5): the [robot] and [measurements]
+"""Writing model files (docs/calibration.md §2, §5): the [robot] and [measurements]
 tables and [[effect]] tables, with or without values."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ def model_toml(
     tool_frame: str = "tool0",
     sigma_rotation: float | None = None,
 ) -> str:
-    """A model file (contract s2): [robot], optional [measurements] sigmas, the effects."""
+    """A model file (docs/calibration.md §2): [robot], optional [measurements] sigmas, the effects."""
     doc = {"robot": {"urdf": urdf, "base_link": "base_link", "tool_frame": tool_frame}}
     meas = {}
     if sigma is not None:

@@ -1,13 +1,13 @@
 """Kinematic trees read from a URDF: every joint from the base link outwards,
 ``<mimic>`` couplings, fixed joints and the links' inertials.
 
-The URDF is parsed by yourdfpy (contract s1: a maintained library, not by
+The URDF is parsed by yourdfpy (docs/calibration.md §1: a maintained library, not by
 hand); this module checks what the library accepts silently (duplicate
 names, a link with two parents, loops, broken references, mimic chains that
 close on themselves, negative or non-finite masses, a zero axis) and names
 the file and the element in every message.
 
-Convention (contract s1): a child frame is ``T_parent * T(origin xyz rpy) *
+Convention (docs/calibration.md §1): a child frame is ``T_parent * T(origin xyz rpy) *
 Motion(axis, q)``; a mimic joint turns by ``multiplier * q_leader + offset``.
 """
 

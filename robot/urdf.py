@@ -1,6 +1,6 @@
 """A serial chain read from a URDF (parsed by yourdfpy), as the arrays the core wants.
 
-Convention (contract s1): a child frame is ``T_parent * T(origin xyz rpy) *
+Convention (docs/calibration.md §1): a child frame is ``T_parent * T(origin xyz rpy) *
 Rot(axis, q)``. Fixed joints are kept in the chain (they carry the frames
 of the link springs); revolute (and continuous) joints are the actuated
 ones, numbered q1..qN along the chain.

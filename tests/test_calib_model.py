@@ -1,4 +1,4 @@
-"""Robot model: URDF chain, TOML effects, tool compliance (contract s1, s2, s5)."""
+"""Robot model: URDF chain, TOML effects, tool compliance (docs/calibration.md §1, §2, §5)."""
 
 from __future__ import annotations
 
