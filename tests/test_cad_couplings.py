@@ -133,6 +133,15 @@ def test_plate_routes_agree_and_distributing_is_softer(tmp_path):
             res = run_link(job)
             np.testing.assert_allclose(res.job.reference_point, [0.1, 0.02, 0.01], atol=1e-9)
             diag[route, coupling] = np.diag(res.compliance.matrix)
+    # the VTU reads back with the sets marked; the faces picture is a PNG
+    import meshio
+
+    m = meshio.read(res.write_vtu(tmp_path / "plate.vtu"))
+    np.testing.assert_allclose(m.points, res.mesh.nodes, rtol=0, atol=0)
+    for name, nodes in (("support_node", res.solution.fixed_nodes), ("load_node", res.solution.load_nodes)):
+        np.testing.assert_array_equal(np.nonzero(m.point_data[name])[0] + 1, np.sort(nodes))
+    png = res.write_faces_png(tmp_path / "plate.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     for coupling in ("rigid", "distributing"):
         np.testing.assert_allclose(diag["ccx", coupling], diag["matrix", coupling], rtol=2e-6)
     assert np.all(diag["matrix", "distributing"] > diag["matrix", "rigid"] * (1 + 1e-5))
