@@ -34,6 +34,8 @@ from .mesh import Mesh
 ACROSS_PRISM, ACROSS_TETS = 8, 3
 #: the split of a structured prism's hex cells (bump when it changes: cache keys)
 PRISM_ARRANGEMENT = "mirrored-kuhn"
+#: mirror the split in every other cell along x, y, z (1) or not (0)
+PRISM_MIRROR = tuple(int(c) for c in __import__("os").environ.get("SK_PRISM_MIRROR", "111"))
 #: elements around a full circle of a hole's (or fillet's) radius
 AROUND = 16
 #: element size near the selected faces, as a fraction of the nominal size
@@ -254,7 +256,9 @@ def prism_mesh(lo: np.ndarray, hi: np.ndarray, size: float, across_factor: float
     ci, cj, ck = (c.ravel() for c in np.meshgrid(*[np.arange(m) for m in n], indexing="ij"))
 
     def node(v: int) -> np.ndarray:  # local corner v (bits x, y, z), mirrored in odd cells
-        bx, by, bz = (v & 1) ^ (ci & 1), ((v >> 1) & 1) ^ (cj & 1), ((v >> 2) & 1) ^ (ck & 1)
+        bx = (v & 1) ^ (ci & PRISM_MIRROR[0])
+        by = ((v >> 1) & 1) ^ (cj & PRISM_MIRROR[1])
+        bz = ((v >> 2) & 1) ^ (ck & PRISM_MIRROR[2])
         return ((ci + bx) * (n[1] + 1) + (cj + by)) * (n[2] + 1) + (ck + bz)
 
     tets = [
