@@ -17,6 +17,7 @@ matrix route <= 1.5 x one ccx step, i.e. a quarter of the six steps).
 
     python bench/bench_cad.py            # the three parts (~10 min on 2 cores)
     python bench/bench_cad.py arm        # one part
+    python bench/bench_cad.py across=2   # 2 elements across the walls (default 3): ~1/3 the nodes
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from stiffkit.fea.job import run_link  # noqa: E402
 SIZES = {"arm": 10.0, "clevis": 8.0, "tapered": 10.0}
 
 
-def link_data(name: str, step: Path, route: str = "matrix") -> dict:
+def link_data(name: str, step: Path, route: str = "matrix", across: int | None = None) -> dict:
     plane, ref = PARTS[name]
     return {
         "geometry": {"step": str(step), "units": "mm"},
@@ -48,7 +49,7 @@ def link_data(name: str, step: Path, route: str = "matrix") -> dict:
         "support": {"plane": "x-min"},
         "load": {"plane": plane, "reference_point": ref, "coupling": "distributing", "amplitudes": "auto"},
         "field": {"region": "face"},
-        "mesh": {"mesher": "gmsh", "order": 2, "size": SIZES[name]},
+        "mesh": {"mesher": "gmsh", "order": 2, "size": SIZES[name], **({"across": across} if across else {})},
         "fit": {"method": "lin"},
         "solver": {"route": route},
     }
@@ -66,9 +67,9 @@ def _level(job, scale: float, across: int, route: str):
     return lj
 
 
-def bench_part(name: str, tmp: Path) -> dict:
+def bench_part(name: str, tmp: Path, across: int | None = None) -> dict:
     step = write_part(name, tmp / f"{name}.step")
-    job = parse_link(link_data(name, step), f"{name}.step")
+    job = parse_link(link_data(name, step, across=across), f"{name}.step")
     n0 = job.across
     coarse = _level(job, 1.5, round(n0 / 1.5), "matrix")
     runs = {}
@@ -106,8 +107,9 @@ def bench_part(name: str, tmp: Path) -> dict:
 
 def main(argv: list[str]) -> None:
     names = [a for a in argv if a in PARTS] or list(PARTS)
+    across = next((int(a.split("=")[1]) for a in argv if a.startswith("across=")), None)
     with tempfile.TemporaryDirectory(prefix="bench-cad-") as tmp:
-        rows = [bench_part(n, Path(tmp)) for n in names]
+        rows = [bench_part(n, Path(tmp), across) for n in names]
     print("\npart      nodes  wall s  peak MB  est. error %  matrix / one ccx step")
     for r in rows:
         print(

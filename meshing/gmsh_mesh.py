@@ -327,6 +327,8 @@ def _prismatic(geometry: dict, mesher: str, refine: float | None, optimize: str,
 def _feature_fields(gmsh: ModuleType, size: float, order: int, features: dict, where: str) -> tuple:
     """(field ids, smallest size, summary) of the features' size fields; a
     MeshError before meshing when they would need more than ``max_nodes``."""
+    # curved quadratic elements at small holes can fold (ccx: nonpositive jacobian): let Gmsh untangle them
+    gmsh.option.setNumber("Mesh.HighOrderOptimize", 1)
     selected = sorted({t for p in features.get("selected", ()) for t in plane_surfaces(gmsh, p)})
     fields, info = feature_fields(gmsh, size, features["across"], features["around"], selected)
     est = estimate_nodes(info, size, order)

@@ -137,10 +137,7 @@ def estimate_nodes(job: LinkJob) -> int:
             ext = [L, b, c]
             along = max(range(3), key=lambda i: ext[i])
             af = job.across_factor if job.structured else min(1.0, min(ext) / (job.across * h))
-            n = [
-                max(1, math.ceil(e / (h if i == along else af * h) * (1 - 1e-6)))
-                for i, e in enumerate(ext)
-            ]
+            n = [max(1, math.ceil(e / (h if i == along else af * h) * (1 - 1e-6))) for i, e in enumerate(ext)]
             k = 2 if job.order == 2 else 1
             return int(math.prod(k * m + 1 for m in n))
         V, S, P = L * b * c, 2 * (L * b + b * c + L * c), 4 * (L + b + c)
