@@ -1,7 +1,7 @@
 """Checking the data of a fit before blaming the model, and the robust fit.
 
 ``check_data(res)`` runs the generic checks of ``checks`` on a fit of a
-model to relative measurements (contract s3): a robust fit (IRLS with
+model to relative measurements (docs/calibration.md §3): a robust fit (IRLS with
 Huber or Cauchy row weights around the core's weighted least squares, on
 the Jacobian at the plain fit), the rows whose standardised residual is a
 gross error, the configurations recorded in the wrong unit (deflections

@@ -1,6 +1,6 @@
 """``stiffkit stiffness``: the tool's 6x6 compliance and stiffness of a model with values.
 
-The model TOML (contract s2, s5) gives the robot and every spring's value:
+The model TOML (docs/calibration.md §2, §5) gives the robot and every spring's value:
 joint compliances, 6x6 link/base/tool compliances (numbers, or the JSON of
 `stiffkit link`, or the output of `stiffkit fit --write-model`). For each
 posture: the compliance C = sum_i J_i C_i J_i^T of the tool frame (base
@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 
 from ..io import validate as V
-from ..io.files import FIGURE_SUFFIXES
+from ..io.files import FIGURE_SUFFIXES, model_inputs
 from ..io.tables import read_columns
 from ..robot.model import load_model
 from ..robot.stiffness_report import INDICES, compute_indices, index_status, stiffness_report
@@ -66,7 +66,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    inputs = [args.model, args.trajectory]
+    inputs = [*model_inputs(args.model), args.trajectory]
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--npz", args.npz, None),

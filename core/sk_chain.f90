@@ -30,13 +30,16 @@ module sk_chain
     private
     public :: chain_frames, spring_jacobian, spring_ndof, tool_compliance_batch
     public :: spring_basis_batch, sym_index, nsym, spring_jacobians, chain_poses_batch
+    !> spring types (the stype codes above; robot/model.py SPRING_* mirrors them,
+    !> tests/test_architecture.py checks that the two agree)
+    integer(ip), parameter, public :: spring_joint = 1, spring_frame = 2, spring_base = 3, spring_tool = 4
 
 contains
 
     !> Degrees of freedom of a spring type (1 for a joint spring, else 6).
     pure integer function spring_ndof(stype) result(n)
         integer(ip), intent(in) :: stype
-        n = merge(1, 6, stype == 1)
+        n = merge(1, 6, stype == spring_joint)
     end function spring_ndof
 
     !> Frames of the chain at posture q: rf[3,3,nj], pf[3,nj] of every F_k
@@ -78,11 +81,11 @@ contains
         real(dp), intent(in) :: jaxis(:, :), rf(:, :, :), pf(:, :), rt(3, 3), pt(3)
         real(dp), intent(out) :: j(:, :)
         select case (stype)
-        case (1)
+        case (spring_joint)
             j(:, 1) = revolute_twist(matmul(rf(:, :, sidx), jaxis(:, sidx)), pf(:, sidx), pt)
-        case (2)
+        case (spring_frame)
             j(:, 1:6) = matmul(twist_transfer(pt - pf(:, sidx)), blockdiag_rot(rf(:, :, sidx)))
-        case (3)
+        case (spring_base)
             j(:, 1:6) = twist_transfer(pt)
         case default
             j(:, 1:6) = blockdiag_rot(rt)
@@ -102,9 +105,9 @@ contains
             if (qidx(k) > 0 .and. abs(norm2(jaxis(:, k)) - 1.0_dp) > 1.0e-9_dp) return
         end do
         do k = 1, size(stype)
-            if (stype(k) < 1 .or. stype(k) > 4) return
-            if (stype(k) <= 2 .and. (sidx(k) < 1 .or. sidx(k) > nj)) return
-            if (stype(k) == 1) then
+            if (stype(k) < spring_joint .or. stype(k) > spring_tool) return
+            if (stype(k) <= spring_frame .and. (sidx(k) < 1 .or. sidx(k) > nj)) return
+            if (stype(k) == spring_joint) then
                 if (qidx(sidx(k)) == 0) return
             end if
         end do

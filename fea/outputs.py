@@ -14,6 +14,7 @@ from ..io.files import atomic_path, pyplot, save_figure, write_json
 from ..meshing import Mesh
 from ..version import __version__
 from .config import LinkJob
+from .facesets import set_label
 from .solve import FeaSolution
 
 __all__ = ["LinkResult"]
@@ -61,6 +62,13 @@ class LinkResult:
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(cf != 0, self.compliance.matrix / cf - 1.0, np.nan)
 
+    def reference_difference(self) -> np.ndarray:
+        """(6,) relative difference of the fitted diagonal from the reference
+        node's (fit / reference - 1; 0 where the reference is 0)."""
+        fit, ref = np.diag(self.compliance.matrix), np.diag(self.reference_compliance)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(ref != 0, fit / ref - 1.0, 0.0)
+
     def to_json(self) -> dict:
         c = self.compliance
         sol = self.solution
@@ -75,6 +83,7 @@ class LinkResult:
             "nodes_fitted": int(min(f.n_used for f in self.fits)),
             "nodes_trimmed": int(max(f.nodes_used.size - f.n_used for f in self.fits)),
             "reference_node_compliance": self.reference_compliance.tolist(),
+            "reference_node_difference": self.reference_difference().tolist(),
             "mesh": {
                 "nodes": self.mesh.n_nodes,
                 "elements": self.mesh.n_elements,
@@ -93,9 +102,10 @@ class LinkResult:
             "deflections": self.deflections().tolist(),
             "route": sol.route,
             "coupling": self.job.coupling,
-            "boundary_condition": f"nodes of {self.job.support_plane} clamped in x, y, z; "
+            "boundary_condition": f"nodes of {set_label(self.job, 'support')} clamped in x, y, z; "
             f"loads at the reference point through a {self.job.coupling} "
-            f"coupling to {self.job.load_plane}",
+            f"coupling to {set_label(self.job, 'load')}",
+            "reference_point_m": list(self.job.reference_point),
             "field": {"region": self.job.region, "size_m": self.job.region_size, "nodes": int(self.field_nodes.size)},
             "fit": {
                 "method": self.job.method,
@@ -207,10 +217,31 @@ class LinkResult:
         fld = np.zeros(self.mesh.n_nodes)
         fld[self.field_nodes - 1] = 1.0
         data["field_node"] = fld
+        for name, nodes in (("support_node", self.solution.fixed_nodes), ("load_node", self.solution.load_nodes)):
+            mark = np.zeros(self.mesh.n_nodes)
+            mark[np.asarray(nodes) - 1] = 1.0
+            data[name] = mark
         m = meshio.Mesh(self.mesh.nodes, cells, point_data=data)
         with atomic_path(path) as tmp:
             meshio.write(tmp, m, file_format="vtu")
         return path
+
+    def write_faces_png(self, path: Path | str) -> Path:
+        """The mesh with the clamped (blue) and loaded (red) faces (PNG)."""
+        from .faceplot import write_faces_png
+
+        sol = self.solution
+        return write_faces_png(
+            path,
+            self.mesh,
+            sol.fixed_nodes,
+            sol.load_nodes,
+            self.job.reference_point,
+            title=f"{Path(self.job.source).name}: {self.mesh.n_nodes} nodes; clamped {set_label(self.job, 'support')}"
+            f" (blue), loaded {set_label(self.job, 'load')} (red), x = reference point",
+            scale=1.0 / self.job.scale,
+            units=self.job.units,
+        )
 
     def write_residual_png(self, path: Path | str) -> Path:
         """Histograms of the fit residuals per load case (paper Fig. 3)."""

@@ -23,6 +23,7 @@ from types import ModuleType
 import numpy as np
 
 from ..errors import InputError, PlausibilityWarning
+from .faces import CadFace, distances, faces_of_model, groups, surface_triangles
 from .mesh import PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
 from .refine import (
     estimate_nodes,
@@ -35,7 +36,15 @@ from .refine import (
 
 logger = logging.getLogger(__name__)
 
-CAD_SUFFIXES = {".step": "STEP", ".stp": "STEP", ".brep": "BREP", ".brp": "BREP", ".iges": "IGES", ".igs": "IGES"}
+CAD_SUFFIXES = {
+    ".step": "STEP",
+    ".stp": "STEP",
+    ".brep": "BREP",
+    ".brp": "BREP",
+    ".iges": "IGES",
+    ".igs": "IGES",
+    ".geo": "Gmsh .geo",
+}
 #: geometry unit -> OpenCASCADE target unit of STEP/IGES import
 OCC_UNITS = {"mm": "MM", "m": "M", "cm": "CM", "in": "INCH"}
 
@@ -109,7 +118,10 @@ def _add_geometry(gmsh: ModuleType, geometry: dict, units: str) -> None:
             raise InputError(f"{path}: CAD file not found")
         gmsh.option.setString("Geometry.OCCTargetUnit", OCC_UNITS.get(units, "MM"))
         try:
-            occ.importShapes(str(path))
+            if kind == "Gmsh .geo":  # a script: its physical groups name faces
+                gmsh.merge(str(path))
+            else:
+                occ.importShapes(str(path))
         except Exception as exc:
             raise MeshError(f"{path}: OpenCASCADE cannot read this {kind} file ({exc})") from None
     else:
@@ -292,7 +304,10 @@ def mesh_part(
                 gmsh.model.mesh.generate(3)
             except Exception as exc:
                 raise MeshError(f"{where}: gmsh cannot mesh it at size {size:g} ({exc})") from None
+            if order == 2:
+                _untangle_curved(gmsh, where)
             mesh = _collect_gmsh(gmsh, order, scale)
+            mesh.surface_tri, mesh.surface_tag = surface_triangles(gmsh)
         else:
             try:
                 gmsh.model.mesh.generate(2)
@@ -317,6 +332,51 @@ def mesh_part(
     mesh.info["time_s"] = time.perf_counter() - t0
     mesh.info.update(check_geometry(mesh))
     return mesh
+
+
+def _untangle_curved(gmsh: ModuleType, where: object) -> None:
+    """Quadratic tets curved onto a small hole can fold (negative Jacobian:
+    ccx stops with 'nonpositive jacobian'): when any does, run Gmsh's
+    high-order optimiser; MeshError if some stay folded. Meshes without a
+    folded element are left as they are."""
+    tags, _nodes = gmsh.model.mesh.getElementsByType(11)
+    if len(tags) == 0:
+        return
+    q = np.asarray(gmsh.model.mesh.getElementQualities(tags, "minSJ"))
+    if (q > 0).all():
+        return
+    bad = int((q <= 0).sum())
+    gmsh.model.mesh.optimize("HighOrder")
+    q = np.asarray(gmsh.model.mesh.getElementQualities(tags, "minSJ"))
+    if (q <= 0).any():
+        raise MeshError(
+            f"{where}: {int((q <= 0).sum())} curved quadratic element(s) stay folded after Gmsh's high-order "
+            "optimiser: give a smaller element size near the small holes"
+        )
+    logger.info("%s: %d folded curved element(s) untangled by gmsh's high-order optimiser", where, bad)
+
+
+def cad_faces(
+    geometry: dict, units: str, points: list | None = None
+) -> tuple[list[CadFace], dict[str, list[int]], np.ndarray, list[float]]:
+    """The faces of the part (see :mod:`~stiffkit.meshing.faces`) without
+    meshing it: (faces, named groups, distances of ``points`` to each face,
+    bounding box xmin..zmax), lengths in the geometry's unit. MeshError for
+    a file with no solid or several."""
+    gmsh = _gmsh()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    _python_signals()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("faces")
+        _add_geometry(gmsh, geometry, units)
+        faces = faces_of_model(gmsh)
+        named = groups(gmsh)
+        dist = distances(gmsh, points or [], faces)
+        box = [float(v) for v in gmsh.model.getBoundingBox(-1, -1)]
+    finally:
+        gmsh.finalize()
+    return faces, named, dist, box
 
 
 def _prismatic(geometry: dict, mesher: str, refine: float | None, optimize: str, structured: bool) -> bool:

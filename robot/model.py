@@ -1,4 +1,4 @@
-"""Robot elastostatic models: URDF + TOML effects (contract s2, s5).
+"""Robot elastostatic models: URDF + TOML effects (docs/calibration.md §2, §5).
 
 A model file names the robot and lists ``[[effect]]`` tables; each effect
 expands into *terms* (``joint`` with ``target = "all"`` becomes one term per
@@ -344,7 +344,7 @@ def default_tau0(tau: np.ndarray) -> float:
 
 
 def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
-    """d2V/dq2 per unit k_s of the gravity compensator (contract s2):
+    """d2V/dq2 per unit k_s of the gravity compensator (docs/calibration.md §2):
     s = sqrt(a^2 + b^2 - 2ab cos phi), phi = q + beta, V = k_s (s - s0)^2 / 2
     -> s'^2 + (s - s0) s''."""
     a, b, beta, s0 = g["a"], g["b"], g["beta"], g["s0"]
@@ -360,7 +360,7 @@ def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
 
 
 def _where(path: Path | str, i: int, table: dict) -> str:
-    return f"{path}: [[effect]] #{i + 1} ({table.get('kind', '?')}" + (
+    return f"{path}: [[effect]] #{i + 1} ({V.shown(table.get('kind', '?'))}" + (
         f", target {table['target']!r})" if "target" in table else ")"
     )
 
@@ -580,7 +580,7 @@ def check_terms(terms: list[Term], where: str) -> None:
 
 
 def load_model(path: Path | str) -> Model:
-    """Read a model TOML (contract s2, s5) and its URDF.
+    """Read a model TOML (docs/calibration.md §2, §5) and its URDF.
 
     Returns a :class:`Model`; ``model.tool_compliance(Q)`` evaluates a model
     whose effects all carry values.

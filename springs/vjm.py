@@ -91,7 +91,7 @@ def model_tree(model: Model, Q: npt.ArrayLike) -> tuple[Series, np.ndarray]:
     Poses from the core's forward kinematics (sk_chain via Chain.poses);
     joint springs become revolute Joint leaves about their world axes,
     link springs 6x6 leaves at their joint frames F_k, the base spring at
-    the base origin, the tool spring at the tool frame (contract s2).
+    the base origin, the tool spring at the tool frame (docs/calibration.md §2).
     Returns (tree, tool (N,3)): evaluate(tree, tool=tool) is the tool
     compliance in base axes about the tool-frame origin, the same as
     model.tool_compliance(Q). Joint compliances must not depend on the

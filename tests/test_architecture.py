@@ -260,3 +260,34 @@ def test_repo_stands_alone():
             if "../shared" in text or "TOOLCHAIN_NOTES" in text or "shared/spec" in text:
                 bad.append(str(path.relative_to(ROOT)))
     assert not bad, f"files pointing outside the repository: {bad}"
+
+
+def _named_codes(path: str, prefix: str) -> dict[str, int]:
+    """``prefix_name = N`` integer parameters of a core file, upper-cased."""
+    text = (ROOT / path).read_text()
+    return {m[0].upper(): int(m[1]) for m in re.findall(rf"\b({prefix}_[a-z0-9]+)\s*=\s*(\d+)\b", text)}
+
+
+def test_integer_codes_shared_with_the_core_agree():
+    """The integer codes Python hands the core (law types of the tree model,
+    spring types of the chain) are the core's own named constants."""
+    from stiffkit.robot import model, tree_model
+
+    laws = _named_codes("core/sk_tree.f90", "law")
+    laws.pop("LAW_NSLOT", None)  # a function result, not a code
+    py_laws = {k: v for k, v in vars(tree_model).items() if k.startswith("LAW_") and isinstance(v, int)}
+    assert laws and py_laws == laws
+    springs = _named_codes("core/sk_chain.f90", "spring")
+    py_springs = {k: v for k, v in vars(model).items() if k.startswith("SPRING_") and isinstance(v, int)}
+    assert springs and py_springs == springs
+
+
+def test_folder_table_follows_the_layering():
+    """docs/ARCHITECTURE.md lists the folders in the order of LAYERS, so
+    its sentence "imports only from the folders above it" is true."""
+    text = (ROOT / "docs" / "ARCHITECTURE.md").read_text()
+    rows = re.findall(r"^\| `([a-z_]+)/` \|", text, flags=re.M)
+    # the package face (errors, version) may be imported by every folder: its
+    # row stands beside bindings/, the rest follows LAYERS exactly
+    order = [r for r in rows if r in PACKAGES and r != "stiffkit"]
+    assert order == [folder for folder, _ in LAYERS if folder != "stiffkit"]

@@ -1,4 +1,4 @@
-"""Diagnosis (contract s4): adequacy test, hidden effects found, honest false-alarm rate."""
+"""Diagnosis (docs/calibration.md §4): adequacy test, hidden effects found, honest false-alarm rate."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Identification (contract s4): exact recovery, groups, couplings, write-model."""
+"""Identification (docs/calibration.md §4): exact recovery, groups, couplings, write-model."""
 
 from __future__ import annotations
 
@@ -154,7 +154,7 @@ def test_fewer_rows_than_parameters(tmp_path):
 
 
 def test_rotation_columns_make_the_last_axis_identifiable(tmp_path):
-    """rx, ry, rz measured: one marker on the A6 axis suffices (contract s3, optional rotations)."""
+    """rx, ry, rz measured: one marker on the A6 axis suffices (docs/calibration.md §3, optional rotations)."""
     S.write_synth(
         tmp_path,
         S.KR270_JOINTS,

@@ -9,6 +9,10 @@ program test_sparse
     use sk_coupling
     implicit none (type, external)
 
+    !> scratch files live in $TMPDIR (default /tmp), never in the working directory
+    character(len=:), allocatable :: scratch
+
+    call init_scratch()
     call test_triplets_and_solve()
     call test_bad_files()
     call test_face_weights()
@@ -17,6 +21,29 @@ program test_sparse
 
 contains
 
+    !> scratch = "$TMPDIR/sk_test_sparse_<random>_": unique per run, so
+    !> concurrent runs and the source tree are never touched.
+    subroutine init_scratch()
+        character(len=4096) :: dir
+        integer :: n, stat
+        real(dp) :: r
+        call get_environment_variable('TMPDIR', dir, n, stat)
+        if (stat /= 0 .or. n == 0) dir = '/tmp'
+        call random_seed()
+        call random_number(r)
+        allocate (character(len=len_trim(dir) + 40) :: scratch)
+        write (scratch, '(a, a, i0, a)') trim(dir), '/sk_test_sparse_', int(r*1.0e9_dp), '_'
+        scratch = trim(scratch)
+    end subroutine init_scratch
+
+    !> Delete a scratch file written by a test.
+    subroutine remove(path)
+        character(len=*), intent(in) :: path
+        integer :: u, ios
+        open (newunit=u, file=path, status='old', iostat=ios)
+        if (ios == 0) close (u, status='delete')
+    end subroutine remove
+
     !> K = tridiag(-1, 4, -1) of order 5 written as CalculiX writes .sti
     !> (upper triangle, 1-based, blank line in between); two right-hand sides.
     subroutine test_triplets_and_solve()
@@ -24,16 +51,16 @@ contains
         integer :: u, i, j
         integer(ip) :: nnz, neq, info, rows(9), cols(9), node(3), dir(3)
         real(dp) :: vals(9), b(n, 2), x(n, 2), times(3), lnz, k(n, n)
-        open(newunit=u, file='test_sparse.sti', status='replace', action='write')
+        open(newunit=u, file=scratch//'sparse.sti', status='replace', action='write')
         do i = 1, n
             write(u, '(i0, 1x, i0, 1x, es22.14)') i, i, 4.0_dp
             if (i < n) write(u, '(i0, 1x, i0, 1x, es22.14)') i, i + 1, -1.0_dp
             if (i == 2) write(u, '(a)') ''
         end do
         close(u)
-        call triplet_count('test_sparse.sti', nnz, neq, info)
+        call triplet_count(scratch//'sparse.sti', nnz, neq, info)
         call expect(info == sk_ok .and. nnz == 9 .and. neq == n, 'count triplets')
-        call triplet_read('test_sparse.sti', rows, cols, vals, info)
+        call triplet_read(scratch//'sparse.sti', rows, cols, vals, info)
         call expect(info == sk_ok .and. all(rows <= cols) .and. abs(sum(vals) - 16.0_dp) < 1e-12_dp, 'read triplets')
         k = 0.0_dp
         do j = 1, 9
@@ -52,13 +79,15 @@ contains
         if (info /= sk_err_singular) print *, 'indefinite: info', info
         call expect(info == sk_err_singular, 'not positive definite -> sk_err_singular')
         ! .dof
-        open(newunit=u, file='test_sparse.dof', status='replace', action='write')
+        open(newunit=u, file=scratch//'sparse.dof', status='replace', action='write')
         write(u, '(a)') '5.1', '5.2', '12.3'
         close(u)
-        call dof_count('test_sparse.dof', neq, info)
+        call dof_count(scratch//'sparse.dof', neq, info)
         call expect(info == sk_ok .and. neq == 3, 'count dofs')
-        call dof_read('test_sparse.dof', node, dir, info)
+        call dof_read(scratch//'sparse.dof', node, dir, info)
         call expect(info == sk_ok .and. all(node == [5, 5, 12]) .and. all(dir == [1, 2, 3]), 'read dofs')
+        call remove(scratch//'sparse.sti')
+        call remove(scratch//'sparse.dof')
     end subroutine test_triplets_and_solve
 
     subroutine test_bad_files()
@@ -66,16 +95,18 @@ contains
         integer(ip) :: nnz, neq, info
         call triplet_count('no_such_file.sti', nnz, neq, info)
         call expect(info == sk_err_io, 'missing file -> sk_err_io')
-        open(newunit=u, file='test_bad.sti', status='replace', action='write')
+        open(newunit=u, file=scratch//'bad.sti', status='replace', action='write')
         write(u, '(a)') '1 1 4.0', '1 x 2.0'
         close(u)
-        call triplet_count('test_bad.sti', nnz, neq, info)
+        call triplet_count(scratch//'bad.sti', nnz, neq, info)
         call expect(info == sk_err_io, 'malformed line -> sk_err_io')
-        open(newunit=u, file='test_bad.dof', status='replace', action='write')
+        open(newunit=u, file=scratch//'bad.dof', status='replace', action='write')
         write(u, '(a)') '5.1', '5.9'
         close(u)
-        call dof_count('test_bad.dof', neq, info)
+        call dof_count(scratch//'bad.dof', neq, info)
         call expect(info == sk_err_io, 'direction 9 -> sk_err_io')
+        call remove(scratch//'bad.sti')
+        call remove(scratch//'bad.dof')
     end subroutine test_bad_files
 
     !> Unit square at x = 1 split into two quadratic triangles: total area 1,
