@@ -3,9 +3,11 @@
 The parts (bench/cad_parts.py, made with Gmsh's OpenCASCADE kernel and
 written as STEP): an L-shaped hollow cast arm ending in two bearing
 housings, a clevis with a bolted flange and two pin lugs, a tapered box
-beam with lightening holes and fillets. Each is clamped at the plane x-min
-and loaded through a distributing coupling at its far plane (bounding-box
-faces until the face selectors land), meshed with the default feature
+beam with lightening holes and fillets. The arm is clamped in its first
+bearing bore and loaded through a rigid coupling in the second; the clevis
+clamped in its six bolt holes and loaded through a rigid pin in its lug
+holes; the tapered beam clamped and loaded (distributing) at its end
+planes (reference point: the load set's centre on its axis). Meshed with the default feature
 refinement (C3D10; ``across`` elements across the thinnest wall, ``around``
 around each hole, half the size at the clamp and load faces).
 
@@ -42,13 +44,12 @@ SIZES = {"arm": 10.0, "clevis": 8.0, "tapered": 10.0}
 
 
 def link_data(name: str, step: Path, route: str = "matrix", across: int | None = None) -> dict:
-    plane, ref = PARTS[name]
+    support, load = PARTS[name]
     return {
         "geometry": {"step": str(step), "units": "mm"},
         "material": {"E": 2.0e11, "nu": 0.3, "density": 7850.0},
-        "support": {"plane": "x-min"},
-        "load": {"plane": plane, "reference_point": ref, "coupling": "distributing", "amplitudes": "auto"},
-        "field": {"region": "face"},
+        "support": dict(support),
+        "load": {"amplitudes": "auto", **load},
         "mesh": {"mesher": "gmsh", "order": 2, "size": SIZES[name], **({"across": across} if across else {})},
         "fit": {"method": "lin"},
         "solver": {"route": route},

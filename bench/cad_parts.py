@@ -19,11 +19,26 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-#: the parts: name -> (load plane, reference point, mm)
+#: the parts: name -> ([support] table, [load] table) with the face selectors
+#: (bores and pin holes as cylinders, the flange's bolt holes, end planes), mm
 PARTS = {
-    "arm": ("y-max", [110.0, 110.0, 0.0]),
-    "clevis": ("x-max", [110.0, 0.0, 0.0]),
-    "tapered": ("x-max", [200.0, 0.0, 0.0]),
+    "arm": (
+        {"cylinder": {"axis": [1.0, 0.0, 0.0], "point": [0.0, 0.0, 0.0], "radius": 20.0}},
+        {"cylinder": {"axis": [0.0, 1.0, 0.0], "point": [110.0, 90.0, 0.0], "radius": 20.0}, "coupling": "rigid"},
+    ),
+    "clevis": (
+        {
+            "cylinder": [
+                {"axis": [1.0, 0.0, 0.0], "point": [0.0, 38.0 * math.cos(a), 38.0 * math.sin(a)], "radius": 4.5}
+                for a in (math.pi / 6 + k * math.pi / 3 for k in range(6))
+            ]
+        },
+        {"cylinder": {"axis": [0.0, 0.0, 1.0], "point": [90.0, 0.0, 0.0], "radius": 8.0}, "coupling": "rigid"},
+    ),
+    "tapered": (
+        {"plane": "x-min"},
+        {"plane": "x-max", "reference_point": [200.0, 0.0, 0.0], "coupling": "distributing"},
+    ),
 }
 
 
