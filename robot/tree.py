@@ -371,10 +371,11 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
             if not lead:
                 raise InputError(f'{path}: {owner}: <mimic> without joint="..."')
             mimic = (lead, _scalar(me, "multiplier", owner, path, 1.0), _scalar(me, "offset", owner, path, 0.0))
-        le = el.find("limit")
+        le = parts.get("limit")
         lim = None
         if le is not None:
-            lim = joint_limit(jtype, _scalar(le, "lower", owner, path, None), _scalar(le, "upper", owner, path, None))
+            who = f"joint {name!r}"
+            lim = joint_limit(jtype, _scalar(le, "lower", who, path, None), _scalar(le, "upper", who, path, None))
         raw.append((name, jtype, parent, child, mimic, lim))
     X, A = xyz.values(path), axis.values(path)
     T = _transforms(X, rpy.values(path))
