@@ -381,8 +381,7 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
     T = _transforms(X, rpy.values(path))
     # iterating the arrays yields the rows' views in C (indexing one by one costs more than the rest)
     joints = [
-        UrdfJoint(n, t, p, c, Tk, None if a[0] != a[0] else a, m, lim)
-        for (n, t, p, c, m, lim), Tk, a in zip(raw, T, A)
+        UrdfJoint(n, t, p, c, Tk, None if a[0] != a[0] else a, m, lim) for (n, t, p, c, m, lim), Tk, a in zip(raw, T, A)
     ]
     far = float(np.abs(X).max()) if len(X) else 0.0
     if far > V.QUANTITIES["position"].plausible[1]:
