@@ -33,6 +33,24 @@ def _f(a: object) -> np.ndarray:
     return np.asfortranarray(np.asarray(a, dtype=float))
 
 
+def _model(model: dict) -> dict:
+    """The model's arrays with the gravity-parameter entries ``bpar`` (3, nbp)
+    (body, slot, theta index; core/sk_tree_grav.f90) added, empty, when the
+    caller has none."""
+    if "bpar" in model:
+        return model
+    return {**model, "bpar": _i(np.zeros((3, 0)))}
+
+
+def _prior(prior: tuple | None) -> dict:
+    """Prior rows psw (theta[ppar] - pmu) of the fit: (indices 0-based,
+    centres, sqrt weights) or None."""
+    if prior is None or len(prior[0]) == 0:
+        return {"ppar": _i(np.zeros(0)), "pmu": _f(np.zeros(0)), "psw": _f(np.zeros(0))}
+    idx, mu, sw = prior
+    return {"ppar": _i(np.asarray(idx) + 1), "pmu": _f(mu), "psw": _f(sw)}
+
+
 def _loads(loads: tuple | None) -> dict:
     if loads is None or len(loads[0]) == 0:
         return {"lpost": _i(np.zeros(0)), "lvj": _i(np.zeros(0)), "lw": _f(np.zeros((6, 0)))}
@@ -54,17 +72,27 @@ def _check(info: int, errloc: object, routine: str, given: dict) -> None:
     raise_for(info, errloc, routine, given, _DETAILS)
 
 
+def _given(model: dict, theta: np.ndarray, q: np.ndarray, loads: tuple | None, **extra: object) -> dict:
+    """What a call passed, in the core's layout, for the error message."""
+    return dict(model=model, theta=_f(theta), q=_f(np.asarray(q, float).T), **_loads(loads), **extra)
+
+
 def poses(
     ne: int, model: dict, theta: np.ndarray, q: np.ndarray, loads: tuple | None, eqit: int, etol: float
 ) -> dict[str, np.ndarray]:
     """Frames after motion ``ra`` (np, nv, 3, 3), ``pa`` (np, nv, 3), generalised
     gravity forces ``wv`` (np, nv) and per joint coordinate ``tauq`` (np, ndof),
     deflections ``delta`` (np, ne), ``nit``, ``eqinfo`` (np,) at postures q (np, ndof)."""
-    args = dict(theta=_f(theta), q=_f(np.asarray(q, float).T), **_loads(loads))
     ra, pa, wv, tauq, delta, nit, eqinfo, info, errloc = _tree.sk_tree_poses(
-        int(ne), **model, **args, eqit=int(eqit), etol=float(etol)
+        int(ne),
+        **_model(model),
+        theta=_f(theta),
+        q=_f(np.asarray(q, float).T),
+        **_loads(loads),
+        eqit=int(eqit),
+        etol=float(etol),
     )
-    _check(info, errloc, "tree poses (sk_tree_poses)", dict(args, model=model, ne=ne))
+    _check(info, errloc, "tree poses (sk_tree_poses)", _given(model, theta, q, loads, ne=ne))
     return {
         "ra": np.transpose(ra, (3, 2, 0, 1)),
         "pa": np.transpose(pa, (2, 1, 0)),
@@ -94,17 +122,23 @@ def evaluate(
     = sqrt(w) (pred - xyz) ordered point by point, their Jacobian ``jac``
     (3 no, nfree) w.r.t. theta[free], ``delta`` (np, ne), ``nit``, ``eqinfo``."""
     free = np.asarray(free, int)
-    args = dict(
+    pred, res, jac, delta, nit, eqinfo, info, errloc = _tree.sk_tree_evaluate(
+        int(ne),
+        **_model(model),
         theta=_f(theta),
         q=_f(np.asarray(q, float).T),
         **_loads(loads),
         **_obs(posture, marker, xyz, weight),
         free=_i(free + 1),
+        eqit=int(eqit),
+        etol=float(etol),
     )
-    pred, res, jac, delta, nit, eqinfo, info, errloc = _tree.sk_tree_evaluate(
-        int(ne), **model, **args, eqit=int(eqit), etol=float(etol)
+    _check(
+        info,
+        errloc,
+        "tree evaluation (sk_tree_evaluate)",
+        _given(model, theta, q, loads, ne=ne, **_obs(posture, marker, xyz, weight), free=_i(free + 1)),
     )
-    _check(info, errloc, "tree evaluation (sk_tree_evaluate)", dict(args, model=model, ne=ne))
     return {"pred": pred.T.copy(), "res": res, "jac": jac, "delta": delta.T.copy(), "nit": nit, "eqinfo": eqinfo}
 
 
@@ -125,6 +159,7 @@ def lm(
     ftol: float = 1e-12,
     xtol: float = 1e-12,
     gtol: float = 1e-12,
+    prior: tuple | None = None,
 ) -> dict:
     """Levenberg-Marquardt on theta[free] from theta0: ``theta``, ``hist``
     (cost after each accepted step), ``niter``, ``reason`` (LM_REASONS),
@@ -132,21 +167,21 @@ def lm(
     re-centres the tracker rotation after every accepted step, so the
     returned tracker angles are 0 and the tracker's rotation is ``rref``.
     Not converging (reasons 5, 6) is reported, not raised: theta is then
-    the best found."""
+    the best found. ``prior``: (indices 0-based, centres, sqrt weights),
+    rows sw (theta[i] - mu) added to the residual (``jac``, ``res`` hold
+    the data rows only)."""
     free = np.asarray(free, int)
     if free.size == 0:
         raise InputError("no free parameter to fit")
-    args = dict(
+    theta, hist, nhist, niter, reason, jac, res, rref, info, errloc = _tree.sk_tree_lm(
+        int(ne),
+        **_model(model),
         theta0=_f(theta0),
         q=_f(np.asarray(q, float).T),
         **_loads(loads),
         **_obs(posture, marker, xyz, weight),
         free=_i(free + 1),
-    )
-    theta, hist, nhist, niter, reason, jac, res, rref, info, errloc = _tree.sk_tree_lm(
-        int(ne),
-        **model,
-        **args,
+        **_prior(prior),
         eqit=int(eqit),
         etol=float(etol),
         maxit=int(maxit),
@@ -155,7 +190,7 @@ def lm(
         gtol=float(gtol),
     )
     if info != 7:
-        given = dict(args, model=model, ne=ne, theta=args["theta0"])
+        given = _given(model, theta0, q, loads, ne=ne, **_obs(posture, marker, xyz, weight), free=_i(free + 1))
         _check(info, errloc, "Levenberg-Marquardt (sk_tree_lm)", given)
     return {
         "theta": theta,
@@ -182,11 +217,19 @@ def frame_jacobian(
     """Pose (``R`` (np, 3, 3), ``p`` (np, 3), base) of virtual joint frame[i]
     (1-based) at postures q (np, ndof), at equilibrium, and its total Jacobian
     ``J`` (np, 6, ndof) w.r.t. q (origin velocity, angular velocity)."""
-    args = dict(theta=_f(theta), frame=_i(frame), q=_f(np.asarray(q, float).T), **_loads(loads))
     rf, pf, jq, delta, nit, eqinfo, info, errloc = _tree.sk_tree_frame_jacobian(
-        int(ne), **model, **args, eqit=int(eqit), etol=float(etol)
+        int(ne),
+        **_model(model),
+        theta=_f(theta),
+        frame=_i(frame),
+        q=_f(np.asarray(q, float).T),
+        **_loads(loads),
+        eqit=int(eqit),
+        etol=float(etol),
     )
-    _check(info, errloc, "frame Jacobian (sk_tree_frame_jacobian)", dict(args, model=model, ne=ne))
+    _check(
+        info, errloc, "frame Jacobian (sk_tree_frame_jacobian)", _given(model, theta, q, loads, ne=ne, frame=_i(frame))
+    )
     return {
         "R": np.transpose(rf, (2, 0, 1)),
         "p": pf.T.copy(),
@@ -225,7 +268,9 @@ def compensate(
     else:
         prow = _i(np.asarray(row_params[0]) + 1)
         trow = _f(np.asarray(row_params[1], float).reshape(nr, prow.size).ravel())
-    args = dict(
+    qout, resp, resr, nit, rinfo, info, errloc = _tree.sk_tree_compensate(
+        int(ne),
+        **_model(model),
         theta=_f(theta),
         frame=_i(frame),
         qcmd=_f(np.asarray(qcmd, float).T),
@@ -234,11 +279,6 @@ def compensate(
         **_loads(loads),
         prow=prow,
         trow=trow,
-    )
-    qout, resp, resr, nit, rinfo, info, errloc = _tree.sk_tree_compensate(
-        int(ne),
-        **model,
-        **args,
         full6=int(bool(full6)),
         eqit=int(eqit),
         etol=float(etol),
@@ -248,5 +288,7 @@ def compensate(
     )
     if info == 7:
         raise ConvergenceError("compensation (sk_tree_compensate): the Newton iteration did not converge")
-    _check(info, errloc, "compensation (sk_tree_compensate)", dict(args, model=model, ne=ne, q=args["qcmd"]))
+    given = _given(model, theta, qcmd, loads, ne=ne, frame=_i(frame), prow=prow, trow=trow)
+    given.update(rtarget=np.transpose(np.asarray(rtarget, float), (1, 2, 0)), ptarget=np.asarray(ptarget, float).T)
+    _check(info, errloc, "compensation (sk_tree_compensate)", given)
     return {"q": qout.T.copy(), "resp": resp, "resr": resr, "nit": nit, "rinfo": rinfo}

@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_text
+from .urdf_checks import check_inertials, joint_limit
 
 MOVING = ("revolute", "continuous", "prismatic")
 SUPPORTED = MOVING + ("fixed",)
@@ -45,6 +46,7 @@ class TreeJoint:
     axis: np.ndarray
     mimic: tuple[str, float, float] | None = None  # (leader, multiplier, offset)
     index: int = 0  # position in the URDF file
+    limit: tuple[float, float] | None = None  # <limit lower upper> of a revolute or prismatic joint
 
     @property
     def moving(self) -> bool:
@@ -149,6 +151,7 @@ class UrdfJoint:
     origin: np.ndarray
     axis: np.ndarray | None
     mimic: tuple[str, float, float] | None
+    limit: tuple[float, float] | None = None  # (lower, upper) of a revolute or prismatic joint
 
 
 @dataclass
@@ -368,11 +371,18 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
             if not lead:
                 raise InputError(f'{path}: {owner}: <mimic> without joint="..."')
             mimic = (lead, _scalar(me, "multiplier", owner, path, 1.0), _scalar(me, "offset", owner, path, 0.0))
-        raw.append((name, jtype, parent, child, mimic))
+        le = parts.get("limit")
+        lim = None
+        if le is not None:
+            owner = f"joint {name!r}"
+            lim = joint_limit(jtype, _scalar(le, "lower", owner, path, None), _scalar(le, "upper", owner, path, None))
+        raw.append((name, jtype, parent, child, mimic, lim))
     X, A = xyz.values(path), axis.values(path)
     T = _transforms(X, rpy.values(path))
     # iterating the arrays yields the rows' views in C (indexing one by one costs more than the rest)
-    joints = [UrdfJoint(n, t, p, c, Tk, None if a[0] != a[0] else a, m) for (n, t, p, c, m), Tk, a in zip(raw, T, A)]
+    joints = [
+        UrdfJoint(n, t, p, c, Tk, None if a[0] != a[0] else a, m, lim) for (n, t, p, c, m, lim), Tk, a in zip(raw, T, A)
+    ]
     far = float(np.abs(X).max()) if len(X) else 0.0
     if far > V.QUANTITIES["position"].plausible[1]:
         V.warn(
@@ -380,6 +390,7 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
             "a URDF is in m (is it in mm? multiply by 0.001)",
             key=("urdf", str(path)),
         )
+    check_inertials(root, path)
     return UrdfDoc(str(path), links, joints)
 
 
@@ -532,7 +543,7 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
             if not (math.isfinite(m) and math.isfinite(o)):
                 raise InputError(f"{path}: mimic of joint {j.name!r} has a non-finite multiplier or offset")
             mimic = (lead, m, o)
-        joints.append(TreeJoint(j.name, j.type, j.parent, j.child, j.origin, ax, mimic, position[j.name]))
+        joints.append(TreeJoint(j.name, j.type, j.parent, j.child, j.origin, ax, mimic, position[j.name], j.limit))
     below = set(out_links)
     inertials = {}
     for ln in doc.links:

@@ -56,6 +56,7 @@ from .._core.tree import CoreArrays
 from ..errors import InputError
 from ..io.tables import read_toml
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
+from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
 from .tree import Tree, load_tree
 
 __all__ = [
@@ -84,7 +85,7 @@ ABS_KINDS = (
     "joint_deadzone",
     "link",
     "base",
-)
+) + BODY_KINDS  # the gravity parameters (model_bodies): last, so the reduction keeps compliances first
 GRAVITY = (0.0, 0.0, -9.81)
 #: default tau0 of joint_deadzone: this fraction of the RMS gravity torque about the joint
 DEADZONE_TAU0_FRACTION = 0.05
@@ -102,6 +103,7 @@ KEYS = {
     "joint_deadzone": {"target", "value", "tau0"},
     "link": {"target", "template", "axis", "value", "rpy"},
     "base": {"template", "axis", "value", "rpy"},
+    **BODY_KEYS,
 }
 FRAME_NAMES = ("dx", "dy", "dz", "drx", "dry", "drz")
 LAW_LINEAR, LAW_CUBIC, LAW_DEADZONE, LAW_SPRING6 = 1, 2, 3, 4
@@ -194,6 +196,8 @@ class TreeModel:
     vj_of_joint: dict[str, int] = field(default_factory=dict)
     #: (block index 0-based) -> (kind, target) for reports
     blocks: list[tuple[str, str]] = field(default_factory=list)
+    #: parameter name -> sigma of its prior toward the URDF (model_bodies)
+    priors: dict[str, float] = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
@@ -648,8 +652,8 @@ def tree_model_from_tables(
         kw0[k] = w0
         ne += len(vjs)
     arrays.update(ktype=ktype, kvj=kvj, kpar=kpar, kw0=kw0)
-    bodies = [(vj_of_link[ln], ine.mass, ine.com) for ln, ine in tree.inertials.items() if ln in vj_of_link]
-    arrays.labels["body"] = [f"link {ln!r}" for ln, _ine in tree.inertials.items() if ln in vj_of_link]
+    bodies = [(vj_of_link[ln], ine.mass, ine.com, ln) for ln, ine in tree.inertials.items() if ln in vj_of_link]
+    arrays.labels["body"] = [f"link {x[3]!r}" for x in bodies]
     arrays["bvj"] = np.array([x[0] for x in bodies], np.int32)
     arrays["bmass"] = np.array([x[1] for x in bodies], float)
     arrays["bcom"] = np.asfortranarray(np.array([x[2] for x in bodies], float).reshape(-1, 3).T)
@@ -661,6 +665,7 @@ def tree_model_from_tables(
     arrays["rref"] = np.asfortranarray(rref)
     arrays["mvj"] = np.array([vj_of_link[f] for f in frames], np.int32)
     arrays["mpar"] = np.asfortranarray(np.array(mpar_list, np.int32).T)
+    arrays["bpar"], priors = body_entries(b, tree, by_kind, [x[3] for x in bodies], where)
     return TreeModel(
         tree=tree,
         effects=list(effects),
@@ -674,6 +679,7 @@ def tree_model_from_tables(
         sigma_position=sigma_position,
         vj_of_joint=vj_of_joint,
         blocks=b.blocks,
+        priors=priors,
     )
 
 

@@ -51,6 +51,7 @@ class Chain:
     urdf: str = ""
     trot: np.ndarray = field(default_factory=lambda: np.eye(3))
     tpos: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    limits: list = field(default_factory=list)  # (lower, upper) or None per actuated joint (q order)
 
     @property
     def dof(self) -> int:
@@ -214,6 +215,7 @@ def load_chain(urdf_path: str | Path, base_link: str = "base_link", tool_frame: 
         base_link=base_link,
         tool_frame=tool_frame,
         urdf=str(path),
+        limits=[j.limit for j in joints if j.type in ACTUATED],
     )
 
 
