@@ -28,9 +28,10 @@
 !> owt[no] (weights >= 0). Equilibrium: eqit (0 rigid, 1 first order,
 !> >= 2 iterated, at most eqit times), etol (m).
 !> Every routine returns errloc[2] = [argument code, index] with an argument
-!> error (info = size, nonfinite or argument): which argument and which
-!> joint, entry, block, parameter, posture, payload, observation or row
-!> (the codes and indices of sk_tree_check), 0 otherwise.
+!> error of the model, the postures, payloads, observations or rows (info =
+!> size, nonfinite or argument): which argument and which joint, entry,
+!> block, parameter, posture, payload, observation or row (the codes and
+!> indices of sk_tree_check), 0 otherwise.
 
 !> Frames after motion ra[3,3,nv,np], pa[3,nv,np], generalised gravity
 !> forces of every joint wv[nv,np] and joint coordinate tauq[ndof,np],
@@ -66,9 +67,9 @@ subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, &
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
     if (info /= sk_ok) return
-    call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
-    if (info /= sk_ok) return
     call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
     if (info /= sk_ok) return
     call poses_batch(m, theta, q, lpost, lvj, lw, eqit, etol, ra, pa, wv, tauq, delta, nit, eqinfo, info)
 end subroutine sk_tree_poses
@@ -106,11 +107,11 @@ subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no,
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
     if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
     call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
     if (info /= sk_ok) return
     call observations_check(np, m%nm, m%npar, opost, omark, oxyz, owt, free, info, errloc)
-    if (info /= sk_ok) return
-    call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
     call problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
     if (info /= sk_ok) return
@@ -158,11 +159,11 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
     if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
     call inputs_check(m%nv, m%ndof, m%npar, theta0, q, lpost, lvj, lw, etol, info, errloc)
     if (info /= sk_ok) return
     call observations_check(np, m%nm, m%npar, opost, omark, oxyz, owt, free, info, errloc)
-    if (info /= sk_ok) return
-    call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
     call problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
     if (info /= sk_ok) return
@@ -204,11 +205,11 @@ subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, n
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
     if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
     call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
     if (info /= sk_ok) return
     call rows_check(m%nv, np, frame, info, errloc)
-    if (info /= sk_ok) return
-    call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
     call frame_jacobian_batch(m, theta, frame, q, lpost, lvj, lw, eqit, etol, rf, pf, jq, delta, nit, eqinfo, info)
 end subroutine sk_tree_frame_jacobian
@@ -248,13 +249,13 @@ subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, nr, nl, n
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
     if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
     call inputs_check(m%nv, m%ndof, m%npar, theta, qcmd, lpost, lvj, lw, etol, info, errloc)
     if (info /= sk_ok) return
     call rows_check(m%nv, nr, frame, info, errloc, rtarget, ptarget)
     if (info /= sk_ok) return
     call params_check(m%npar, prow, trow, info, errloc)
-    if (info /= sk_ok) return
-    call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
     call compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, maxit, &
         ptol, rtol, qout, resp, resr, nit, rinfo, info, prow, trow)
