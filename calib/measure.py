@@ -110,7 +110,8 @@ def _warn_columns(header: list[str], qcols: list[str], w: np.ndarray, path: Path
     q7 on a 6-joint robot), no measured point (the tool frame's origin is
     taken), every load zero (a deflection then identifies nothing)."""
     known = {"config", *qcols, *WRENCH, *POINT, *DEFL, *ROT}
-    unused = [h for h in header if h not in known]
+    # q columns beyond the robot's joints have their own warning (read_measurements)
+    unused = [h for h in header if h not in known and not (h[:1] == "q" and h[1:].isdigit())]
     if unused:
         V.warn(
             f"{path}: column(s) {', '.join(V.shown(h) for h in unused)} not used (the robot has {len(qcols)} "

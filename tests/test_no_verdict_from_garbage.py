@@ -280,7 +280,14 @@ def test_a_missing_point_is_named(kr, tmp_path):
 
 def test_a_q7_column_on_a_six_joint_robot_is_named(kr, tmp_path):
     p = write(tmp_path / "m.csv", columns(kr / "measurements.csv", add=("q7", "0.5")))
-    with pytest.warns(PlausibilityWarning, match=r"m.csv: column\(s\) q7 not used \(the robot has 6 joints"):
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        read_measurements(p, 6)
+    said = [str(w.message) for w in got if "q7" in str(w.message)]
+    assert len(said) == 1 and "m.csv, line 1: column(s) q7 ignored: the robot has 6 joints" in said[0]
+    # another unknown column is named too (as the tracker reader does)
+    p = write(tmp_path / "m2.csv", columns(kr / "measurements.csv", add=("temp", "21.5")))
+    with pytest.warns(PlausibilityWarning, match=r"m2.csv: column\(s\) temp not used \(the robot has 6 joints"):
         read_measurements(p, 6)
 
 
