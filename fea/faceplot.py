@@ -52,15 +52,17 @@ def write_faces_png(
     p = np.asarray(reference_point) * scale
     ax.scatter([p[0]], [p[1]], [p[2]], marker="x", s=60, c="k")
     lo, hi = xyz.min(axis=0), xyz.max(axis=0)
-    mid, half = (lo + hi) / 2, (hi - lo).max() / 2
-    for setter, m in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
-        setter(m - half, m + half)
-    ax.set_box_aspect((1, 1, 1))
+    ext = np.maximum(hi - lo, 0.05 * (hi - lo).max())  # equal scales; a flat part keeps some depth
+    for setter, a, b in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), (lo + hi - ext) / 2, (lo + hi + ext) / 2):
+        setter(a, b)
+    ax.set_box_aspect(tuple(ext / ext.max()), zoom=1.2)
     ax.set_xlabel(f"x, {units}")
     ax.set_ylabel(f"y, {units}")
     ax.set_zlabel(f"z, {units}")
+    ax.tick_params(labelsize=7)
     ax.view_init(elev=28, azim=-60)
-    ax.set_title(title or f"{mesh.n_nodes} nodes: clamped faces blue, loaded faces red, x = reference point")
+    default = f"{mesh.n_nodes} nodes: clamped faces blue, loaded faces red, x = reference point"
+    ax.set_title(title or default, fontsize=9)
     try:
         save_figure(fig, path, dpi=110, format="png")
     finally:

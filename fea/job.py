@@ -35,6 +35,7 @@ from ..meshing import Mesh
 from .amplitudes import PHI_RANGE_RAD, T_RANGE_M, auto_amplitudes, beam_estimate, closed_form
 from .cache import cache_key, fea_cached
 from .config import LinkJob
+from .facesets import set_label
 from .outputs import LinkResult
 from .solve import FeaSolution, resolve_route, solve_fea
 
@@ -73,7 +74,7 @@ def select_field(
         if clamped.size:
             raise InputError(
                 f"{job.source}: [field] region = {job.region!r}, size = {job.region_size / job.scale:g} {job.units} "
-                f"takes in {clamped.size} clamped node(s) of the [support] set: the field "
+                f"takes in {clamped.size} clamped node(s) of the {set_label(job, 'support')}: the field "
                 "must stay near the load face (give a smaller size or other faces)"
             )
     if sel.size < 3:

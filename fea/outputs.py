@@ -237,8 +237,9 @@ class LinkResult:
             sol.fixed_nodes,
             sol.load_nodes,
             self.job.reference_point,
-            title=f"{Path(self.job.source).name}: {self.mesh.n_nodes} nodes; clamped {set_label(self.job, 'support')}"
-            f" (blue), loaded {set_label(self.job, 'load')} (red), x = reference point",
+            title=f"{Path(self.job.source).name}: {self.mesh.n_nodes} nodes, {self.job.coupling} coupling\n"
+            f"blue: clamped {set_label(self.job, 'support')}\nred: loaded {set_label(self.job, 'load')}; "
+            "x: reference point",
             scale=1.0 / self.job.scale,
             units=self.job.units,
         )

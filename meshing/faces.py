@@ -61,28 +61,52 @@ def _face(gmsh: ModuleType, tag: int) -> CadFace:
     if typ == "Plane":
         n = np.asarray(gmsh.model.getNormal(tag, uv), dtype=float)
         face.axis = [float(v) for v in n / np.linalg.norm(n)]
-    elif typ == "Cylinder":
-        kmax, kmin, dmax, dmin = gmsh.model.getPrincipalCurvatures(tag, uv)
-        k = np.array([kmax[0], kmin[0]])
-        dirs = [np.asarray(dmax, dtype=float), np.asarray(dmin, dtype=float)]
-        i_flat = int(np.argmin(np.abs(k)))
-        curv = abs(k[1 - i_flat])
-        if curv > 0 and abs(k[i_flat]) <= _FLAT * curv:
-            axis = dirs[i_flat] / np.linalg.norm(dirs[i_flat])
-            axis = _canonical(axis)
-            r = 1.0 / curv
-            p = np.asarray(gmsh.model.getValue(2, tag, uv), dtype=float)
-            n = np.asarray(gmsh.model.getNormal(tag, uv), dtype=float)
-            n = n / np.linalg.norm(n)
-            # the axis lies at distance r along the normal, on one side or the other
-            cands = [p - r * n, p + r * n]
-            c = np.asarray(centre)
-            on_axis = [q + np.dot(c - q, axis) * axis for q in cands]
-            best = min(range(2), key=lambda i: np.linalg.norm(np.cross(c - cands[i], axis)))
-            face.axis = [float(v) for v in axis]
-            face.radius = float(r)
-            face.point = [float(v) for v in on_axis[best]]
+    else:  # a cylinder, or a surface of another type that is one (a fused or spline face)
+        cyl = _cylinder_of(gmsh, tag, lo, hi, np.asarray(centre), rel=1e-9 if typ == "Cylinder" else 1e-6)
+        if cyl is not None:
+            face.axis, face.radius, face.point = cyl
     return face
+
+
+def _cylinder_of(
+    gmsh: ModuleType, tag: int, lo: list, hi: list, centre: np.ndarray, rel: float
+) -> tuple[list, float, list] | None:
+    """(axis, radius, point on the axis) when the surface is a circular
+    cylinder: at 3 x 3 parametric points one principal curvature vanishes,
+    the other is the same, and the axes found agree (within ``rel``)."""
+    uv = [(lo[0] + (hi[0] - lo[0]) * a, lo[1] + (hi[1] - lo[1]) * b) for a in (0.2, 0.5, 0.8) for b in (0.2, 0.5, 0.8)]
+    flat = np.array(uv, dtype=float).ravel()
+    kmax, kmin, dmax, dmin = (np.asarray(v, dtype=float) for v in gmsh.model.getPrincipalCurvatures(tag, flat))
+    pts = np.asarray(gmsh.model.getValue(2, tag, flat), dtype=float).reshape(-1, 3)
+    nrm = np.asarray(gmsh.model.getNormal(tag, flat), dtype=float).reshape(-1, 3)
+    k = np.column_stack([kmax, kmin])
+    dirs = np.stack([dmax.reshape(-1, 3), dmin.reshape(-1, 3)], axis=1)
+    i_flat = np.argmin(np.abs(k), axis=1)
+    rows = np.arange(k.shape[0])
+    curv = np.abs(k[rows, 1 - i_flat])
+    if not (curv > 0).all() or (np.abs(k[rows, i_flat]) > rel * curv).any():
+        return None
+    if np.ptp(curv) > rel * curv.mean():
+        return None
+    r = 1.0 / curv.mean()
+    axes = dirs[rows, i_flat]
+    axes = axes / np.linalg.norm(axes, axis=1)[:, None]
+    axis = _canonical(axes[0])
+    if (np.linalg.norm(np.cross(axes, axis), axis=1) > np.sqrt(rel)).any():
+        return None
+    nrm = nrm / np.linalg.norm(nrm, axis=1)[:, None]
+    best = None
+    for sign in (-1.0, 1.0):  # the axis lies at r along the normal, on one side
+        q = pts + sign * r * nrm
+        off = q - q[0]
+        spread = np.linalg.norm(off - np.outer(off @ axis, axis), axis=1).max()
+        if best is None or spread < best[0]:
+            best = (spread, q[0])
+    if best[0] > np.sqrt(rel) * r:
+        return None
+    q0 = best[1]
+    point = q0 + np.dot(centre - q0, axis) * axis
+    return [float(v) for v in axis], float(r), [float(v) for v in point]
 
 
 def _canonical(v: np.ndarray) -> np.ndarray:
@@ -165,9 +189,11 @@ def format_faces(faces: list[CadFace], named: dict[str, list[int]], units: str) 
         f"{len(faces)} face(s), lengths in {units}:",
         f"{'id':>4}  {'type':<16} {'area':>12}  {'centre x, y, z':<36} {'axis / normal':<26} {'radius':>10}",
     ]
+    span = max([abs(v) for f in faces for v in f.bbox] + [1e-300])
     for f in faces:
-        c = ", ".join(f"{v:.5g}" for v in f.centre)
-        a = "" if f.axis is None else ", ".join(f"{v:.4g}" for v in f.axis)
+        # OpenCASCADE's integrals leave ~1e-16 (1e-9 of the part on trimmed faces) where 0 is meant
+        c = ", ".join(f"{(v if abs(v) > 1e-8 * span else 0.0):.5g}" for v in f.centre)
+        a = "" if f.axis is None else ", ".join(f"{v + 0.0:.4g}" for v in f.axis)
         r = "" if f.radius is None else f"{f.radius:.6g}"
         lines.append(f"{f.id:>4}  {f.type:<16} {f.area:>12.6g}  {c:<36} {a:<26} {r:>10}")
     if named:

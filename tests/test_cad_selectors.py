@@ -119,3 +119,19 @@ def test_mesh_sets_on_cad_faces_and_planes(plate):
     np.testing.assert_allclose(r, 0.005, rtol=1e-6)
     _w, area = face_weights(mesh.nodes, face_connectivity(mesh, faces))
     assert area == pytest.approx(A["hole1"] * 1e-6, rel=2e-3)  # curved quadratic faces
+
+
+def test_the_bored_link_example_selects_its_bores():
+    """examples/bored_link.toml: the bearing bore by its .geo group, the
+    pin hole by a cylinder; the reference point defaults to the pin axis."""
+    from pathlib import Path
+
+    from stiffkit.fea.config import load_link
+
+    job = load_link(Path(__file__).resolve().parents[1] / "examples" / "bored_link.toml")
+    assert job.reference_point is None and job.coupling == "rigid"
+    cad = resolve_job_sets(job)
+    (bore,), (pin,) = cad.by_id(cad.ids["support"]), cad.by_id(cad.ids["load"])
+    assert bore.radius == pytest.approx(8.0, rel=1e-12) and bore.area == pytest.approx(2 * np.pi * 8 * 16, rel=1e-9)
+    assert pin.radius == pytest.approx(4.0, rel=1e-12) and pin.area == pytest.approx(2 * np.pi * 4 * 16, rel=1e-9)
+    np.testing.assert_allclose(pin.point, [140.0, 0.0, 0.0], atol=1e-6)

@@ -534,6 +534,14 @@ def test_schema_matches_parse_link():
     read = {(sec, key) for key, sec in re.findall(r'_get\([^,]+, "(\w+)", "(\w+)"', body)}
     read |= {(var[v], key) for v, key in re.findall(r'\b(\w+)\.get\("(\w+)"', body) if v in var}
     read.add(("geometry", "shape"))  # read as g["shape"]
+    # face selectors (plane, face, cylinder, ...) and their tolerance are read by
+    # fea/selectors.py:parse_set for the sections parse_link hands to _selector_set;
+    # the sweep's schema may hold the ones it can vary
+    from stiffkit.fea.selectors import KINDS
+
+    with_selectors = set(re.findall(r'_selector_set\([^,]+, "(\w+)"', body))
+    assert with_selectors == {"support", "load", "field"}
+    read |= {(s, k) for s, keys in pl.SCHEMA.items() if s in with_selectors for k in keys if k in (*KINDS, "tolerance")}
     schema = {(s, k) for s, keys in pl.SCHEMA.items() for k in keys}
     assert read == schema
 
