@@ -31,6 +31,7 @@ import math
 
 import numpy as np
 
+from ..robot.model_bodies import body_candidates
 from ..robot.tree_model import TreeModel, tree_model_from_tables
 
 __all__ = ["absolute_candidates", "moved_links", "inert_reason", "JOINT_KINDS", "PLAUSIBLE_SIZE"]
@@ -73,7 +74,7 @@ def absolute_candidates(model: TreeModel) -> list[dict]:
             out.append({"kind": "link", "target": link, "template": SPRING_TEMPLATE})
     if ("base", "base") not in have and massive:
         out.append({"kind": "base", "template": "full"})
-    return out
+    return out + body_candidates(model)  # mass factors (robot/model_bodies.py)
 
 
 def _links_carrying_mass(model: TreeModel) -> list[str]:

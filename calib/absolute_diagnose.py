@@ -43,6 +43,7 @@ import numpy as np
 
 from .._core import calib as core_calib
 from .._core import tree as core
+from ..errors import StiffkitError
 from ..robot.tree_model import TreeModel
 from .absolute_candidates import (
     JOINT_KINDS,
@@ -54,7 +55,7 @@ from .absolute_candidates import (
     numerical_inert,
     params_of,
 )
-from .absolute_data import AbsoluteData
+from .absolute_data import AbsoluteData, row_values
 from .absolute_diagnose_report import AbsoluteDiagnosis, format_absolute_diagnosis
 from .absolute_fit import (
     AbsoluteFit,
@@ -65,7 +66,7 @@ from .absolute_fit import (
 from .absolute_propose import propose
 from .absolute_structure import PATH_GAP, STRUCTURE_ALPHA, STRUCTURE_PERMUTATIONS, residual_structure, structure_verdict
 from .backward import backward_steps, held_for_addition
-from .checks import outlier_rows, unit_slips
+from .checks import cannot_judge, drop_copies, outlier_rows, unit_slips
 from .crossval import config_folds, held_out_residuals
 from .diagnose_candidates import Candidate
 
@@ -132,7 +133,13 @@ def diagnose_absolute(
     """Fit ``model`` to ``data``, check the data, rank the missing effects and
     test the effects already in the model (module docstring). ``prune``:
     only the backward steps (no candidate is scored)."""
-    fit = fit_absolute(model, data, sigma_position=sigma_position)
+    data, copies = drop_copies(data, row_values(data))  # copies are not replicates
+    try:
+        fit = fit_absolute(model, data, sigma_position=sigma_position)
+    except StiffkitError as exc:  # too few rows: with copies, say what is left
+        if not copies:
+            raise
+        raise cannot_judge(data.path, data.n, copies, str(exc).removeprefix(f"{data.path}: ")) from None
     sig_decl = sigma_position if sigma_position is not None else model.sigma_position
     # 1. the data first
     dchecks: dict = {"outliers": [], "unit_slips": [], "warnings": list(data.warnings)}
@@ -172,7 +179,11 @@ def diagnose_absolute(
     nobs = 3 * int(np.sum(w > 0))
     rss = float(r @ r)
     p = int(fit.reduction.kept.size)
-    nres = max(nobs - p, 1)
+    if nobs <= p:
+        raise cannot_judge(
+            data.path, data.n, copies, f"{nobs} coordinates for {p} identified parameters leave no residual"
+        )
+    nres = nobs - p
     s2 = (sig_decl**2) if sig_decl else rss / nres
     sigma = math.sqrt(s2)
     # adequacy

@@ -49,10 +49,12 @@ from collections.abc import Iterable
 import numpy as np
 
 from .._core import calib as core
+from ..errors import InputError
 from ..robot.model import Model, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
 from .backward import backward_steps, held_for_addition
+from .checks import cannot_judge, drop_copies
 from .diagnose_candidates import Candidate, candidate_tables, inert_reasons
 from .diagnose_rank import (
     COMPENSATOR_MATCH,
@@ -154,6 +156,8 @@ def diagnose(
     """
 
     model, meas = as_inputs(model, meas)
+    rows = np.hstack([meas.q, meas.w, meas.p, meas.d] + ([meas.r] if meas.r is not None else []))
+    meas, copies = drop_copies(meas, rows)  # copies are not replicates
     tau_all = model.chain.joint_torques(meas.q, meas.w)
     tau0 = {j: default_tau0(tau_all[:, k]) for k, j in enumerate(model.chain.joint_names) if model.chain.qidx[k] > 0}
     cands = candidate_tables(model, tau0)
@@ -164,8 +168,13 @@ def diagnose(
     cterms = [expand_effect(model.chain, table, n0 + i, "candidate") for i, (table, _) in enumerate(cands)]
     flat = [t for ts in cterms for t in ts]
     pb = Problem(model, meas, extra_terms=flat, sigma_position=sigma_position)
-    res_all = fit(model, meas, problem=pb)
-    test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res_all, pb, meas)
+    try:
+        res_all = fit(model, meas, problem=pb)
+    except InputError as exc:  # too few rows: with copies, say what is left
+        if not copies:
+            raise
+        raise cannot_judge(meas.path, meas.n, copies, str(exc).removeprefix(f"{meas.path}: ")) from None
+    test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res_all, pb, meas, copies)
     dc = check_data(res_all, alpha=alpha) if checks else None
     res, log_p_all, verdict_all = res_all, None, None
     if dc is not None and dc.set_aside:
@@ -175,7 +184,7 @@ def diagnose(
         meas = meas.subset(keep)
         pb = Problem(model, meas, extra_terms=flat, sigma_position=sigma_position)
         res = fit(model, meas, problem=pb)
-        test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res, pb, meas)
+        test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res, pb, meas, copies)
     nobs = res.nobs
     omnibus = log_p < math.log(alpha)
 

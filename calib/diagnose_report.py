@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..io.tomlw import effect_toml
 from . import residual_map as RM
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
@@ -285,13 +286,6 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
         for reason, labels in why.items():
             lines.append(f"  {reason}: {', '.join(labels)}")
     return "\n".join(lines)
-
-
-def effect_toml(effect: dict) -> str:
-    out = ["[[effect]]"]
-    for k, v in effect.items():
-        out.append(f"{k} = {v!r}".replace("'", '"'))
-    return "\n".join(out)
 
 
 def _pct(x: float | None) -> str:

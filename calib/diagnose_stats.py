@@ -14,6 +14,7 @@ import numpy as np
 from .._core import calib as core
 from ..errors import InputError
 from . import crossval as CV
+from .checks import cannot_judge
 from .fit import FitResult, Problem
 from .measure import Measurements
 
@@ -51,9 +52,14 @@ def logsf_f(f: float, d1: float, d2: float) -> float:
 
 
 def _adequacy(
-    res: FitResult, pb: Problem, meas: Measurements
+    res: FitResult, pb: Problem, meas: Measurements, copies: int = 0
 ) -> tuple[str, float, int, float, float, str, float, int | None]:
-    """(test, statistic, dof, log p, sigma, source, scale2, d_pe)."""
+    """(test, statistic, dof, log p, sigma, source, scale2, d_pe); ``meas``
+    holds distinct rows only, ``copies`` rows were exact copies (dropped)."""
+    if res.dof <= 0:
+        raise cannot_judge(
+            meas.path, meas.n, copies, f"{res.nobs} observations for {res.rank} identified parameters leave no residual"
+        )
     if pb.sigma_declared:
         stat, dof = res.chi2, res.dof
         return (
@@ -68,11 +74,13 @@ def _adequacy(
         )
     ss_pe, d_pe = pure_error(pb, meas)
     if d_pe == 0:
-        raise InputError(
-            f"{meas.path}: no [measurements] sigma_position in the model and no "
-            f"replicated rows (same posture, wrench and point): the noise level is "
-            f"unknown, so adequacy cannot be tested; declare sigma_position or "
-            f"repeat measurements"
+        raise cannot_judge(
+            meas.path,
+            meas.n,
+            copies,
+            "no [measurements] sigma_position in the model and no replicated rows (same posture, wrench and "
+            "point, measured again): the noise level is unknown, so adequacy cannot be tested; declare "
+            "sigma_position or repeat measurements",
         )
     s2 = ss_pe / d_pe
     if not s2 > 0:

@@ -13,7 +13,10 @@ fea    The real pipeline on the same beam: Gmsh meshes it with C3D10
        tetrahedra of 5 mm, CalculiX assembles the stiffness, CHOLMOD solves
        the six load cases, the tip face is fitted, and the compliance is
        compared with eq. 22 (a few seconds; `stiffkit link` runs any
-       LINK.toml).
+       LINK.toml). Then a bored link (examples/bored_link.toml): clamped
+       in its bearing bore, loaded through a pin hole (CAD face selectors,
+       rigid coupling, C3D10 4 mm), beside a single-beam approximation;
+       the mesh with its selected faces (PNG) and the VTU in --out.
 calib  A KR-270-like robot measured under load (synthetic, with a known
        truth): fit the joints-only model (the paper's J1), diagnose, add
        what the diagnosis names, refit, and watch the error fall to the
@@ -35,7 +38,7 @@ from pathlib import Path
 from ..calib.absolute_demo import tracker_demo
 from ..calib.demo import calibration_demo
 from ..errors import InputError
-from ..fea.demo import fea_demo
+from ..fea.demo import bored_link_demo, fea_demo
 from ..field.demo import field_demo
 from . import args as A
 
@@ -67,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
         field_demo(args.seed)
     if args.only in (None, "fea") and not args.no_fea:
         fea_demo(args.size)
+        bored_link_demo(args.out)
     if args.only in (None, "calib"):
         calibration_demo(args.out, seed=args.seed)
     if args.only in (None, "tracker"):

@@ -59,7 +59,7 @@ from ..calib.measure import read_measurements
 from ..calib.plots import candidates_plot, fit_plots, residual_plots
 from ..errors import InputError
 from ..io import validate as V
-from ..io.files import write_json
+from ..io.files import check_plots_folder, model_inputs, write_json
 from ..robot.model import KINDS, load_model
 from ..robot.tree_model import model_kind
 from . import args as A
@@ -142,9 +142,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.json:
-        V.output_path(args.json, "--json", [args.model, args.measurements])
-    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
-        raise InputError(f"--plots {args.plots}: a file, not a folder")
+        V.output_path(args.json, "--json", [*model_inputs(args.model), args.measurements])
+    check_plots_folder(args.plots, "--plots")
     if args.cv == 1:
         raise InputError("--cv 1: cross-validation needs at least 2 folds (0 switches it off)")
     if model_kind(args.model) == "absolute":

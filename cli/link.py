@@ -14,10 +14,12 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from ..fea.config import load_link
+from ..fea.config import UNITS, load_link
 from ..fea.job import run_link
 from ..io import validate as V
-from ..io.files import FIGURE_SUFFIXES
+from ..io.files import FIGURE_SUFFIXES, check_folder, link_inputs
+from ..meshing.faces import format_faces
+from ..meshing.gmsh_mesh import CAD_SUFFIXES, cad_faces
 from . import args as A
 
 HELP = """\
@@ -25,12 +27,24 @@ LINK.toml (format: docs/link.md; lengths in geometry.units):
   [geometry]  step = "part.step" (STEP/BREP/IGES) or shape = "box" (size = [L, b, h]),
               "tube" (length, outer_diameter, inner_diameter), "rod"; units = "mm"
   [material]  E (Pa), nu, density (kg/m^3, only for the matrix route; default 7850)
-  [support]   plane = "x-min" ...          bounding-box face, clamped in x, y, z;
-              tolerance = distance from the plane that still counts as on it (default
-              1e-6 of the bounding-box diagonal; also used for the load plane)
-  [load]      plane = "x-max", reference_point = [x, y, z], coupling = "distributing" | "rigid",
+  [support]   the clamped set (all its nodes fixed in x, y, z), of face selectors, each
+              one or a list (all act as one set):
+                plane = "x-min" ...   bounding-box face (nodes within tolerance: default 1e-6
+                                      of the bounding-box diagonal)
+                face = 7 | [7, 9]     CAD face ids (stiffkit link --list-faces PART.step)
+                cylinder = {axis = [0, 0, 1], point = [x, y, z], radius = r, tolerance = t}
+                                      the bore or pin hole whose surface lies on this cylinder
+                point = [x, y, z]     the face through the point (nearest within tolerance)
+                box = [xmin, ymin, zmin, xmax, ymax, zmax]   the faces inside the box
+                group = "name"        a .geo physical group or a STEP face label
+              tolerance = default of the CAD selectors: 1e-4 of the bounding-box diagonal
+  [load]      the same selectors (both lug holes: a list of two cylinders), and
+              reference_point = [x, y, z] (default: the load set's centre of area, on its
+              axis for coaxial cylinders), coupling = "rigid" (default: *RIGID BODY, a pin
+              or shrink fit) | "distributing" (a bearing that lets the bore ovalise),
               amplitudes = "auto" | [Fx, Fy, Fz, Mx, My, Mz] (N, N m)
-  [field]     region = "face" | "cube" | "layer", size (cube edge / layer depth)
+  [field]     region = "face" (the load set) | "cube" | "layer", size (cube edge / layer
+              depth), or face selectors (region = "faces": the nodes of those faces)
   [mesh]      mesher = "gmsh" | "tetgen", order = 1 (C3D4) | 2 (C3D10), size,
               refine = 0.5 (size factor near the reference point and the clamp), refine_radius,
               optimize = "none" | "netgen" (Netgen optimiser: better tets, e.g. torsion
@@ -49,11 +63,14 @@ outputs:
   the compliance table (SI: m/N, 1/N, rad/(N m)), the reference node's own
   compliance as a check, the closed form (eq. 22) for built-in straight shapes;
   --json OUT.json (contract keys), --vtu OUT.vtu (six displacement fields for
-  ParaView), --png OUT.png (residual histograms, paper Fig. 3).
+  ParaView; with the clamped, loaded and field nodes marked), --png OUT.png (residual
+  histograms, paper Fig. 3), --faces-png OUT.png (the mesh with the selected faces).
   FEA results are cached in --cache (default .stiffkit-cache): a rerun with
   other [field]/[fit] settings reuses them.
 
 examples:
+  stiffkit link --list-faces part.step          the CAD faces: id, type, area, centre, axis, radius
+  stiffkit link examples/bored_link.toml --png bored.png
   stiffkit link examples/beam.toml --json beam.json
   stiffkit link examples/orthoglide_bar.toml --vtu bar.vtu --png bar.png
 """
@@ -67,10 +84,19 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         epilog=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("link", help="LINK.toml describing the part, loads, mesh and fit")
+    p.add_argument("link", nargs="?", help="LINK.toml describing the part, loads, mesh and fit")
+    p.add_argument(
+        "--list-faces",
+        metavar="PART",
+        help="print the faces of a CAD part (STEP/BREP/IGES/.geo): id, type, area, centre, axis, radius",
+    )
+    p.add_argument(
+        "--units", default="mm", choices=list(UNITS), help="unit of the --list-faces part (default %(default)s)"
+    )
     p.add_argument("--json", help="write the results (contract keys) to this JSON file")
     p.add_argument("--vtu", help="write the mesh and the six displacement fields (VTU)")
     p.add_argument("--png", help="write histograms of the fit residuals (PNG)")
+    p.add_argument("--faces-png", help="write a picture of the mesh with the clamped and loaded faces (PNG)")
     p.add_argument("--route", choices=["auto", "ccx", "matrix"], help="override [solver] route")
     p.add_argument("--order", type=int, choices=[1, 2], help="override [mesh] order")
     p.add_argument(
@@ -82,18 +108,43 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=run)
 
 
+def list_faces(part: str, units: str) -> int:
+    """``--list-faces``: the CAD faces of a part, as the selectors see them."""
+    path = Path(part)
+    if path.suffix.lower() not in CAD_SUFFIXES:
+        raise InputError(
+            f"--list-faces {part}: unknown CAD format {path.suffix!r}; use STEP (.step/.stp), BREP (.brep), "
+            "IGES (.iges/.igs) or a Gmsh .geo"
+        )
+    if not path.is_file():
+        raise InputError(f"--list-faces {part}: file not found")
+    faces, named, _dist, _box = cad_faces({"step": str(path.resolve())}, units)
+    print(f"{part}:")
+    print(format_faces(faces, named, units))
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
-    inputs = [args.link]
+    if args.list_faces:
+        if args.link:
+            raise InputError("--list-faces PART takes no LINK.toml")
+        return list_faces(args.list_faces, args.units)
+    if not args.link:
+        raise InputError("stiffkit link: give a LINK.toml (or --list-faces PART.step)")
+    inputs = link_inputs(args.link)
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--vtu", args.vtu, (".vtu",)),
         ("--png", args.png, FIGURE_SUFFIXES),
+        ("--faces-png", args.faces_png, (".png",)),
     ):
         if path:
             V.output_path(path, opt, inputs, suffixes)
-    V.distinct_outputs({"--json": args.json, "--vtu": args.vtu, "--png": args.png})
+    V.distinct_outputs({"--json": args.json, "--vtu": args.vtu, "--png": args.png, "--faces-png": args.faces_png})
     if not args.no_cache and Path(args.cache).exists() and not Path(args.cache).is_dir():
         raise InputError(f"--cache {args.cache}: a file, not a folder")
+    if not args.no_cache:
+        check_folder(args.cache, "--cache")
     job = load_link(args.link)
     if args.route:
         job.route = args.route
@@ -109,4 +160,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {res.write_vtu(args.vtu)}")
     if args.png:
         print(f"wrote {res.write_residual_png(args.png)}")
+    if args.faces_png:
+        print(f"wrote {res.write_faces_png(args.faces_png)}")
     return 0

@@ -54,7 +54,8 @@ def beam_estimate(job: LinkJob, mesh: Mesh) -> np.ndarray:
         return cf
     lo, hi = mesh.bbox()
     ext = np.maximum(hi - lo, 1e-12)
-    a = "xyz".index(job.load_plane[0])
+    # the load plane's axis, else the part's longest side
+    a = "xyz".index(job.load_plane[0]) if job.load_plane else int(np.argmax(ext))
     others = [i for i in range(3) if i != a]
     k_local = cantilever_compliance(
         float(ext[a]), job.E, job.nu, section_properties("rectangle", [ext[others[0]], ext[others[1]]], job.nu)

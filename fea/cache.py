@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import StiffkitWarning
 from ..io.files import atomic_open
 from ..meshing import Mesh
+from ..meshing.refine import PRISM_ARRANGEMENT
 from .config import LinkJob
 from .solve import FeaSolution, resolve_route, solve_fea
 
@@ -66,6 +67,20 @@ def cache_key(job: LinkJob, route: str) -> str:
         "tol": job.plane_tolerance,
         "optimize": job.optimize,
     }
+    if (
+        job.uses_cad_faces
+        or job.reference_point is None
+        or job.region == "faces"
+        or not (job.support_plane and job.load_plane)
+    ):  # only then: keys of plane-only runs stay as they were
+        key["sets"] = {
+            "support": [s.key() for s in job.support_sel],
+            "load": [s.key() for s in job.load_sel],
+            "field": [s.key() for s in job.field_sel],
+            "load_tol": job.load_tolerance,
+        }
+    if job.features:  # only then: keys of plain meshes stay as they were
+        key["features"] = {"across": job.across, "around": job.around, "prism": PRISM_ARRANGEMENT}
     if job.structured:  # only then: keys of unstructured runs stay as they were
         key["structured"] = True
         key["across_factor"] = job.across_factor
@@ -114,6 +129,7 @@ def store_solution(path: Path, sol: FeaSolution, key: str | None = None) -> None
             ref=sol.ref_motion,
             load=sol.load_nodes,
             fixed=sol.fixed_nodes,
+            **({} if sol.field_nodes is None else {"field": sol.field_nodes}),
             meta=np.array(json.dumps(meta)),
         )
 
@@ -167,6 +183,7 @@ def load_solution(path: Path, key: str | None = None) -> FeaSolution | None:
                 route=meta["route"],
                 timing=meta["timing"],
                 stats=meta["stats"],
+                field_nodes=z["field"] if "field" in z.files else None,
             )
         _check(sol)
         return sol
@@ -201,11 +218,13 @@ def fea_cached(
         workdir = Path(tempfile.mkdtemp(prefix=f"run-{key}-", dir=base))
     try:
         sol = solve_fea(job, workdir, route, progress)
-    except KeyboardInterrupt:  # Ctrl-C, SIGTERM: no half-run folder left behind
-        if own:
+    except BaseException as exc:
+        # the folder stays for inspection only when the error names a file in
+        # it (a ccx log); Ctrl-C, SIGTERM, a missing solver: nothing left behind
+        if own and (isinstance(exc, KeyboardInterrupt) or str(workdir) not in str(exc)):
             shutil.rmtree(workdir, ignore_errors=True)
         raise
-    if own:  # on failure the folder stays for inspection (the error names its files)
+    if own:
         shutil.rmtree(workdir, ignore_errors=True)
     if entry is not None:
         store_solution(entry, sol, key)

@@ -17,12 +17,13 @@ from pathlib import Path
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_toml
+from .selectors import KINDS, Selector, SelectorError, cad_selectors, parse_set, planes_of
 
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
 PLANES = ("x-min", "x-max", "y-min", "y-max", "z-min", "z-max")
 ROUTES = ("auto", "ccx", "matrix")
-COUPLINGS = ("distributing", "rigid")
-REGIONS = ("face", "cube", "layer")
+COUPLINGS = ("rigid", "distributing")
+REGIONS = ("face", "cube", "layer", "faces")
 FIT_METHODS = ("lin", "svd+", "svd-", "svd+-", "exact")
 
 
@@ -42,7 +43,8 @@ def paper_beam(size_mm: float = 5.0, route: str = "matrix") -> dict:
             "amplitudes": "auto",
         },
         "field": {"region": "face"},
-        "mesh": {"mesher": "gmsh", "order": 2, "size": float(size_mm)},
+        # the paper's plain mesh (its Table 5): no feature refinement
+        "mesh": {"mesher": "gmsh", "order": 2, "size": float(size_mm), "features": False},
         "fit": {"method": "lin", "trim": 0.0, "confidence": 0.99},
         "solver": {"route": route},
     }
@@ -63,9 +65,9 @@ class LinkJob:
     E: float
     nu: float
     density: float
-    support_plane: str
-    load_plane: str
-    reference_point: list  # m
+    support_plane: str | None  # the set's plane when it is one plane, else None
+    load_plane: str | None
+    reference_point: list | None  # m; None: the load set's centre (on its axis), known once meshed
     coupling: str
     amplitudes: object  # "auto" or [6 floats] N, N m
     region: str
@@ -87,7 +89,21 @@ class LinkJob:
     pooled: bool = True  # one noise estimate for the six fields (paper s3.4)
     structured: bool = False  # transfinite tet mesh (built-in box only)
     across_factor: float = 1.0  # structured: element size across the section / size
+    support_sel: list = field(default_factory=list)  # Selector: the clamped set
+    load_sel: list = field(default_factory=list)  # Selector: the loaded set
+    field_sel: list = field(default_factory=list)  # Selector: [field] region = "faces"
+    load_tolerance: float | None = None  # m, planes of [load] (default: [support] tolerance)
+    features: bool = True  # size fields at holes, fillets, thin walls, selected faces (meshing.refine)
+    across: int = 3  # elements across the thinnest wall (a built-in box: over its section)
+    around: int = 16  # elements around a hole's full circle
+    accuracy: float | None = None  # relative compliance error to refine to (fea.accuracy)
+    max_nodes: int = 300_000  # the memory limit: nodes of the largest mesh
     raw: dict = field(default_factory=dict)
+
+    @property
+    def uses_cad_faces(self) -> bool:
+        """True when a set names CAD faces (not only bounding-box planes)."""
+        return any(cad_selectors(s) for s in (self.support_sel, self.load_sel, self.field_sel))
 
     @property
     def size_m(self) -> float:
@@ -129,7 +145,9 @@ class LinkJob:
             )
         else:
             return None
-        if any(abs(a - b) > 1e-9 * L for a, b in zip(self.reference_point, [L, 0.0, 0.0])):
+        if self.reference_point is not None and any(
+            abs(a - b) > 1e-9 * L for a, b in zip(self.reference_point, [L, 0.0, 0.0])
+        ):
             return None
         return L, sec[0], sec[1]
 
@@ -138,10 +156,24 @@ class LinkJob:
 SECTIONS = {
     "geometry": ("step", "shape", "size", "length", "outer_diameter", "inner_diameter", "units"),
     "material": ("E", "nu", "density"),
-    "support": ("plane", "tolerance"),
-    "load": ("plane", "reference_point", "coupling", "amplitudes"),
-    "field": ("region", "size"),
-    "mesh": ("mesher", "order", "size", "refine", "refine_radius", "optimize", "structured", "across_factor"),
+    "support": (*KINDS, "tolerance"),
+    "load": (*KINDS, "tolerance", "reference_point", "coupling", "amplitudes"),
+    "field": ("region", "size", *KINDS, "tolerance"),
+    "mesh": (
+        "mesher",
+        "order",
+        "size",
+        "refine",
+        "refine_radius",
+        "optimize",
+        "structured",
+        "across_factor",
+        "features",
+        "across",
+        "around",
+        "accuracy",
+        "max_nodes",
+    ),
     "fit": ("method", "trim", "confidence", "symmetrize", "pooled"),
     "solver": ("route", "timeout"),
     "approximation": ("section", "dims", "length"),
@@ -270,6 +302,11 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     _check_keys(data, path)
     g = data["geometry"]
     units = _get(g, "units", "geometry", path, str, "mm")
+    if "units" not in g:
+        V.warn(
+            f'{path}: [geometry] has no units: millimetres assumed (write units = "mm", or "m")',
+            key=("link-units", str(path)),
+        )
     if units not in UNITS:
         raise ConfigError(f"{path}: [geometry] units = {units!r}{_suggest(units, UNITS)}: one of {', '.join(UNITS)}")
     scale = UNITS[units]
@@ -331,20 +368,25 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         lo_open=True,
     )
 
-    sup = _choice(_get(data["support"], "plane", "support", path, str), PLANES, "support", "plane", path)
     ld = data["load"]
-    lplane = _choice(_get(ld, "plane", "load", path, str), PLANES, "load", "plane", path)
-    if lplane == sup:
+    sup_sel, tol = _selector_set(data["support"], "support", path)
+    load_sel, ltol = _selector_set(ld, "load", path)
+    sup = _one_plane(sup_sel)
+    lplane = _one_plane(load_sel)
+    same = {repr(s.key()[:2]) for s in sup_sel} & {repr(s.key()[:2]) for s in load_sel}
+    if same:
+        what = f"plane = {lplane!r}" if lplane and lplane == sup else f"selector {sorted(same)[0]}"
         raise ConfigError(
-            f"{path}: [load] plane = {lplane!r} is also the support plane: the load "
-            "face must differ from the clamped face"
+            f"{path}: [load] {what} is also the support plane: the load face must differ from the clamped face"
         )
-    ref = _get(ld, "reference_point", "load", path, list)
-    if len(ref) != 3:
-        raise ConfigError(f"{path}: [load] reference_point = {ref!r}: three coordinates")
-    if max(abs(v) for v in ref) * scale > V.QUANTITIES["position"].limit:
-        raise ConfigError(f"{path}: [load] reference_point = {ref!r} {units} is out of range")
-    coupling = _choice(_get(ld, "coupling", "load", path, str, "distributing"), COUPLINGS, "load", "coupling", path)
+    ref = None
+    if "reference_point" in ld:
+        ref = _get(ld, "reference_point", "load", path, list)
+        if len(ref) != 3:
+            raise ConfigError(f"{path}: [load] reference_point = {ref!r}: three coordinates")
+        if max(abs(v) for v in ref) * scale > V.QUANTITIES["position"].limit:
+            raise ConfigError(f"{path}: [load] reference_point = {ref!r} {units} is out of range")
+    coupling = _choice(_get(ld, "coupling", "load", path, str, "rigid"), COUPLINGS, "load", "coupling", path)
     amps = ld.get("amplitudes", "auto")
     if amps != "auto":
         if not isinstance(amps, list) or len(amps) != 6:
@@ -358,12 +400,28 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
             for i, a in enumerate(amps)
         ]
     fl = data.get("field", {})
-    region = _choice(_get(fl, "region", "field", path, str, "face"), REGIONS, "field", "region", path)
+    field_sel: list = []
+    if any(k in fl for k in KINDS):
+        field_sel, _ftol = _selector_set(fl, "field", path)
+    region = _choice(
+        _get(fl, "region", "field", path, str, "faces" if field_sel else "face"), REGIONS, "field", "region", path
+    )
+    if (region == "faces") != bool(field_sel):
+        raise ConfigError(
+            f'{path}: [field] region = "faces" goes with face selectors in [field] (face, cylinder, point, '
+            f"box, group, plane){'' if field_sel else ': none given'}"
+            + (f"; region = {region!r} takes none" if field_sel else "")
+        )
+    if region == "layer" and lplane is None:
+        raise ConfigError(f'{path}: [field] region = "layer" needs a [load] plane (one bounding-box plane)')
+    if "tolerance" in fl and not field_sel:
+        raise ConfigError(f"{path}: [field] tolerance goes with face selectors in [field]")
     rsize = _get(fl, "size", "field", path, float, 0.0)
-    if region != "face":
+    if region in ("face", "faces"):
+        if "size" in fl:
+            raise ConfigError(f'{path}: [field] size is for region = "cube" or "layer", not {region!r}')
+    else:
         _positive(rsize, "field", "size", path)
-    elif "size" in fl:
-        raise ConfigError(f'{path}: [field] size is for region = "cube" or "layer", not {region!r}')
     me = data.get("mesh", {})
     mesher = _choice(_get(me, "mesher", "mesh", path, str, "gmsh"), ("gmsh", "tetgen"), "mesh", "mesher", path)
     order = _choice(_get(me, "order", "mesh", path, int, 2), (1, 2), "mesh", "order", path)
@@ -402,6 +460,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
             raise ConfigError(
                 f'{path}: [mesh] structured = true needs optimize = "none" (the optimiser would unstructure it)'
             )
+    mk = _mesh_keys(me, path, geometry)
     fit = data.get("fit", {})
     method = _choice(_get(fit, "method", "fit", path, str, "lin"), FIT_METHODS, "fit", "method", path)
     trim = _get(fit, "trim", "fit", path, float, 0.0)
@@ -417,9 +476,6 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     timeout = _num(
         _get(so, "timeout", "solver", path, None, 3600.0), f"{path}: [solver] timeout", "timeout", lo=0.0, lo_open=True
     )
-    tol = _get(data["support"], "tolerance", "support", path, float, None) if "tolerance" in data["support"] else None
-    if tol is not None:
-        _positive(tol, "support", "tolerance", path)
     approx = None
     if "approximation" in data:
         ap = data["approximation"]
@@ -445,7 +501,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         density=density,
         support_plane=sup,
         load_plane=lplane,
-        reference_point=[v * scale for v in ref],
+        reference_point=None if ref is None else [v * scale for v in ref],
         coupling=coupling,
         amplitudes=amps,
         region=region,
@@ -462,13 +518,84 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         symmetrize=sym,
         route=route,
         plane_tolerance=None if tol is None else tol * scale,
+        load_tolerance=None if ltol is None else ltol * scale,
+        support_sel=sup_sel,
+        load_sel=load_sel,
+        field_sel=field_sel,
         ccx_timeout=timeout,
         approximation=approx,
         pooled=pooled,
         structured=structured,
         across_factor=across,
         raw=data,
+        **mk,
     )
+
+
+def _selector_set(tbl: dict, section: str, path: str) -> tuple[list[Selector], float | None]:
+    """The checked selectors of a section (at least one) and its tolerance."""
+    try:
+        sels, tol = parse_set(tbl, section, path)
+    except SelectorError as exc:
+        raise ConfigError(str(exc)) from None
+    if not sels:
+        raise ConfigError(
+            f"{path}: [{section}] selects no face: give plane, face, cylinder, point, box or group "
+            "(stiffkit link --list-faces PART lists a CAD part's faces)"
+        )
+    return sels, tol
+
+
+def _one_plane(sels: list[Selector]) -> str | None:
+    """The plane of a set that is exactly one bounding-box plane, else None."""
+    planes = planes_of(sels)
+    return planes[0] if len(sels) == 1 and planes else None
+
+
+#: the default memory limit: nodes of the largest mesh (about 8 GB on the
+#: matrix route: 109,531 nodes took 1.7 GB, 237,423 nodes 4.6 GB)
+MAX_NODES = 300_000
+#: ``accuracy``: the relative error a user may ask for
+ACCURACY_RANGE = (1e-5, 0.2)
+
+
+def node_memory_gb(nodes: int) -> float:
+    """Peak memory of a matrix-route run of this many C3D10 nodes, GB (the
+    sweep's model fitted to the paper's beam: 1.7 GB at 109,531 nodes)."""
+    return (100.0 + 1.25 * 465.0 * (nodes / 40084) ** 1.28) / 1024
+
+
+def _int(v: int, key: str, path: str, lo: int) -> int:
+    if v < lo:
+        raise ConfigError(f"{path}: [mesh] {key} = {v!r}: an integer >= {lo}")
+    return v
+
+
+def _mesh_keys(me: dict, path: str, geometry: dict) -> dict:
+    """The [mesh] keys of the feature refinement and the accuracy loop."""
+    from ..meshing.refine import AROUND, default_across
+
+    features = _get(me, "features", "mesh", path, bool, True)
+    for key in ("across", "around"):
+        if key in me and not features:
+            raise ConfigError(f"{path}: [mesh] {key} needs features = true (it sets the feature refinement)")
+    across = _int(_get(me, "across", "mesh", path, int, default_across(geometry)), "across", path, 1)
+    around = _int(_get(me, "around", "mesh", path, int, AROUND), "around", path, 3)
+    if across > 100 or around > 1000:
+        raise ConfigError(
+            f"{path}: [mesh] across = {across}, around = {around}: at most 100 across and 1000 around "
+            "(more than any mesh can hold)"
+        )
+    acc = None
+    if "accuracy" in me:
+        acc = _get(me, "accuracy", "mesh", path, float)
+        lo, hi = ACCURACY_RANGE
+        if not lo <= acc <= hi:
+            raise ConfigError(
+                f"{path}: [mesh] accuracy = {acc!r}: a relative error in [{lo:g}, {hi:g}] (0.001 is 0.1 %)"
+            )
+    max_nodes = _int(_get(me, "max_nodes", "mesh", path, int, MAX_NODES), "max_nodes", path, 1000)
+    return {"features": features, "across": across, "around": around, "accuracy": acc, "max_nodes": max_nodes}
 
 
 def part_dims(geometry: dict) -> list[float] | None:

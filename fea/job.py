@@ -21,6 +21,7 @@ that determines them; fits are recomputed from the cache.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -38,16 +39,27 @@ from .outputs import LinkResult
 from .solve import FeaSolution, resolve_route, solve_fea
 
 
-def select_field(job: LinkJob, mesh: Mesh, load_nodes: np.ndarray, fixed_nodes: np.ndarray | None = None) -> np.ndarray:
+def select_field(
+    job: LinkJob,
+    mesh: Mesh,
+    load_nodes: np.ndarray,
+    fixed_nodes: np.ndarray | None = None,
+    face_nodes: np.ndarray | None = None,
+) -> np.ndarray:
     """1-based node numbers of the field around the reference point (s4.4):
     ``face`` the load face; ``cube`` nodes inside a cube of edge
     ``field.size`` centred on the reference point; ``layer`` nodes within
-    ``field.size`` of the load plane. A region that reaches the clamped
+    ``field.size`` of the load plane; ``faces`` the nodes of the [field]
+    face selectors (``face_nodes``, found when the part was meshed). A region that reaches the clamped
     nodes (``fixed_nodes``) is an error: they do not follow the load face,
     so the rigid-motion fit would mix two bodies."""
     p0 = np.asarray(job.reference_point)
     if job.region == "face":
         sel = np.asarray(load_nodes)
+    elif job.region == "faces":
+        if face_nodes is None:
+            raise InputError(f'{job.source}: [field] region = "faces": the solution carries no field faces')
+        sel = np.asarray(face_nodes)
     elif job.region == "cube":
         inside = np.all(np.abs(mesh.nodes - p0) <= job.region_size / 2 * (1 + 1e-9), axis=1)
         sel = np.nonzero(inside)[0] + 1
@@ -61,13 +73,13 @@ def select_field(job: LinkJob, mesh: Mesh, load_nodes: np.ndarray, fixed_nodes: 
         if clamped.size:
             raise InputError(
                 f"{job.source}: [field] region = {job.region!r}, size = {job.region_size / job.scale:g} {job.units} "
-                f"takes in {clamped.size} clamped node(s) of the [support] plane {job.support_plane!r}: the field "
-                "must stay near the load face (give a smaller size)"
+                f"takes in {clamped.size} clamped node(s) of the [support] set: the field "
+                "must stay near the load face (give a smaller size or other faces)"
             )
     if sel.size < 3:
         raise InputError(
             f"{job.source}: [field] region = {job.region!r}"
-            f"{'' if job.region == 'face' else f', size = {job.region_size / job.scale:g} {job.units}'}"
+            f"{'' if job.region in ('face', 'faces') else f', size = {job.region_size / job.scale:g} {job.units}'}"
             f" selects {sel.size} node(s); the fit needs at least 3 "
             "(enlarge the region or refine the mesh)"
         )
@@ -78,7 +90,7 @@ def fit_solution(job: LinkJob, sol: FeaSolution) -> tuple:
     """Fit the field of every load case and build the compliance (core):
     (field nodes, fits, compliance, reference-node compliance, seconds)."""
     t0 = time.perf_counter()
-    field_nodes = select_field(job, sol.mesh, sol.load_nodes, sol.fixed_nodes)
+    field_nodes = select_field(job, sol.mesh, sol.load_nodes, sol.fixed_nodes, sol.field_nodes)
     pts = sol.mesh.nodes[field_nodes - 1]
     fits = fit_fields(
         pts, sol.U[:, field_nodes - 1], job.reference_point, method=job.method, trim=job.trim, pooled=job.pooled
@@ -97,11 +109,18 @@ def run_link(
     progress: Callable[[str], None] | None = None,
     workdir: Path | str | None = None,
 ) -> LinkResult:
-    """Run (or resume from the cache) one LINK job and fit its compliance."""
+    """Run (or resume from the cache) one LINK job and fit its compliance;
+    with ``[mesh] accuracy``, the refinement loop of :mod:`.accuracy`."""
+    if job.accuracy is not None:
+        from .accuracy import run_to_accuracy
+
+        return run_to_accuracy(job, run_link, cache_dir, route, progress, workdir)
     cache_dir = Path(cache_dir) if cache_dir else None
     if cache_dir:
         cache_dir.mkdir(parents=True, exist_ok=True)
     sol, cached, key = fea_cached(job, cache_dir, route, progress, Path(workdir) if workdir else None)
+    if job.reference_point is None:  # the default: the load set's centre, found when solved
+        job = dataclasses.replace(job, reference_point=list(sol.stats["reference_point_m"]))
     field_nodes, fits, comp, ref_c, t_fit = fit_solution(job, sol)
     timing = {"mesh": sol.timing["mesh"], "fea": sol.timing["fea"], "fit": t_fit}
     return LinkResult(

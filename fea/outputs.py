@@ -14,9 +14,22 @@ from ..io.files import atomic_path, pyplot, save_figure, write_json
 from ..meshing import Mesh
 from ..version import __version__
 from .config import LinkJob
+from .facesets import set_label
 from .solve import FeaSolution
 
 __all__ = ["LinkResult"]
+
+
+def _plain(d: object) -> object:
+    """A JSON-ready copy: no NaN or Infinity (None instead), numpy scalars as floats."""
+    if isinstance(d, dict):
+        return {k: _plain(v) for k, v in d.items()}
+    if isinstance(d, (list, tuple)):
+        return [_plain(v) for v in d]
+    if isinstance(d, (bool, int, str)) or d is None:
+        return d
+    v = float(d)
+    return v if np.isfinite(v) else None
 
 
 @dataclass
@@ -31,6 +44,7 @@ class LinkResult:
     timing: dict
     cached: bool
     key: str
+    accuracy: dict | None = None  # [mesh] accuracy: the levels and the Richardson estimate (fea.accuracy)
 
     @property
     def mesh(self) -> Mesh:
@@ -48,6 +62,13 @@ class LinkResult:
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(cf != 0, self.compliance.matrix / cf - 1.0, np.nan)
 
+    def reference_difference(self) -> np.ndarray:
+        """(6,) relative difference of the fitted diagonal from the reference
+        node's (fit / reference - 1; 0 where the reference is 0)."""
+        fit, ref = np.diag(self.compliance.matrix), np.diag(self.reference_compliance)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(ref != 0, fit / ref - 1.0, 0.0)
+
     def to_json(self) -> dict:
         c = self.compliance
         sol = self.solution
@@ -62,6 +83,7 @@ class LinkResult:
             "nodes_fitted": int(min(f.n_used for f in self.fits)),
             "nodes_trimmed": int(max(f.nodes_used.size - f.n_used for f in self.fits)),
             "reference_node_compliance": self.reference_compliance.tolist(),
+            "reference_node_difference": self.reference_difference().tolist(),
             "mesh": {
                 "nodes": self.mesh.n_nodes,
                 "elements": self.mesh.n_elements,
@@ -80,9 +102,10 @@ class LinkResult:
             "deflections": self.deflections().tolist(),
             "route": sol.route,
             "coupling": self.job.coupling,
-            "boundary_condition": f"nodes of {self.job.support_plane} clamped in x, y, z; "
+            "boundary_condition": f"nodes of {set_label(self.job, 'support')} clamped in x, y, z; "
             f"loads at the reference point through a {self.job.coupling} "
-            f"coupling to {self.job.load_plane}",
+            f"coupling to {set_label(self.job, 'load')}",
+            "reference_point_m": list(self.job.reference_point),
             "field": {"region": self.job.region, "size_m": self.job.region_size, "nodes": int(self.field_nodes.size)},
             "fit": {
                 "method": self.job.method,
@@ -96,6 +119,10 @@ class LinkResult:
             "stiffkit_version": __version__,
             "source": self.job.source,
         }
+        if self.mesh.info.get("features"):
+            out["mesh"]["features"] = _plain(self.mesh.info["features"])
+        if self.accuracy is not None:
+            out["accuracy"] = _plain(self.accuracy)
         if self.closed_form is not None:
             err = self.closed_form_errors()
             out["closed_form"] = {
@@ -166,6 +193,14 @@ class LinkResult:
             f"{' (cached)' if self.cached else ''}; field {job.region}: {self.field_nodes.size} nodes; "
             f"sigma = {self.compliance.sigma:.3e} m\n"
             f"time: mesh {self.timing['mesh']:.1f} s, FEA {self.timing['fea']:.1f} s, fit {self.timing['fit']:.3f} s"
+            + (
+                ""
+                if self.accuracy is None
+                else f"\naccuracy: estimated error {100 * self.accuracy['estimate']:.3g} % "
+                f"({self.accuracy['worst']}; Richardson, p = {self.accuracy['p']:.2f}"
+                f"{' observed' if self.accuracy['p_observed'] else ' assumed'}) after "
+                f"{len(self.accuracy['levels'])} meshes, target {100 * self.accuracy['target']:g} %"
+            )
         )
 
     def write_json(self, path: Path | str) -> Path:
@@ -182,10 +217,31 @@ class LinkResult:
         fld = np.zeros(self.mesh.n_nodes)
         fld[self.field_nodes - 1] = 1.0
         data["field_node"] = fld
+        for name, nodes in (("support_node", self.solution.fixed_nodes), ("load_node", self.solution.load_nodes)):
+            mark = np.zeros(self.mesh.n_nodes)
+            mark[np.asarray(nodes) - 1] = 1.0
+            data[name] = mark
         m = meshio.Mesh(self.mesh.nodes, cells, point_data=data)
         with atomic_path(path) as tmp:
             meshio.write(tmp, m, file_format="vtu")
         return path
+
+    def write_faces_png(self, path: Path | str) -> Path:
+        """The mesh with the clamped (blue) and loaded (red) faces (PNG)."""
+        from .faceplot import write_faces_png
+
+        sol = self.solution
+        return write_faces_png(
+            path,
+            self.mesh,
+            sol.fixed_nodes,
+            sol.load_nodes,
+            self.job.reference_point,
+            title=f"{Path(self.job.source).name}: {self.mesh.n_nodes} nodes; clamped {set_label(self.job, 'support')}"
+            f" (blue), loaded {set_label(self.job, 'load')} (red), x = reference point",
+            scale=1.0 / self.job.scale,
+            units=self.job.units,
+        )
 
     def write_residual_png(self, path: Path | str) -> Path:
         """Histograms of the fit residuals per load case (paper Fig. 3)."""

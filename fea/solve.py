@@ -11,6 +11,7 @@ node's own motion, the independent check of the field fit.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -28,10 +29,11 @@ from .._core.sparse import (
     work_conjugate,
 )
 from ..errors import InputError
-from ..meshing import Mesh, MeshError, face_connectivity, faces_on_nodes, mesh_part, plane_nodes
+from ..meshing import Mesh, MeshError, face_connectivity, mesh_part
 from .amplitudes import auto_amplitudes, beam_estimate
 from .ccx import ccx_version, displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck, write_static_deck
-from .config import LinkJob, check_extent, check_mesh_size
+from .config import LinkJob, check_extent, check_mesh_size, node_memory_gb
+from .facesets import CadSets, default_reference_point, mesh_set, resolve_job_sets, set_label
 
 __all__ = ["FeaSolution", "resolve_route", "mesh_job", "support_and_load", "solve_fea"]
 
@@ -47,6 +49,7 @@ class FeaSolution:
     route: str
     timing: dict
     stats: dict = field(default_factory=dict)
+    field_nodes: np.ndarray | None = None  # [field] region = "faces": the nodes of its faces
 
 
 def resolve_route(job: LinkJob) -> str:
@@ -56,15 +59,24 @@ def resolve_route(job: LinkJob) -> str:
 
 def mesh_job(job: LinkJob) -> Mesh:
     """The job's part meshed as its [mesh] table says (refined near the
-    reference point and the clamp when ``refine`` is set)."""
+    reference point and the clamp when ``refine`` is set; at the features,
+    the support and the load faces when ``features`` is on); a MeshError
+    above ``max_nodes``."""
     kw = {}
     if job.refine:
         kw = dict(
             refine=job.refine,
             refine_radius=job.refine_radius,
-            refine_points=[[v / job.scale for v in job.reference_point]],
-            refine_planes=[job.support_plane],
+            refine_points=[[v / job.scale for v in job.reference_point]] if job.reference_point else [],
+            refine_planes=[job.support_plane] if job.support_plane else [],
         )
+    if job.features:
+        kw["features"] = {
+            "across": job.across,
+            "around": job.around,
+            "selected": [p for p in (job.support_plane, job.load_plane) if p],
+            "max_nodes": job.max_nodes,
+        }
     mesh = mesh_part(
         job.geometry,
         job.units,
@@ -78,6 +90,12 @@ def mesh_job(job: LinkJob) -> Mesh:
         source=f"{job.source}: [mesh] size",
         **kw,
     )
+    if mesh.n_nodes > job.max_nodes:
+        raise MeshError(
+            f"{job.source}: the mesh has {mesh.n_nodes} nodes, above [mesh] max_nodes = {job.max_nodes} "
+            f"(the memory limit; about {node_memory_gb(mesh.n_nodes):.1f} GB on the matrix route): give a larger "
+            "size, fewer elements across or around, or raise max_nodes"
+        )
     if "step" in job.geometry:  # a CAD part's size is known once it is read
         extent = mesh.info.get("extent") or list((mesh.bbox()[1] - mesh.bbox()[0]) / job.scale)
         check_extent(max(extent) * job.scale, job.units, f"{job.source}: [geometry] step")
@@ -85,28 +103,34 @@ def mesh_job(job: LinkJob) -> Mesh:
     return mesh
 
 
-def support_and_load(job: LinkJob, mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def support_and_load(job: LinkJob, mesh: Mesh, cad: CadSets | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(clamped nodes, loaded nodes, loaded element faces) of the job's
-    [support] and [load] planes; MeshError when they touch each other or
+    [support] and [load] sets; MeshError when they touch each other or
     select nodes but no element face."""
-    fixed = plane_nodes(mesh, job.support_plane, job.plane_tolerance, f"{job.source}: [support] plane")
-    load = plane_nodes(mesh, job.load_plane, job.plane_tolerance, f"{job.source}: [load] plane")
+    lt = job.load_tolerance if job.load_tolerance is not None else job.plane_tolerance
+    fixed, ffaces = mesh_set(job, mesh, "support", cad, job.plane_tolerance)
+    load, faces = mesh_set(job, mesh, "load", cad, lt)
+    sup_l, load_l = set_label(job, "support"), set_label(job, "load")
     shared = np.intersect1d(fixed, load)
     if shared.size:
+        where = ""
+        if mesh.surface_tri is not None:
+            touched = np.isin(mesh.surface_tri, shared).any(axis=1)
+            tags = sorted({int(t) for t in mesh.surface_tag[touched]})
+            if tags:
+                where = f" (on CAD face(s) {tags})"
         raise MeshError(
-            f"{job.source}: [load] plane {job.load_plane!r} and [support] plane "
-            f"{job.support_plane!r} share {shared.size} node(s): the load face must not "
+            f"{job.source}: {load_l} and {sup_l} share {shared.size} node(s){where}: the load face must not "
             "touch the clamped face"
         )
-    faces = faces_on_nodes(mesh, load)
     if faces.size == 0:
         raise MeshError(
-            f"{job.source}: [load] plane {job.load_plane!r} selects {load.size} node(s) "
+            f"{job.source}: {load_l} selects {load.size} node(s) "
             "but no element face: it touches the part only along an edge or a point"
         )
-    if faces_on_nodes(mesh, fixed).size == 0:
+    if ffaces.size == 0:
         raise MeshError(
-            f"{job.source}: [support] plane {job.support_plane!r} selects {fixed.size} "
+            f"{job.source}: {sup_l} selects {fixed.size} "
             "node(s) but no element face: clamping them does not hold the part"
         )
     return fixed, load, faces
@@ -208,13 +232,21 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str],
         f"meshing ({job.mesher}{', structured' if job.structured else ''}, order {job.order}, "
         f"size {job.size:g} {job.units}{across})"
     )
+    cad = resolve_job_sets(job)
     mesh = mesh_job(job)
     t_mesh = time.perf_counter() - t0
     say(f"mesh: {mesh.n_nodes} nodes, {mesh.n_elements} {mesh.ccx_type} elements")
-    fixed, load, faces = support_and_load(job, mesh)
+    fixed, load, faces = support_and_load(job, mesh, cad)
     conn = face_connectivity(mesh, faces)
     w, area = face_weights(mesh.nodes, conn)
     coupled = np.nonzero(w > 0)[0] + 1
+    if job.reference_point is None:
+        p0 = default_reference_point(job, mesh, cad, w)
+        job = dataclasses.replace(job, reference_point=[float(v) for v in p0])
+        say(f"reference point: the load set's centre, [{', '.join(f'{v / job.scale:.6g}' for v in p0)}] {job.units}")
+    field_nodes = None
+    if job.region == "faces":
+        field_nodes, _f = mesh_set(job, mesh, "field", cad, job.plane_tolerance)
     g = distributing_loads(mesh.nodes[coupled - 1], w[coupled - 1], np.asarray(job.reference_point))
     t1 = time.perf_counter()
     stats = {
@@ -222,7 +254,10 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str],
         "load_face_nodes": int(load.size),
         "support_nodes": int(fixed.size),
         "coupled_nodes": int(coupled.size),
+        "reference_point_m": list(job.reference_point),
     }
+    if cad is not None:
+        stats["cad_faces"] = {sec: ids for sec, ids in cad.ids.items() if ids}
     workdir.mkdir(parents=True, exist_ok=True)
     if route == "matrix":
         U, ref, amps, timing, more = _solve_matrix(job, mesh, workdir, fixed, load, coupled, g, say)
@@ -242,4 +277,5 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str],
         route=route,
         timing=timing,
         stats=stats,
+        field_nodes=field_nodes,
     )

@@ -23,11 +23,28 @@ from types import ModuleType
 import numpy as np
 
 from ..errors import InputError, PlausibilityWarning
+from .faces import CadFace, distances, faces_of_model, groups, surface_triangles
 from .mesh import PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
+from .refine import (
+    estimate_nodes,
+    feature_fields,
+    plane_surfaces,
+    prism_across_factor,
+    prism_mesh,
+    set_background,
+)
 
 logger = logging.getLogger(__name__)
 
-CAD_SUFFIXES = {".step": "STEP", ".stp": "STEP", ".brep": "BREP", ".brp": "BREP", ".iges": "IGES", ".igs": "IGES"}
+CAD_SUFFIXES = {
+    ".step": "STEP",
+    ".stp": "STEP",
+    ".brep": "BREP",
+    ".brp": "BREP",
+    ".iges": "IGES",
+    ".igs": "IGES",
+    ".geo": "Gmsh .geo",
+}
 #: geometry unit -> OpenCASCADE target unit of STEP/IGES import
 OCC_UNITS = {"mm": "MM", "m": "M", "cm": "CM", "in": "INCH"}
 
@@ -101,7 +118,10 @@ def _add_geometry(gmsh: ModuleType, geometry: dict, units: str) -> None:
             raise InputError(f"{path}: CAD file not found")
         gmsh.option.setString("Geometry.OCCTargetUnit", OCC_UNITS.get(units, "MM"))
         try:
-            occ.importShapes(str(path))
+            if kind == "Gmsh .geo":  # a script: its physical groups name faces
+                gmsh.merge(str(path))
+            else:
+                occ.importShapes(str(path))
         except Exception as exc:
             raise MeshError(f"{path}: OpenCASCADE cannot read this {kind} file ({exc})") from None
     else:
@@ -121,10 +141,13 @@ def _add_geometry(gmsh: ModuleType, geometry: dict, units: str) -> None:
         )
 
 
-def _refinement(gmsh: ModuleType, size: float, refine: float, radius: float, points: list, planes: list) -> None:
+def _refinement(
+    gmsh: ModuleType, size: float, refine: float, radius: float, points: list, planes: list, extra: tuple = ()
+) -> None:
     """Background size field: `refine * size` near the given points and
-    axis-aligned planes ((axis, value)), growing to `size` at `radius`."""
-    fields = []
+    axis-aligned planes ((axis, value)), growing to `size` at `radius`;
+    ``extra``: (field ids, their smallest size) of the features' fields."""
+    fields = list(extra[0]) if extra else []
     for expr in [f"Sqrt((x-({p[0]}))^2+(y-({p[1]}))^2+(z-({p[2]}))^2)" for p in points] + [
         f"Fabs({'xyz'[a]}-({v}))" for a, v in planes
     ]:
@@ -143,7 +166,7 @@ def _refinement(gmsh: ModuleType, size: float, refine: float, radius: float, poi
         gmsh.model.mesh.field.setAsBackgroundMesh(m)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeMin", refine * size)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", min(refine * size, extra[1] if extra else size))
 
 
 def _structured_box(gmsh: ModuleType, size: float, across_factor: float) -> None:
@@ -184,6 +207,7 @@ def mesh_part(
     structured: bool = False,
     across_factor: float = 1.0,
     source: str | None = None,
+    features: dict | None = None,
 ) -> Mesh:
     """Mesh one solid with quadratic (order 2, C3D10) or linear (order 1,
     C3D4) tetrahedra of about ``size`` (geometry units).
@@ -201,6 +225,10 @@ def mesh_part(
     a transfinite mesh, hex cells of ``size`` along the longest side and
     ``across_factor * size`` across the section, each split into six tets.
     ``source`` names the job in the messages about the size (e.g. the LINK.toml).
+    ``features`` (``across``, ``around``, ``selected``: bounding-box planes,
+    ``max_nodes``): size fields that resolve holes, fillets, thin walls and
+    the selected faces (:mod:`.refine`); a built-in box gets a structured
+    mesh with ``across`` elements over its section instead.
     """
     if optimize not in ("none", "netgen"):
         raise InputError(f"mesh.optimize = {optimize!r}: none or netgen")
@@ -245,6 +273,14 @@ def mesh_part(
         gmsh.option.setNumber("Mesh.MeshSizeMin", size if not refine else refine * size)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
         gmsh.option.setNumber("Mesh.OptimizeNetgen", 1 if optimize == "netgen" else 0)
+        extra: tuple = ()
+        prism = bool(features) and _prismatic(geometry, mesher, refine, optimize, structured)
+        if prism:
+            structured, across_factor = True, prism_across_factor(geometry["size"], size, features["across"])
+        elif features:
+            extra = _feature_fields(gmsh, size, order, features, where)
+            if not refine:
+                set_background(gmsh, *extra[:2])
         if refine:
             if not 0 < refine < 1:
                 raise InputError(f"mesh.refine = {refine!r}: a size factor in (0, 1)")
@@ -253,17 +289,25 @@ def mesh_part(
             for name in refine_planes or []:
                 axis = "xyz".index(name[0])
                 planes.append((axis, lo_hi[axis] if name.endswith("min") else lo_hi[axis + 3]))
-            _refinement(gmsh, size, refine, refine_radius or 4 * size, refine_points or [], planes)
-        if structured:
+            _refinement(gmsh, size, refine, refine_radius or 4 * size, refine_points or [], planes, extra[:2])
+        if structured and not prism:
             _structured_box(gmsh, size, across_factor)
         where = geometry.get("step", geometry.get("shape"))
-        if mesher == "gmsh":
+        if prism:
+            L, b, h = geometry["size"]  # exact (OCC pads its bounding box)
+            mesh = prism_mesh(
+                np.array([0.0, -b / 2, -h / 2]), np.array([L, b / 2, h / 2]), size, across_factor, order, scale
+            )
+        elif mesher == "gmsh":
             gmsh.option.setNumber("Mesh.ElementOrder", order)
             try:
                 gmsh.model.mesh.generate(3)
             except Exception as exc:
                 raise MeshError(f"{where}: gmsh cannot mesh it at size {size:g} ({exc})") from None
+            if order == 2:
+                _untangle_curved(gmsh, where)
             mesh = _collect_gmsh(gmsh, order, scale)
+            mesh.surface_tri, mesh.surface_tag = surface_triangles(gmsh)
         else:
             try:
                 gmsh.model.mesh.generate(2)
@@ -278,12 +322,84 @@ def mesh_part(
     mesh.size_m = size * scale
     mesh.mesher = mesher
     mesh.info["extent"] = [float(e) for e in extent]
+    if extra:
+        mesh.info["features"] = extra[2]
+    elif features:
+        mesh.info["features"] = {"prism": True, "across": features["across"]}
     if structured:
         mesh.info["structured"] = True
         mesh.info["across_factor"] = across_factor
     mesh.info["time_s"] = time.perf_counter() - t0
     mesh.info.update(check_geometry(mesh))
     return mesh
+
+
+def _untangle_curved(gmsh: ModuleType, where: object) -> None:
+    """Quadratic tets curved onto a small hole can fold (negative Jacobian:
+    ccx stops with 'nonpositive jacobian'): when any does, run Gmsh's
+    high-order optimiser; MeshError if some stay folded. Meshes without a
+    folded element are left as they are."""
+    tags, _nodes = gmsh.model.mesh.getElementsByType(11)
+    if len(tags) == 0:
+        return
+    q = np.asarray(gmsh.model.mesh.getElementQualities(tags, "minSJ"))
+    if (q > 0).all():
+        return
+    bad = int((q <= 0).sum())
+    gmsh.model.mesh.optimize("HighOrder")
+    q = np.asarray(gmsh.model.mesh.getElementQualities(tags, "minSJ"))
+    if (q <= 0).any():
+        raise MeshError(
+            f"{where}: {int((q <= 0).sum())} curved quadratic element(s) stay folded after Gmsh's high-order "
+            "optimiser: give a smaller element size near the small holes"
+        )
+    logger.info("%s: %d folded curved element(s) untangled by gmsh's high-order optimiser", where, bad)
+
+
+def cad_faces(
+    geometry: dict, units: str, points: list | None = None
+) -> tuple[list[CadFace], dict[str, list[int]], np.ndarray, list[float]]:
+    """The faces of the part (see :mod:`~stiffkit.meshing.faces`) without
+    meshing it: (faces, named groups, distances of ``points`` to each face,
+    bounding box xmin..zmax), lengths in the geometry's unit. MeshError for
+    a file with no solid or several."""
+    gmsh = _gmsh()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    _python_signals()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("faces")
+        _add_geometry(gmsh, geometry, units)
+        faces = faces_of_model(gmsh)
+        named = groups(gmsh)
+        dist = distances(gmsh, points or [], faces)
+        box = [float(v) for v in gmsh.model.getBoundingBox(-1, -1)]
+    finally:
+        gmsh.finalize()
+    return faces, named, dist, box
+
+
+def _prismatic(geometry: dict, mesher: str, refine: float | None, optimize: str, structured: bool) -> bool:
+    """A built-in box meshed by Gmsh without other size controls: structured."""
+    return geometry.get("shape") == "box" and mesher == "gmsh" and not refine and optimize == "none" and not structured
+
+
+def _feature_fields(gmsh: ModuleType, size: float, order: int, features: dict, where: str) -> tuple:
+    """(field ids, smallest size, summary) of the features' size fields; a
+    MeshError before meshing when they would need more than ``max_nodes``."""
+    selected = sorted({t for p in features.get("selected", ()) for t in plane_surfaces(gmsh, p)})
+    fields, info = feature_fields(gmsh, size, features["across"], features["around"], selected)
+    est = estimate_nodes(info, size, order)
+    info["nodes_estimate"] = est
+    limit = features.get("max_nodes")
+    if limit and est > limit:
+        raise MeshError(
+            f"{where}: resolving the part's features (thinnest wall {info['thinnest_wall']:.4g}, "
+            f"{info['across']} elements across; {info['around']} around each hole; smallest size "
+            f"{info['smallest_size']:.3g}) needs about {est:.3g} nodes, above [mesh] max_nodes = {limit:g}: "
+            "give a larger size, fewer elements across or around, or raise max_nodes"
+        )
+    return fields, info["smallest_size"], info
 
 
 def _collect_gmsh(gmsh: ModuleType, order: int, scale: float) -> Mesh:

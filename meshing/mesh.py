@@ -37,6 +37,9 @@ class Mesh:
     mesher: str = "gmsh"
     size_m: float = 0.0
     info: dict = field(default_factory=dict)
+    #: the mesh's boundary triangles (corner nodes, 1-based) and the CAD face each lies on (gmsh meshes)
+    surface_tri: np.ndarray | None = None
+    surface_tag: np.ndarray | None = None
 
     @property
     def order(self) -> int:

@@ -30,7 +30,9 @@ def _acts(dg) -> None:
     """No ranked candidate sits on a body that moves no marker; those are
     listed as non-identifiable, with the reason."""
     for c in dg.candidates:
-        assert c.target not in NO_MARKER_JOINTS and c.target not in NO_MARKER_LINKS, c.label
+        # kinds that act through the weights (a mass, a centre of mass) move markers from anywhere
+        if moved_links(dg.fit.model, c.effect) is not None:
+            assert c.target not in NO_MARKER_JOINTS and c.target not in NO_MARKER_LINKS, c.label
     inert = {c.target: c.reason for c in dg.non_identifiable}
     if not dg.pruned:
         for j in NO_MARKER_JOINTS:
