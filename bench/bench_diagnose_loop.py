@@ -25,6 +25,7 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+from stiffkit.calib.absolute_candidates import moved_links  # noqa: E402
 from stiffkit.calib.absolute_diagnose import diagnose_loop  # noqa: E402
 from stiffkit.calib.synth_trees import NO_MARKER_LINKS, TRUTH_KINDS, tree_case  # noqa: E402
 
@@ -42,7 +43,13 @@ def one(folder: str, seed: int, postures: int, declared: bool) -> dict:
         for dg in seen
         if dg.removal is not None or dg.proposal is not None
     ]
-    bad_rank = any(c.target in NO_MARKER_JOINTS or c.target in NO_MARKER_LINKS for dg in seen for c in dg.candidates)
+    # kinds that act through the weights (masses) move markers from any body: not judged by the structure
+    bad_rank = any(
+        (c.target in NO_MARKER_JOINTS or c.target in NO_MARKER_LINKS)
+        and moved_links(dg.fit.model, c.effect) is not None
+        for dg in seen
+        for c in dg.candidates
+    )
     spurious = [e for e in effects if e["kind"] not in TRUTH_KINDS + ("tracker", "marker")]
     ratio = seen[-1].fit.rms_position / (math.sqrt(3) * SIGMA)
     return {"steps": steps, "ratio": ratio, "spurious": spurious, "bad_rank": bad_rank, "time": dt}
