@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--list-faces PART takes no LINK.toml")
         return list_faces(args.list_faces, args.units)
     if not args.link:
-        raise InputError("stiffkit link: give a LINK.toml (or --list-faces PART.step)")
+        raise InputError("the argument LINK.toml is required (or --list-faces PART.step)")
     inputs = [args.link]
     for opt, path, suffixes in (
         ("--json", args.json, None),
