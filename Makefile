@@ -20,12 +20,13 @@ LINK ?= examples/beam.toml
 export OMP_NUM_THREADS ?= 1
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
-.PHONY: help system-deps venv install test test-core test-py test-valgrind lint format demo bench clean link-stiffness convergence sweep
+.PHONY: help system-deps venv install test test-core test-py fuzz test-valgrind lint format demo bench clean link-stiffness convergence sweep
 .DEFAULT_GOAL := help
 
 help:
 	@echo "stiffkit make targets"
 	@echo "  make test        install what is missing, run the Fortran unit tests (-fcheck=all) and pytest"
+	@echo "  make fuzz        the property tests (hypothesis) with fresh random examples, FUZZ_FACTOR=40 x as many (~10 min)"
 	@echo "  make test-valgrind   the Fortran unit tests under valgrind (memory errors, leaks; optional, ~15 s)"
 	@echo "  make demo        install what is missing, run the main job on a built-in example"
 	@echo "  make bench       benchmarks (figures for the README results section)"
@@ -86,6 +87,16 @@ test-py: install
 	$(PY) -m pytest -q tests
 
 test: test-core test-py
+
+# Property tests with fresh random examples (tests/_profiles.py): `make test`
+# runs them derandomized (profile "ci": the same examples every run); here
+# profile "fuzz" draws new ones, FUZZ_FACTOR times as many. A failure prints
+# its reproduction blob and is kept in .hypothesis/ for the next run.
+FUZZ_FACTOR ?= 40
+FUZZ_TESTS := tests/test_parsers_fuzz.py tests/test_roundtrip.py tests/test_fea_dat.py tests/test_fea_sparse.py \
+  tests/test_calib_model.py::test_tool_compliance_symmetric_psd_and_batched_like_single_calls
+fuzz: install
+	HYPOTHESIS_PROFILE=fuzz STIFFKIT_FUZZ_FACTOR=$(FUZZ_FACTOR) $(PY) -m pytest -q $(FUZZ_TESTS)
 
 # Lint: ruff on the Python, and the Fortran/C core compiled for syntax with
 # every warning of the check build turned into an error (in the order of

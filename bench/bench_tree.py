@@ -112,6 +112,7 @@ class Tree:
             rref=f64(rot([0, 0, 1], 2.0)),
             mvj=i32([m[0] for m in self.markers]),
             mpar=i32(np.array([m[1] for m in self.markers]).T.reshape(3, -1)),
+            bpar=i32(np.zeros((3, 0))),
         ), sum(len(b[1]) for b in self.blocks)
 
 

@@ -32,6 +32,24 @@ def _f(a: object) -> np.ndarray:
     return np.asfortranarray(np.asarray(a, dtype=float))
 
 
+def _model(model: dict) -> dict:
+    """The model's arrays with the gravity-parameter entries ``bpar`` (3, nbp)
+    (body, slot, theta index; core/sk_tree_grav.f90) added, empty, when the
+    caller has none."""
+    if "bpar" in model:
+        return model
+    return {**model, "bpar": _i(np.zeros((3, 0)))}
+
+
+def _prior(prior: tuple | None) -> dict:
+    """Prior rows psw (theta[ppar] - pmu) of the fit: (indices 0-based,
+    centres, sqrt weights) or None."""
+    if prior is None or len(prior[0]) == 0:
+        return {"ppar": _i(np.zeros(0)), "pmu": _f(np.zeros(0)), "psw": _f(np.zeros(0))}
+    idx, mu, sw = prior
+    return {"ppar": _i(np.asarray(idx) + 1), "pmu": _f(mu), "psw": _f(sw)}
+
+
 def _loads(loads: tuple | None) -> dict:
     if loads is None or len(loads[0]) == 0:
         return {"lpost": _i(np.zeros(0)), "lvj": _i(np.zeros(0)), "lw": _f(np.zeros((6, 0)))}
@@ -60,7 +78,7 @@ def poses(
     deflections ``delta`` (np, ne), ``nit``, ``eqinfo`` (np,) at postures q (np, ndof)."""
     ra, pa, wv, tauq, delta, nit, eqinfo, info = _tree.sk_tree_poses(
         int(ne),
-        **model,
+        **_model(model),
         theta=_f(theta),
         q=_f(np.asarray(q, float).T),
         **_loads(loads),
@@ -99,7 +117,7 @@ def evaluate(
     free = np.asarray(free, int)
     pred, res, jac, delta, nit, eqinfo, info = _tree.sk_tree_evaluate(
         int(ne),
-        **model,
+        **_model(model),
         theta=_f(theta),
         q=_f(np.asarray(q, float).T),
         **_loads(loads),
@@ -129,6 +147,7 @@ def lm(
     ftol: float = 1e-12,
     xtol: float = 1e-12,
     gtol: float = 1e-12,
+    prior: tuple | None = None,
 ) -> dict:
     """Levenberg-Marquardt on theta[free] from theta0: ``theta``, ``hist``
     (cost after each accepted step), ``niter``, ``reason`` (LM_REASONS),
@@ -136,18 +155,21 @@ def lm(
     re-centres the tracker rotation after every accepted step, so the
     returned tracker angles are 0 and the tracker's rotation is ``rref``.
     Not converging (reasons 5, 6) is reported, not raised: theta is then
-    the best found."""
+    the best found. ``prior``: (indices 0-based, centres, sqrt weights),
+    rows sw (theta[i] - mu) added to the residual (``jac``, ``res`` hold
+    the data rows only)."""
     free = np.asarray(free, int)
     if free.size == 0:
         raise InputError("no free parameter to fit")
     theta, hist, nhist, niter, reason, jac, res, rref, info = _tree.sk_tree_lm(
         int(ne),
-        **model,
+        **_model(model),
         theta0=_f(theta0),
         q=_f(np.asarray(q, float).T),
         **_loads(loads),
         **_obs(posture, marker, xyz, weight),
         free=_i(free + 1),
+        **_prior(prior),
         eqit=int(eqit),
         etol=float(etol),
         maxit=int(maxit),
@@ -184,7 +206,7 @@ def frame_jacobian(
     ``J`` (np, 6, ndof) w.r.t. q (origin velocity, angular velocity)."""
     rf, pf, jq, delta, nit, eqinfo, info = _tree.sk_tree_frame_jacobian(
         int(ne),
-        **model,
+        **_model(model),
         theta=_f(theta),
         frame=_i(frame),
         q=_f(np.asarray(q, float).T),
@@ -233,7 +255,7 @@ def compensate(
         trow = _f(np.asarray(row_params[1], float).reshape(nr, prow.size).ravel())
     qout, resp, resr, nit, rinfo, info = _tree.sk_tree_compensate(
         int(ne),
-        **model,
+        **_model(model),
         theta=_f(theta),
         frame=_i(frame),
         qcmd=_f(np.asarray(qcmd, float).T),

@@ -21,8 +21,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.tables import parse_number
+from ..robot.urdf_checks import limit_warnings
+from .checks import copies_message
 
-__all__ = ["AbsoluteData", "read_absolute", "write_absolute", "WRENCH"]
+__all__ = ["AbsoluteData", "read_absolute", "write_absolute", "row_values", "WRENCH"]
 
 WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
 XYZ = ["x", "y", "z"]
@@ -91,6 +93,7 @@ def read_absolute(
     frames: list[str],
     mimic: dict | None = None,
     needed: set[str] | None = None,
+    limits: dict | None = None,
 ) -> AbsoluteData:
     """Read an absolute-measurement CSV for a robot with actuated ``joints``
     (URDF order) and marker ``frames``; ``mimic`` maps the joints whose
@@ -98,8 +101,10 @@ def read_absolute(
     multiplier, offset): then a column for one is checked against that law
     on every row (and an error where it strays), else it is an error;
     ``needed``: the joints that move a marker frame (the others may be left
-    out of the file: held at 0, with a warning). Without a ``config`` column,
-    rows with the same joint values are one configuration."""
+    out of the file: held at 0, with a warning); ``limits``: joint name ->
+    (lower, upper) of its URDF <limit> (a posture beyond one is warned
+    about). Without a ``config`` column, rows with the same joint values are
+    one configuration."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such measurement file")
@@ -241,6 +246,13 @@ def read_absolute(
         payloads=[(p, f, w) for (p, f), (w, _ln) in loads.items() if np.any(w)],
     )
     data.warnings = plausibility(data)
+    if limits:
+        data.warnings += limit_warnings(
+            data.Q[data.posture], data.joints, [limits.get(j) for j in data.joints], data.lines, path
+        )
+    copied = copies_message(row_values(data), data.lines, path)
+    if copied:
+        data.warnings.append(copied)
     if unseen:
         shown = ", ".join(map(str, unseen[:8])) + (", ..." if len(unseen) > 8 else "")
         data.warnings.append(
@@ -263,6 +275,14 @@ def read_absolute(
             f"(their links' weight acts on the others as at q = 0)"
         )
     return data
+
+
+def row_values(data: AbsoluteData) -> np.ndarray:
+    """Every number of each row (n, ndof + 11): joint values, marker frame,
+    x y z, weight, payload wrench; rows equal here are exact copies."""
+    loads = {(p, f): w for p, f, w in data.payloads}
+    wr = np.array([loads.get((int(p), int(f)), np.zeros(6)) for p, f in zip(data.posture, data.frame)])
+    return np.column_stack([data.Q[data.posture], data.frame, data.xyz, data.weight, wr.reshape(-1, 6)])
 
 
 def plausibility(data: AbsoluteData) -> list[str]:

@@ -37,8 +37,10 @@ from .._core import calib as core_calib
 from .._core import field as core_field
 from .._core import tree as core
 from ..errors import InputError
+from ..robot.model_bodies import prior_rows
 from ..robot.tree_model import ABS_KINDS, DEADZONE_TAU0_FRACTION, EQ_TOL, LAW_DEADZONE, TreeModel, rpy_from_matrix
 from .absolute_data import AbsoluteData
+from .absolute_masses import gravity_notes, gravity_start
 from .crossval import config_folds
 
 __all__ = ["AbsoluteFit", "Reduction", "fit_absolute", "position_stats", "predict", "DROP_TOL", "MERGE_TOL"]
@@ -372,7 +374,8 @@ def _solve(
     """LM from theta (``eqit`` overrides the model's equilibrium mode); the
     model returned carries the re-centred tracker rotation."""
     eqit = model.eqit if eqit is None else eqit
-    r = core.lm(*_observations(model, data, theta), weight, free, eqit, EQ_TOL, maxit=maxit)
+    prior = prior_rows(model, free)  # weak priors of the gravity parameters toward the URDF
+    r = core.lm(*_observations(model, data, theta), weight, free, eqit, EQ_TOL, maxit=maxit, prior=prior)
     m = model.copy()
     m.arrays["rref"] = np.asfortranarray(r["rref"])
     return m, r
@@ -411,6 +414,11 @@ def fit_absolute(
         theta = sol0["theta"]
     ev = predict(model, data, theta, free, w)
     before = data.xyz - ev["pred"]
+    # masses act through the compliances: fit those first when they start at zero
+    model, theta, ev = gravity_start(
+        model, theta, free, ev, reduce_parameters,
+        lambda m, t, f: _solve(m, data, t, f, w, maxit), lambda m, t: predict(m, data, t, free, w),
+    )  # fmt: skip
     red = reduce_parameters(model, ev["jac"], free)
     nobs = 3 * int(np.sum(w > 0))
     if red.kept.size > nobs:
@@ -481,6 +489,7 @@ def fit_absolute(
         weight=w,
         robust=robust_info,
     )
+    fit.notes += gravity_notes(model, red.dropped, red.merged)
     if not sol["converged"]:
         fit.notes.append(f"the fit did not converge: {fit.reason}; the values are the best found")
     if cv:

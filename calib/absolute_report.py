@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..robot.tree_model import load_tree_model, model_kind
+from ..robot.tree_model import TreeModel, load_tree_model, model_kind, tree_model_from_tables
 from .absolute_data import read_absolute
 from .absolute_fit import AbsoluteFit, fit_absolute, position_stats
 
-__all__ = ["load_absolute", "format_absolute", "format_absolute_parameters", "fit_absolute_files"]
+__all__ = ["load_absolute", "format_absolute", "format_absolute_parameters", "fit_absolute_files", "written_tree_model"]
 
 MM = 1e-3
 
@@ -27,7 +27,8 @@ def load_absolute(model_path: str | Path, meas_path: str | Path) -> tuple:
     tree = model.tree
     mimic = {j.name: tree.leader(j.name) for j in tree.joints if j.mimic is not None}
     needed = {tree.leader(j.name)[0] for f in model.frames for j in tree.path(f) if j.moving}
-    data = read_absolute(meas_path, model.actuated, model.frames, mimic, needed)
+    limits = {j.name: j.limit for j in tree.joints}
+    data = read_absolute(meas_path, model.actuated, model.frames, mimic, needed, limits)
     return model, data
 
 
@@ -38,6 +39,22 @@ def fit_absolute_files(model_path: str | Path, meas_path: str | Path, **kw: obje
         raise ValueError(f"{model_path}: not an absolute-measurement model")
     model, data = load_absolute(model_path, meas_path)
     return fit_absolute(model, data, **kw)
+
+
+def written_tree_model(fit: AbsoluteFit) -> TreeModel:
+    """The model ``write_model(fit, path)`` writes, as a TreeModel (what
+    ``stiffkit evaluate`` reads back from that file)."""
+    from .absolute_write import model_effects
+
+    m = fit.model
+    tables, _notes = model_effects(m, fit.theta, (), fit.std, fit.groups)
+    sigma = fit.sigma if fit.sigma_declared else m.sigma_position
+    where = str(m.path or "model")
+    base = Path(m.path).parent if m.path is not None else Path(".")
+    out = tree_model_from_tables(m.tree, tables, m.gravity, m.iterations, where, sigma, base)
+    out.path = m.path
+    out.robot_table = dict(m.robot_table)
+    return out
 
 
 def _row(label: str, st: dict) -> str:

@@ -32,7 +32,6 @@ Both files are written atomically (``stiffkit.io.files``).
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import xml.etree.ElementTree as ET
@@ -44,8 +43,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
+from ..io import tomlw
 from ..io.files import atomic_write_text
 from ..robot.model import SYM
+from ..robot.model_bodies import BODY_KINDS, body_table
 from ..robot.tree import TreeJoint
 from ..robot.tree_model import (
     EQ_ITERATIONS,
@@ -64,30 +65,6 @@ __all__ = ["write_model", "write_urdf", "model_text", "model_effects", "folded_o
 FOLDED_KINDS = ("joint_offset", "frame")
 
 
-def _toml(v: object) -> str:
-    """A TOML value: numbers exactly (repr), arrays inline (a matrix one row a line)."""
-    if isinstance(v, (bool, np.bool_)):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        if not math.isfinite(float(v)):
-            raise InputError(f"cannot write the non-finite value {v} to a model file")
-        return repr(float(v))
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple, np.ndarray)):
-        items = [_toml(x) for x in v]
-        if any(isinstance(x, (list, tuple, np.ndarray)) for x in v):
-            return "[\n" + "".join(f"    {x},\n" for x in items) + "]"
-        return "[" + ", ".join(items) + "]"
-    raise InputError(f"cannot write a value of type {type(v).__name__} to a model file")
-
-
-def _table(d: dict) -> str:
-    return "".join(f"{k if k.replace('_', '').isalnum() else json.dumps(k)} = {_toml(v)}\n" for k, v in d.items())
-
-
 def model_text(
     effects: list[dict],
     urdf: str = "robot.urdf",
@@ -103,21 +80,18 @@ def model_text(
     [gravity] when given, and the [[effect]] tables; ``header``: comment
     lines at the top."""
     rob = {k: v for k, v in (robot or {}).items() if k not in ("urdf", "base_link")}
-    out = [header.rstrip("\n") + "\n"] if header else []
-    out.append("[robot]\n" + _table({"urdf": str(urdf), "base_link": base_link, **rob}))
-    meas: dict = {"kind": "absolute"}
+    doc: dict = {"robot": {"urdf": str(urdf), "base_link": base_link, **rob}}
+    doc["measurements"] = {"kind": "absolute"}
     if sigma_position is not None:
-        meas["sigma_position"] = float(sigma_position)
-    out.append("\n[measurements]\n" + _table(meas))
+        doc["measurements"]["sigma_position"] = float(sigma_position)
     if gravity is not None or iterations is not None:
         g: dict = {}
         if gravity is not None:
             g["vector"] = [float(v) for v in gravity]
         if iterations is not None:
             g["iterations"] = int(iterations)
-        out.append("\n[gravity]\n" + _table(g))
-    out += ["\n[[effect]]\n" + _table(e) for e in effects]
-    return "".join(out)
+        doc["gravity"] = g
+    return tomlw.dumps(doc, header) + tomlw.effect_tables(effects)
 
 
 def _by_target(model: TreeModel, theta: np.ndarray, effect: int) -> dict[str, dict[str, float]]:
@@ -136,16 +110,36 @@ def _tau0(model: TreeModel, joint: str) -> float:
     raise InputError(f"joint_deadzone on {joint!r}: the model has no dead-zone law there")
 
 
+#: how a written table's note names the parameters the data did not identify
+HELD_NOTE = "not identified by the data (held at its start value)"
+
+
+def _note(keep: dict, extra: list[str]) -> dict:
+    """The table's note: the source's own (a model written earlier keeps
+    what that fit said of its values) and ``extra``, each said once."""
+    parts = [x for x in str(keep.get("note", "")).split("; ") if x] + extra
+    return {"note": "; ".join(dict.fromkeys(parts))} if parts else {}
+
+
 def model_effects(
-    model: TreeModel, theta: np.ndarray, skip: Collection[str] = (), std: np.ndarray | None = None
+    model: TreeModel,
+    theta: np.ndarray,
+    skip: Collection[str] = (),
+    std: np.ndarray | None = None,
+    groups: list[str] | None = None,
 ) -> tuple[list[dict], list[str]]:
     """The [[effect]] tables of ``model`` with the values of ``theta``, one
     table per target (a value needs one target), in the order of the model's
     tables; kinds in ``skip`` are left out. Returns the tables and notes:
     a compliance identified below 0 (not physical; the loader refuses it)
-    is written as 0 and named, with its standard error ``std`` when given."""
+    is written as 0 and named, with its standard error ``std`` when given.
+    With the fit's ``groups``, a table whose parameters the data did not
+    identify (non-identifiable, near-redundant, at bound: held at the start
+    value) says so in its ``note``, as does one with a value written as 0."""
     theta = np.asarray(theta, float)
     sd = {p.name: float(std[i]) for i, p in enumerate(model.params)} if std is not None else {}
+    unknown = {"non-identifiable", "near-redundant", "at bound"}
+    held = {p.name for i, p in enumerate(model.params) if groups is not None and groups[i] in unknown}
     tables: list[dict] = []
     notes: list[str] = []
     for e, src in enumerate(model.effects):
@@ -162,6 +156,8 @@ def model_effects(
             continue
         for target, vals in _by_target(model, theta, e).items():
             tab: dict = {"kind": kind}
+            said = [n for n in vals if f"{target}.{n}" in held] if kind != "marker" else []
+            n_notes = len(notes)
             if kind != "base":
                 tab["target"] = target
             if kind == "marker":
@@ -195,9 +191,13 @@ def model_effects(
                 for a, b in SYM:
                     C[a, b] = C[b, a] = vals.get(f"c{a + 1}{b + 1}", 0.0)
                 tab["value"] = C.tolist()
+            elif kind in BODY_KINDS:
+                tab.update(body_table(kind, vals))
             else:  # pragma: no cover - every kind of ABS_KINDS is handled above
                 raise InputError(f"cannot write an effect of kind {kind!r}")
-            tables.append({**tab, **keep})
+            extra = [f"{HELD_NOTE}: " + ", ".join(said)] if said else []
+            extra += notes[n_notes:]
+            tables.append({**tab, **_note(keep, extra)})
     return tables, notes
 
 
@@ -218,7 +218,11 @@ def write_model(fit: AbsoluteFit, path: str | Path, folded_urdf: str | Path | No
     path = Path(path)
     urdf = folded_urdf if folded_urdf is not None else model.tree.urdf
     effects, notes = model_effects(
-        model, fit.theta, FOLDED_KINDS if folded_urdf is not None else (), getattr(fit, "std", None)
+        model,
+        fit.theta,
+        FOLDED_KINDS if folded_urdf is not None else (),
+        getattr(fit, "std", None),
+        getattr(fit, "groups", None),
     )
     sigma = fit.sigma if getattr(fit, "sigma_declared", False) else model.sigma_position
     header = f"# written by stiffkit from the fit of {model.path or 'a model'} on {fit.data.path}"

@@ -38,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .._core import calib as core
+from ..errors import InputError
 
 __all__ = [
     "UNIT_FACTORS",
@@ -52,6 +53,10 @@ __all__ = [
     "outlying_configs",
     "unit_slips",
     "angle_units",
+    "copies",
+    "copies_message",
+    "drop_copies",
+    "cannot_judge",
 ]
 
 #: (factor, what it means, the fix) for quantities in metres
@@ -431,3 +436,52 @@ def angle_units(
                 }
             )
     return out
+
+
+def copies(rows: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Exact copies among ``rows`` (n, m) (every number equal): (first, dup)
+    where first[i] is the index of the first row equal to row i and dup the
+    indices of the rows that repeat an earlier one."""
+    rows = np.atleast_2d(np.asarray(rows, float))
+    if rows.shape[0] == 0:
+        return np.zeros(0, int), np.zeros(0, int)
+    _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    head = first[np.ravel(inverse)]
+    return head, np.flatnonzero(head != np.arange(rows.shape[0]))
+
+
+def copies_message(rows: npt.ArrayLike, lines: Sequence[int], path: object) -> str | None:
+    """The one warning for rows that repeat another exactly (or None):
+    replicated measurements differ by their noise, a copy does not."""
+    head, dup = copies(rows)
+    if not dup.size:
+        return None
+    i = int(dup[0])
+    more = f" ({dup.size} such rows)" if dup.size > 1 else ""
+    return (
+        f"{path}, line {lines[i]}: repeats line {lines[head[i]]} exactly{more}; replicated measurements differ "
+        "by their noise, so this looks like a copied row"
+    )
+
+
+def drop_copies(data: object, rows: npt.ArrayLike) -> tuple[object, int]:
+    """``data`` (anything with ``subset(indices)``) without the rows of
+    ``rows`` that copy an earlier one, and how many were dropped. Exact
+    copies are not replicates: they carry no noise and no new information,
+    so a test or a noise estimate must not count them."""
+    head, dup = copies(rows)
+    if not dup.size:
+        return data, 0
+    return data.subset(np.flatnonzero(head == np.arange(head.size))), int(dup.size)
+
+
+def cannot_judge(path: object, n_distinct: int, n_copies: int, why: str) -> InputError:
+    """The error of a diagnosis that has no verdict to give from these data."""
+    s = "" if n_distinct == 1 else "s"
+    copied = (
+        f" ({n_copies} more row{'' if n_copies == 1 else 's'} are exact copies: copies are not replicates and "
+        "carry no noise)"
+        if n_copies
+        else ""
+    )
+    return InputError(f"{path}: cannot judge: {n_distinct} distinct row{s}{copied}; {why}")

@@ -21,7 +21,9 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
+from ..io import validate as V
 from ..robot.model import JOINT_KINDS, SYM, Model, load_model
+from ..robot.urdf_checks import limit_warnings
 from .measure import Measurements, read_measurements
 from .problem import Problem
 from .results import (
@@ -203,6 +205,8 @@ def as_inputs(model: Model | Path | str, meas: Measurements | Path | str) -> tup
         model = load_model(model)
     if isinstance(meas, (str, Path)):
         meas = read_measurements(meas, model.chain.dof)
+    for msg in limit_warnings(meas.q, model.chain.actuated, model.chain.limits, meas.lines, meas.path):
+        V.warn(msg, key=("limits", msg))
     return model, meas
 
 

@@ -20,6 +20,7 @@ from ..errors import InputError
 from ..io import validate as V
 from ..io.files import atomic_open
 from ..io.tables import read_table
+from .checks import copies_message
 
 WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
 POINT = ["px", "py", "pz"]
@@ -73,6 +74,12 @@ def read_measurements(path: Path | str, dof: int) -> Measurements:
     qcols = [f"q{i}" for i in range(1, dof + 1)]
     table = read_table(path, "measurement")
     table.require(qcols + WRENCH + DEFL, f" (the robot has {dof} joints)")
+    extra = [c for c in table.header if c[:1] == "q" and c[1:].isdigit() and int(c[1:]) > dof]
+    if extra:
+        V.warn(
+            f"{path}, line 1: column(s) {', '.join(extra)} ignored: the robot has {dof} joints (q1..q{dof}); "
+            "are these measurements of another robot?"
+        )
     for group, name in ((POINT, "point"), (ROT, "rotation")):
         present = [c for c in group if table.has(c)]
         if present and len(present) != 3:
@@ -87,20 +94,34 @@ def read_measurements(path: Path | str, dof: int) -> Measurements:
     configs = table.text("config") if table.has("config") else [f"row{ln}" for ln in table.lines]
     rows = np.hstack([q, w, p, d] + ([r] if r is not None else []))
     _warn_copies(rows, table.lines, path)
+    _warn_columns(table.header, qcols, w, path)
     return Measurements(q=q, w=w, p=p, d=d, r=r, config=configs, lines=list(table.lines), path=str(path))
 
 
 def _warn_copies(rows: np.ndarray, lines: list[int], path: Path | str) -> None:
     """One warning when rows repeat each other exactly (every number equal)."""
-    _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-    inverse = np.ravel(inverse)
-    dup = [i for i in range(rows.shape[0]) if first[inverse[i]] != i]
-    if dup:
-        i = dup[0]
+    msg = copies_message(rows, lines, path)
+    if msg:
+        V.warn(msg)
+
+
+def _warn_columns(header: list[str], qcols: list[str], w: np.ndarray, path: Path | str) -> None:
+    """Warnings the tracker reader gives too: a column that is not used (a
+    q7 on a 6-joint robot), no measured point (the tool frame's origin is
+    taken), every load zero (a deflection then identifies nothing)."""
+    known = {"config", *qcols, *WRENCH, *POINT, *DEFL, *ROT}
+    unused = [h for h in header if h not in known]
+    if unused:
         V.warn(
-            f"{path}, line {lines[i]}: repeats line {lines[first[inverse[i]]]} exactly"
-            f"{f' ({len(dup)} such rows)' if len(dup) > 1 else ''}; replicated measurements differ by their "
-            "noise, so this looks like a copied row"
+            f"{path}: column(s) {', '.join(V.shown(h) for h in unused)} not used (the robot has {len(qcols)} "
+            f"joints, {', '.join(qcols)}; the other columns are config, fx..mz, px py pz, dx dy dz, rx ry rz)"
+        )
+    if "px" not in header:
+        V.warn(f"{path}: no px, py, pz columns: every deflection is taken at the tool frame's origin (0, 0, 0)")
+    if w.size and not np.any(w):
+        V.warn(
+            f"{path}: every load is zero (fx..mz): a deflection under no load identifies no compliance; "
+            "are the load columns filled?"
         )
 
 

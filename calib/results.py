@@ -10,9 +10,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
-from ..robot.model import JOINT_KINDS, SYM, Model
+from ..io import tomlw
+from ..io.files import atomic_write_text
+from ..robot.model import JOINT_KINDS, SYM, Model, model_from_tables
 from ..robot.model_file import effects_toml
 from .problem import Problem
 
@@ -23,6 +24,8 @@ __all__ = [
     "format_table",
     "format_parameters",
     "model_tables_with_values",
+    "written_tables",
+    "written_model",
     "write_model",
 ]
 
@@ -134,8 +137,9 @@ def identified_model(res: FitResult) -> Model:
     return m
 
 
-def format_table(res: FitResult, unit: float = 1e-3, label: str = "") -> str:
-    """Residual table like klimchik Table 2, in mm."""
+def format_table(res: FitResult, unit: float = 1e-3, label: str = "", footer: str | None = None) -> str:
+    """Residual table like klimchik Table 2, in mm; ``footer`` replaces the
+    last line (compensated fraction, rows, parameters, rank)."""
     before, after = res.table()["before"], res.table()["after"]
     if unit < 1.0 and max(before["max_position_m"], after["max_position_m"]) / unit >= 999.0:
         unit = 1.0  # metres of deflection (a unit slip): keep the columns readable
@@ -153,7 +157,9 @@ def format_table(res: FitResult, unit: float = 1e-3, label: str = "") -> str:
         head,
         row("deflections without compensation", before),
         row(f"after compensation{(' (' + label + ')') if label else ''}"[:33], after),
-        f"compensated fraction {100 * res.compensated_fraction:.1f} %   "
+        footer
+        if footer is not None
+        else f"compensated fraction {100 * res.compensated_fraction:.1f} %   "
         f"({res.problem.meas.n} rows, {len(res.names)} parameters, rank {res.rank})",
     ]
     return "\n".join(lines)
@@ -176,42 +182,123 @@ def format_parameters(res: FitResult) -> str:
     return "\n".join(lines)
 
 
-def model_tables_with_values(res: FitResult) -> list[dict]:
-    """The model's [[effect]] tables with every identified value (docs/calibration.md §5)."""
+def _psd(C: np.ndarray) -> np.ndarray | None:
+    """The nearest positive semi-definite matrix (eigenvalues below 0 set to
+    0) when C fails the model reader's test, else None."""
+    from .._core.springs import psd_defect
+
+    dmin, tol = psd_defect(C)
+    if not dmin[0] < -tol:
+        return None
+    w, V = np.linalg.eigh(C)
+    P = (V * np.maximum(w, 0.0)) @ V.T
+    return 0.5 * (P + P.T)
+
+
+def written_tables(res: FitResult) -> tuple[list[dict], list[str]]:
+    """The model's [[effect]] tables with the values ``write_model`` writes
+    (docs/calibration.md §5), and notes on the values that differ from the fit's.
+
+    The values are the fitted ones, made to satisfy the model reader's own
+    rules (docs/calibration.md section 5): a non-identifiable parameter
+    (the data do not depend on it; the fit's value is a placeholder, the
+    minimum-norm solution or round-off such as -7.7e-13) is written as 0; a
+    compliance or compensator stiffness fitted below 0 is written as 0 (a
+    spring cannot be negative); a 6x6 spring that is not positive
+    semi-definite is written as the nearest one that is. Each such table
+    carries a ``note`` naming its parameters and what was done, so the file
+    says which of its numbers the data did not determine."""
     model = identified_model(res)
-    out = []
+    group = dict(zip(res.names, res.groups))
+    sd = dict(zip(res.names, res.std))
+    out: list[dict] = []
+    notes: list[str] = []
+
+    def below_zero(name: str, v: float) -> str:
+        e = float(sd.get(name, np.nan))
+        pm = f" +- {e:.2g}" if np.isfinite(e) else ""
+        near = " (within 2 standard errors of 0)" if np.isfinite(e) and -v <= 2 * e else ""
+        return f"{name} fitted {v:.4g}{pm} ({group.get(name, 'known')}) < 0, written as 0{near}"
+
     for i, table in enumerate(model.effects):
         terms = [t for t in model.terms if t.effect == i]
         for t in terms:
-            tab = {k: v for k, v in table.items() if k not in ("value", "k_s", "r")}
+            tab = {k: v for k, v in table.items() if k not in ("value", "k_s", "r", "note")}
             if t.kind in JOINT_KINDS:
                 tab["target"] = t.target
-            unknown = [n for n in t.names if n in res.not_excited]
+            val = np.array(t.value, float)
+            said: list[str] = []
+            unknown = [n for n in t.names if n in res.not_excited or group.get(n) == "non-identifiable"]
+            for k, n in enumerate(t.names):
+                if n in unknown:
+                    val[k] = 0.0
             if unknown:
-                tab["note"] = "not identified by the data (the loads do not excite it): " + ", ".join(unknown)
+                said.append(
+                    "not identified by the data (nothing in them depends on it; written as 0): " + ", ".join(unknown)
+                )
+            semi = [n for n in t.names if group.get(n) == "semi-identifiable"]
+            if semi:
+                said.append(
+                    "semi-identifiable (only a combination with the coupled parameters is determined; the value is "
+                    "the minimum-norm one): " + ", ".join(semi)
+                )
+            if t.kind in ("joint", "gravity_compensator") and val[0] < 0:
+                said.append(below_zero(t.names[0], float(val[0])) + ": a spring is >= 0")
+                notes.append(said[-1])
+                val[0] = 0.0
             if t.kind in ("joint", "joint_cubic", "joint_deadzone"):
-                tab["value"] = float(t.value[0])
+                tab["value"] = float(val[0])
                 if t.kind == "joint_deadzone":
                     tab["tau0"] = res.problem.tau0(t)
             elif t.kind == "joint_profile":
-                tab["value"] = [float(v) for v in t.value]
+                tab["value"] = [float(v) for v in val]
             elif t.kind == "gravity_compensator":
-                tab["k_s"] = float(t.value[0])
+                tab["k_s"] = float(val[0])
             elif t.kind == "point_offset":
-                tab["r"] = [float(v) for v in t.value]
+                tab["r"] = [float(v) for v in val]
             else:
                 C = np.zeros((6, 6))
-                for e, v in zip(t.elements, t.value):
+                for e, v in zip(t.elements, val):
                     a, b = SYM[e]
                     C[a, b] = C[b, a] = float(v)
+                P = _psd(C)
+                if P is not None:
+                    low = float(np.linalg.eigvalsh(C)[0])
+                    said.append(
+                        f"{t.target} spring fitted with a negative eigenvalue ({low:.3g}): written as the nearest "
+                        "positive semi-definite matrix (a spring cannot return energy)"
+                    )
+                    notes.append(said[-1])
+                    C = P
                 tab["value"] = C.tolist()
                 tab.pop("rpy", None)
+            if said:
+                tab["note"] = "; ".join(said)
             out.append(tab)
-    return out
+    return out, notes
 
 
-def write_model(res: FitResult, path: Path | str) -> None:
-    """Write the identified model (URDF reference, sigma, effects with values)."""
+def model_tables_with_values(res: FitResult) -> list[dict]:
+    """The model's [[effect]] tables with every identified value (docs/calibration.md §5;
+    the values of ``written_tables``)."""
+    return written_tables(res)[0]
+
+
+def written_model(res: FitResult) -> Model:
+    """The model ``write_model`` writes, as a Model (what ``stiffkit
+    evaluate`` reads back from the file): the chain with the written tables."""
+    m = res.model
+    model = model_from_tables(
+        m.chain, written_tables(res)[0], sigma_position=m.sigma_position, sigma_rotation=m.sigma_rotation
+    )
+    model.path = m.path
+    return model
+
+
+def write_model(res: FitResult, path: Path | str) -> list[str]:
+    """Write the identified model (URDF reference, sigma, effects with
+    values; ``written_tables``); returns the notes on values written
+    otherwise than fitted."""
     path = Path(path)
     model = res.model
     robot = (
@@ -232,9 +319,11 @@ def write_model(res: FitResult, path: Path | str) -> None:
         meas["sigma_rotation"] = model.sigma_rotation
     if meas:
         doc["measurements"] = meas
+    tables, notes = written_tables(res)
     head = (
         f"# identified by stiffkit fit from {res.problem.meas.path}: positional RMS "
         f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
-        f"# non-identifiable and semi-identifiable parameters hold the minimum-norm solution\n"
+        f"# semi-identifiable parameters hold the minimum-norm solution; non-identifiable ones 0 (see the notes)\n"
     )
-    path.write_text(head + tomli_w.dumps(doc) + effects_toml(model_tables_with_values(res)))
+    atomic_write_text(path, tomlw.dumps(doc, head) + effects_toml(tables))
+    return notes

@@ -17,6 +17,7 @@ klimchik reports, and a gravity compensator on A2.
 from __future__ import annotations
 
 import math
+import os
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
@@ -27,7 +28,7 @@ import numpy.typing as npt
 from ..errors import InputError
 from ..field import cantilever_compliance, section_properties
 from ..io import validate as V
-from ..io.files import atomic_write_text
+from ..io.files import atomic_write_text, check_folder, check_output
 from ..io.tables import read_text
 from ..robot.model import Model, model_from_tables
 from ..robot.model_file import model_toml
@@ -221,6 +222,40 @@ def strip_values(effects: list[dict]) -> list[dict]:
         if e2["kind"] in ("link", "base", "tool") and "template" not in e2:
             e2["template"] = "full"
         out.append(e2)
+    return out
+
+
+def check_out_folder(
+    out: Path | str, files: Sequence[str], force: bool = False, inputs: Sequence[Path | str] = ()
+) -> Path:
+    """The folder ``synth`` writes ``files`` into, checked before any work:
+    a folder (or none yet) that can be written; none of ``files`` there
+    already (the user's data) unless ``force``; none of them one of the
+    ``inputs`` (the truth model and its URDF), even with ``force``
+    (``stiffkit synth --overwrite``).
+    InputError naming the folder and the files."""
+    out = Path(out)
+    if not str(out).strip():
+        raise InputError("--out: empty folder name")
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: a file, not a folder")
+    check_folder(out, "--out")
+    targets = [out / f for f in files]
+    for t in targets:
+        for src in inputs:
+            s = Path(src)
+            if (t.exists() and s.exists() and os.path.samefile(t, s)) or t.resolve() == s.resolve():
+                raise InputError(
+                    f"--out {out}: would overwrite the truth model file {s}, an input; choose another folder"
+                )
+    there = [t.name for t in targets if t.exists() or t.is_symlink()]
+    if there and not force:
+        raise InputError(
+            f"--out {out}: holds {', '.join(there)} already; choose another folder, or give --overwrite to replace "
+            f"{'it' if len(there) == 1 else 'them'}"
+        )
+    for t in targets:
+        check_output(t, "--out")
     return out
 
 

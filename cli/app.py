@@ -49,6 +49,7 @@ COMMANDS = [
     ("stiffkit.cli.stiffness", "stiffness: tool compliance/stiffness of a robot model with values"),
     ("stiffkit.cli.fit", "fit: identify elastostatic parameters from measured deflections"),
     ("stiffkit.cli.diagnose", "diagnose: is the residual noise? rank the missing effects"),
+    ("stiffkit.cli.evaluate", "evaluate: the errors of a model with values on (fresh) measurements, nothing fitted"),
     ("stiffkit.cli.compensate", "compensate: joint commands that make the identified robot reach the nominal targets"),
     ("stiffkit.cli.compare", "compare: two fit results side by side"),
     ("stiffkit.cli.synth", "synth: calibration data with a known truth and hidden effects"),
@@ -67,6 +68,7 @@ examples:
   stiffkit synth kr270 --out kr270    calibration data of a KR-270-like robot
   stiffkit fit kr270/model.toml kr270/measurements.csv
   stiffkit diagnose kr270/model.toml kr270/measurements.csv
+  stiffkit evaluate fitted.toml fresh.csv    a fitted model's errors on new postures
   stiffkit compensate identified.toml targets.csv --out commands.csv
   stiffkit COMMAND --help             what a command does, its inputs and outputs
 

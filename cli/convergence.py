@@ -18,7 +18,7 @@ from ..errors import InputError
 from ..fea.config import load_link
 from ..fea.convergence import plot, table, to_json
 from ..io import validate as V
-from ..io.files import FIGURE_SUFFIXES, write_json
+from ..io.files import FIGURE_SUFFIXES, link_inputs, write_json
 from ..sweep.convergence import run_study
 from ..sweep.runner import check_address
 from ..sweep.study import parse_memory
@@ -74,7 +74,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    inputs = [args.link]
+    inputs = link_inputs(args.link)
     if args.json:
         V.output_path(args.json, "--json", inputs)
     if args.png:

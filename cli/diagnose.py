@@ -33,6 +33,11 @@ Fits the model, then
      nothing in the catalogue fits, and the residual's shape is shown
      (against each joint's torque and angle, the row order, the
      configurations; --plots draws them).
+Every effect already in the model is also tested without
+it (backward steps: its values against the noise, the held-out error
+without it); one that no longer earns its place is proposed for removal
+before any addition (--prune: only these steps, the verdict from the
+adequacy test).
 A ready [[effect]] table is proposed only when the model is inadequate, the
 leader is not tied, something fits, and it lowers the held-out error.
 Nonlinear candidates are linearised at the current fit; a gravity
@@ -54,7 +59,7 @@ from ..calib.measure import read_measurements
 from ..calib.plots import candidates_plot, fit_plots, residual_plots
 from ..errors import InputError
 from ..io import validate as V
-from ..io.files import write_json
+from ..io.files import check_plots_folder, model_inputs, write_json
 from ..robot.model import KINDS, load_model
 from ..robot.tree_model import model_kind
 from . import args as A
@@ -66,7 +71,13 @@ effect]) and the extensions: data_checks {outliers, unit_slips, angle_units,
 outlying_configurations, set_aside}, verdict_all_rows, multiplicity_p,
 bonferroni_p, omnibus_inadequate, cv_rms_position_m (model and per candidate),
 ties [{candidates, separate_by}], nothing_fits, proposal (the [[effect]] table
-or null), no_proposal_reasons, warnings, residual_map, residual_shapes.
+or null), no_proposal_reasons, warnings, residual_map, residual_shapes,
+non_identifiable_candidates [{kind, target, effect, reason}]; per candidate
+excess_fraction (the share of the residual above the noise it explains,
+null when the noise is unknown); backward_steps
+[{effect_index, effect, statistic, dof, log10_p_value, max_abs_value,
+rms_without_m, cv_rms_position_m_without, remove, why}], removal (or null),
+prune.
 
 extension kinds (docs/calibration.md s7), also usable in MODEL.toml:
   joint_cubic     dq = c tau + c3 tau^3, tau the torque of the row's wrench about the joint
@@ -117,6 +128,13 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="folds of the cross-validation by configuration (0: off)",
     )
     p.add_argument(
+        "--prune",
+        action="store_true",
+        help="backward steps only: test every effect of the model without it (its values against the noise, "
+        "the held-out error without it) and propose removing one that no longer earns its place, no addition; "
+        "the verdict is the adequacy test's",
+    )
+    p.add_argument(
         "--kinds", help="comma-separated candidate kinds to score (default: every kind), e.g. joint,link,point_offset"
     )
     p.set_defaults(func=run)
@@ -124,9 +142,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.json:
-        V.output_path(args.json, "--json", [args.model, args.measurements])
-    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
-        raise InputError(f"--plots {args.plots}: a file, not a folder")
+        V.output_path(args.json, "--json", [*model_inputs(args.model), args.measurements])
+    check_plots_folder(args.plots, "--plots")
     if args.cv == 1:
         raise InputError("--cv 1: cross-validation needs at least 2 folds (0 switches it off)")
     if model_kind(args.model) == "absolute":
@@ -147,6 +164,7 @@ def run(args: argparse.Namespace) -> int:
         kinds=kinds,
         checks=not args.no_checks,
         cv_folds=args.cv,
+        prune=args.prune,
     )
     print(format_table(dg.fit_all if dg.fit_all is not None else dg.fit))
     print()
@@ -175,6 +193,7 @@ def run_absolute(args: argparse.Namespace) -> int:
         alpha=args.alpha,
         cv_folds=args.cv or CV_FOLDS,
         checks=not args.no_checks,
+        prune=args.prune,
     )
     print(format_absolute(dg.fit))
     print()

@@ -14,22 +14,40 @@ coupled sets are listed).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from ..calib.absolute_fit import fit_absolute
+from ..calib.absolute_data import AbsoluteData
+from ..calib.absolute_fit import AbsoluteFit, fit_absolute
 from ..calib.absolute_plots import absolute_plots
-from ..calib.absolute_report import format_absolute, format_absolute_parameters, load_absolute, residual_table
+from ..calib.absolute_report import (
+    format_absolute,
+    format_absolute_parameters,
+    load_absolute,
+    residual_table,
+    written_tree_model,
+)
 from ..calib.absolute_write import write_model as write_model_absolute
 from ..calib.absolute_write import write_urdf
 from ..calib.compare import compare
+from ..calib.evaluation import (
+    check_kind,
+    evaluate_absolute,
+    evaluate_deflection,
+    evaluation_json,
+    format_absolute_evaluation,
+    format_evaluation,
+    overlap_absolute,
+    overlap_deflection,
+    overlap_warning,
+)
 from ..calib.fit import fit, format_parameters, format_table, write_model
 from ..calib.measure import read_measurements
 from ..calib.plots import fit_plots
 from ..calib.reduce import format_reduction, reduce_model, reduced_model
+from ..calib.results import written_model
 from ..calib.robust import format_checks, robust_fit
 from ..errors import InputError
 from ..io import validate as V
-from ..io.files import write_json
+from ..io.files import check_plots_folder, model_inputs, write_json
 from ..robot.model import load_model
 from ..robot.tree_model import model_kind
 from . import args as A
@@ -70,6 +88,10 @@ outputs:
   --write-model OUT.toml the model with every identified value (docs/calibration.md §5),
                          ready for `stiffkit stiffness`
   --compare OLD.json     side-by-side with an earlier fit
+  --validate VAL.csv     fit on MEAS.csv, then the errors of the fitted model (the one --write-model
+                         writes) on VAL.csv, fresh measurements of the same robot: the tables of
+                         `stiffkit evaluate` (JSON key "validation"; plots with prefix validate_);
+                         a warning when VAL.csv repeats rows of MEAS.csv
   --robust               check the data first (robust Huber fit; gross errors, unit slips,
                          with the fix) and fit without the rows it lists
   --reduce               model reduction M1-M5 (klimchik Table 1): report, then fit
@@ -82,6 +104,9 @@ example (the loop):
   stiffkit diagnose kr270/model.toml kr270/measurements.csv
   # append the suggested [[effect]] to model.toml, then
   stiffkit fit kr270/model.toml kr270/measurements.csv --compare j1.json
+  # check the calibration on fresh postures
+  stiffkit fit kr270/model.toml kr270/measurements.csv --write-model fitted.toml --validate day2.csv
+  stiffkit evaluate fitted.toml day2.csv        # the same errors, later, from the file
 """
 
 
@@ -106,6 +131,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("--compare", metavar="OLD.json", help="print a comparison with an earlier fit")
     p.add_argument(
+        "--validate",
+        metavar="VAL.csv",
+        help="fresh measurements: the errors of the fitted model on them (nothing refitted), as `stiffkit evaluate`",
+    )
+    p.add_argument(
         "--reduce", action="store_true", help="reduce the model (M1-M5), print Table 1, fit the independent subset"
     )
     p.add_argument(
@@ -127,8 +157,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _outputs(args: argparse.Namespace) -> None:
-    """Every output path checked before anything runs (not an input, not a folder, suffixes)."""
-    inputs = [args.model, args.measurements]
+    """Every output path checked before anything runs (not an input, its folder writable, suffixes)."""
+    inputs = [*model_inputs(args.model), args.measurements, args.compare, args.validate]
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--write-model", args.write_model, (".toml",)),
@@ -136,14 +166,17 @@ def _outputs(args: argparse.Namespace) -> None:
     ):
         if path:
             V.output_path(path, opt, inputs, suffixes)
-    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
-        raise InputError(f"--plots {args.plots}: a file, not a folder")
+    check_plots_folder(args.plots, "--plots")
     V.distinct_outputs({"--json": args.json, "--write-model": args.write_model, "--write-urdf": args.write_urdf})
 
 
 def run(args: argparse.Namespace) -> int:
     _outputs(args)
-    if model_kind(args.model) == "absolute":
+    kind = model_kind(args.model)
+    for path in (args.measurements, args.validate):
+        if path:
+            check_kind(args.model, kind, path)
+    if kind == "absolute":
         return run_absolute(args)
     if args.write_urdf:
         raise InputError(
@@ -156,7 +189,13 @@ def run(args: argparse.Namespace) -> int:
             "cross-validates deflection data"
         )
     model = load_model(args.model)
+    if not model.effects:
+        raise InputError(
+            f'{args.model}: the model has no [[effect]] table: nothing to fit (start with kind = "joint", '
+            'target = "all"; stiffkit diagnose proposes what to add)'
+        )
     meas = read_measurements(args.measurements, model.chain.dof)
+    val = read_measurements(args.validate, model.chain.dof) if args.validate else None
     checks = None
     if args.robust:
         res, checks, _plain = robust_fit(model, meas, sigma_position=args.sigma)
@@ -188,6 +227,18 @@ def run(args: argparse.Namespace) -> int:
         out["data_checks"] = checks.to_json()
     if red is not None:
         out["reduction"] = red.to_json()
+    if val is not None:
+        warn = overlap_warning(overlap_deflection(meas, val), val.lines, val.n, args.validate, args.measurements)
+        if warn:
+            V.warn(warn)
+        vres = evaluate_deflection(written_model(res), val, sigma_position=args.sigma)
+        print()
+        print(f"validation: the fitted model (as --write-model writes it) on {val.n} rows from {args.validate}")
+        print(format_evaluation(vres, "the fitted model", top=5))
+        out["validation"] = evaluation_json(vres)
+        if args.plots:
+            for f in fit_plots(vres, args.plots, label="validate"):
+                print(f"wrote {f}")
     if args.json:
         write_json(args.json, out)
         print(f"wrote {args.json}")
@@ -195,7 +246,8 @@ def run(args: argparse.Namespace) -> int:
         for f in fit_plots(res, args.plots):
             print(f"wrote {f}")
     if args.write_model:
-        write_model(res, args.write_model)
+        for note in write_model(res, args.write_model):
+            print(f"note: {note}")
         print(f"wrote {args.write_model}")
     if args.compare:
         print()
@@ -208,6 +260,11 @@ def run_absolute(args: argparse.Namespace) -> int:
     model, data = load_absolute(args.model, args.measurements)
     for w in data.warnings:  # stderr, one line each, like every command's warnings
         V.warn(w, key=("data", w))
+    val = None
+    if args.validate:
+        _m, val = load_absolute(args.model, args.validate)
+        for w in val.warnings:
+            V.warn(w, key=("data", w))
     fit = fit_absolute(model, data, sigma_position=args.sigma, cv=args.cv or 0, robust=args.robust)
     print(
         f"model {args.model}: {len(model.effects)} effect(s), {len(model.params)} parameters; "
@@ -223,6 +280,8 @@ def run_absolute(args: argparse.Namespace) -> int:
     if args.plots:
         for f in absolute_plots(fit, args.plots):
             print(f"wrote {f}")
+    if val is not None:
+        out["validation"] = _validate_absolute(fit, data, val, args)
     if args.write_urdf:
         for note in write_urdf(fit, args.write_urdf):
             print(f"note: {note}")
@@ -238,3 +297,18 @@ def run_absolute(args: argparse.Namespace) -> int:
         print()
         print(compare(args.compare, out, names=("before", "now")))
     return 0
+
+
+def _validate_absolute(fit: AbsoluteFit, data: AbsoluteData, val: AbsoluteData, args: argparse.Namespace) -> dict:
+    """The fitted model as --write-model writes it, evaluated on the validation data."""
+    warn = overlap_warning(overlap_absolute(data, val), val.lines, val.n, args.validate, args.measurements)
+    if warn:
+        V.warn(warn)
+    ev = evaluate_absolute(written_tree_model(fit), val, sigma_position=args.sigma)
+    print()
+    print(f"validation: the fitted model (as --write-model writes it) on {val.n} points from {args.validate}")
+    print(format_absolute_evaluation(ev, top=5))
+    if args.plots:
+        for f in absolute_plots(ev, args.plots, label="validate"):  # type: ignore[arg-type]
+            print(f"wrote {f}")
+    return evaluation_json(ev)

@@ -17,7 +17,7 @@ from ..errors import InputError
 from ..fea.config import UNITS, load_link
 from ..fea.job import run_link
 from ..io import validate as V
-from ..io.files import FIGURE_SUFFIXES
+from ..io.files import FIGURE_SUFFIXES, check_folder, link_inputs
 from ..meshing.faces import format_faces
 from ..meshing.gmsh_mesh import CAD_SUFFIXES, cad_faces
 from . import args as A
@@ -131,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
         return list_faces(args.list_faces, args.units)
     if not args.link:
         raise InputError("the argument LINK.toml is required (or --list-faces PART.step)")
-    inputs = [args.link]
+    inputs = link_inputs(args.link)
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--vtu", args.vtu, (".vtu",)),
@@ -143,6 +143,8 @@ def run(args: argparse.Namespace) -> int:
     V.distinct_outputs({"--json": args.json, "--vtu": args.vtu, "--png": args.png, "--faces-png": args.faces_png})
     if not args.no_cache and Path(args.cache).exists() and not Path(args.cache).is_dir():
         raise InputError(f"--cache {args.cache}: a file, not a folder")
+    if not args.no_cache:
+        check_folder(args.cache, "--cache")
     job = load_link(args.link)
     if args.route:
         job.route = args.route

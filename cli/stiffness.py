@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 
 from ..io import validate as V
-from ..io.files import FIGURE_SUFFIXES
+from ..io.files import FIGURE_SUFFIXES, model_inputs
 from ..io.tables import read_columns
 from ..robot.model import load_model
 from ..robot.stiffness_report import INDICES, compute_indices, index_status, stiffness_report
@@ -66,7 +66,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    inputs = [args.model, args.trajectory]
+    inputs = [*model_inputs(args.model), args.trajectory]
     for opt, path, suffixes in (
         ("--json", args.json, None),
         ("--npz", args.npz, None),

@@ -23,6 +23,7 @@ from pathlib import Path
 from ..calib import dualarm as DA
 from ..calib import synth as S
 from ..errors import InputError
+from ..io.files import model_inputs
 from ..robot.model import load_model
 from . import args as A
 
@@ -53,6 +54,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("robot", help="kr270, dualarm or a truth model TOML with values")
     p.add_argument("--out", required=True, help="output folder")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the files of an earlier synth in --out (refused otherwise; --force is the load's magnitude)",
+    )
     p.add_argument(
         "--configs",
         type=A.count("--configs", 1, S.MAX_ROWS),
@@ -105,6 +111,12 @@ MARKERS = [(0.0, 0.0, 0.25), (0.12, 0.0, 0.2), (0.0, 0.12, 0.2), (-0.1, -0.1, 0.
 
 
 def run(args: argparse.Namespace) -> int:
+    # a truth model and its nominal URDF are inputs; its URDF is copied, and
+    # left alone when it is the robot.urdf of --out already
+    truth_inputs = [] if args.robot in ("kr270", "dualarm") else model_inputs(args.robot)
+    truth_inputs = truth_inputs[:1] + truth_inputs[2:]
+    files = DA.OUTPUT_FILES if args.robot == "dualarm" else S.OUTPUT_FILES
+    S.check_out_folder(args.out, files, args.overwrite, truth_inputs)
     if args.robot == "dualarm":
         configs = DA.DEFAULT_CONFIGS if args.configs is None else args.configs
         out = DA.synth_dualarm(
@@ -123,8 +135,6 @@ def run(args: argparse.Namespace) -> int:
     if n > S.MAX_ROWS:
         raise InputError(f"--configs x --loads-per-config x --markers x --replicates = {n} rows; at most {S.MAX_ROWS}")
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: a file, not a folder")
     kw = dict(
         n_configs=args.configs,
         loads=args.loads,
@@ -145,8 +155,6 @@ def run(args: argparse.Namespace) -> int:
         path = Path(args.robot)
         if not path.is_file():
             raise InputError(f"{path}: no such truth model (give kr270 or a TOML with values)")
-        if path.resolve().parent == out.resolve() and path.name in S.OUTPUT_FILES:
-            raise InputError(f"--out {out}: would overwrite the truth model {path} itself; choose another folder")
         m = load_model(path)  # checks the file
         truth = m.effects
         for t in m.terms:

@@ -19,6 +19,8 @@
 !>     body's frame); grav[3] (m/s^2, base axes);
 !>   tracker tpar[6] (theta indices of tx, ty, tz, a1, a2, a3), rref[3,3];
 !>   nm markers mvj[nm] (frame; 0 = base), mpar[3,nm] (theta indices);
+!>   nbp gravity-parameter entries bpar[3,nbp] (body, slot: 1 mass factor,
+!>     2-4 centre offset x, y, z; theta index; sk_tree_grav);
 !>   npar parameters theta[npar]; ndof joint coordinates.
 !> All indices are 1-based. Payloads: lpost[nl] (posture or row), lvj[nl]
 !> (frame), lw[6,nl] (force N, moment N m at the frame origin, base axes).
@@ -30,17 +32,17 @@
 !> forces of every joint wv[nv,np] and joint coordinate tauq[ndof,np],
 !> deflections delta[ne,np], iterations nit[np], eqinfo[np]
 !> (sk_tree%poses_batch).
-subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
+subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
-        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, q, lpost, lvj, lw, eqit, etol, &
+        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta, q, lpost, lvj, lw, eqit, etol, &
         ra, pa, wv, tauq, delta, nit, eqinfo, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
-    use sk_tree, only: tree_model, model_setup, poses_batch
+    use sk_tree, only: tree_model, model_body_params, model_setup, poses_batch
     implicit none
-    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, np, nl
+    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
-        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm)
+        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm), bpar(3, nbp)
     real(c_double), intent(in) :: vaxis(3, nv), vrot(3, 3, nv), vpos(3, nv), qcoef(nv), qconst(nv), gcoef(ng), &
         kw0(nk), bmass(nb), bcom(3, nb), grav(3), rref(3, 3)
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), etol
@@ -58,23 +60,25 @@ subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
     if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
     call poses_batch(m, theta, q, lpost, lvj, lw, eqit, etol, ra, pa, wv, tauq, delta, nit, eqinfo, info)
 end subroutine sk_tree_poses
 
 !> Predicted points pred[3,no], weighted residuals res[3*no] and Jacobian
 !> jac[3*no,nfree] w.r.t. theta(free), deflections delta[ne,np], nit[np],
 !> eqinfo[np] (sk_tree%evaluate).
-subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
+subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
-        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
+        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
         free, eqit, etol, pred, res, jac, delta, nit, eqinfo, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
-    use sk_tree, only: tree_model, tree_problem, model_setup, problem_setup, evaluate
+    use sk_tree, only: tree_model, model_body_params, tree_problem, model_setup, problem_setup, evaluate
     implicit none
-    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree
+    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
-        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm)
+        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm), bpar(3, nbp)
     real(c_double), intent(in) :: vaxis(3, nv), vrot(3, 3, nv), vpos(3, nv), qcoef(nv), qconst(nv), gcoef(ng), &
         kw0(nk), bmass(nb), bcom(3, nb), grav(3), rref(3, 3)
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), oxyz(3, no), owt(no), etol
@@ -92,6 +96,8 @@ subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfre
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
     if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
     call problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
     if (info /= sk_ok) return
     call evaluate(pr, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
@@ -100,24 +106,27 @@ end subroutine sk_tree_evaluate
 !> Levenberg-Marquardt fit of theta(free) from theta0: theta[npar],
 !> hist[maxit+1] (cost after each accepted step; nhist of them), niter,
 !> reason, jac[3*no,nfree], res[3*no] at theta, and the re-centred tracker
-!> rotation rrefout[3,3] (theta's tracker angles are then 0)
-!> (sk_tree_solve%tree_lm).
-subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
+!> rotation rrefout[3,3] (theta's tracker angles are then 0); prior rows
+!> psw(i) (theta(ppar(i)) - pmu(i)), npri of them (sk_tree_solve%tree_lm).
+subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
-        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta0, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
-        free, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, rrefout, info)
+        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta0, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
+        free, npri, ppar, pmu, psw, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, &
+        rrefout, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
-    use sk_tree, only: tree_model, tree_problem, model_setup, problem_setup
+    use sk_tree, only: tree_model, model_body_params, tree_problem, model_setup, problem_setup
     use sk_tree_solve, only: tree_lm
     implicit none
-    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree
+    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
-        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm)
+        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm), bpar(3, nbp)
     real(c_double), intent(in) :: vaxis(3, nv), vrot(3, 3, nv), vpos(3, nv), qcoef(nv), qconst(nv), gcoef(ng), &
         kw0(nk), bmass(nb), bcom(3, nb), grav(3), rref(3, 3)
     real(c_double), intent(in) :: theta0(npar), q(ndof, np), lw(6, nl), oxyz(3, no), owt(no), etol, ftol, xtol, gtol
     integer(c_int), intent(in) :: lpost(nl), lvj(nl), opost(no), omark(no), free(nfree), eqit, maxit
+    integer(c_int), intent(in) :: npri, ppar(npri)
+    real(c_double), intent(in) :: pmu(npri), psw(npri)
     real(c_double), intent(out) :: theta(npar), hist(maxit + 1), jac(3*no, nfree), res(3*no), rrefout(3, 3)
     integer(c_int), intent(out) :: nhist, niter, reason, info
     type(tree_model) :: m
@@ -133,10 +142,12 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, no, nfree, &
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
     if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
     call problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
     if (info /= sk_ok) return
     call tree_lm(pr, theta0, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, &
-        rrefout, info)
+        rrefout, info, ppar, pmu, psw)
 end subroutine sk_tree_lm
 
 !> Pose rf[3,3,np], pf[3,np] (base) of frame(i) at q[ndof,np] at
@@ -144,17 +155,17 @@ end subroutine sk_tree_lm
 !> origin velocity, angular velocity, base axes); delta[ne,np], nit[np],
 !> eqinfo[np] (sk_tree%frame_jacobian_batch). Payload postures lpost are
 !> columns of q.
-subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
+subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
-        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, frame, q, lpost, lvj, lw, eqit, etol, &
+        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta, frame, q, lpost, lvj, lw, eqit, etol, &
         rf, pf, jq, delta, nit, eqinfo, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
-    use sk_tree, only: tree_model, model_setup, frame_jacobian_batch
+    use sk_tree, only: tree_model, model_body_params, model_setup, frame_jacobian_batch
     implicit none
-    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, np, nl
+    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
-        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm)
+        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm), bpar(3, nbp)
     real(c_double), intent(in) :: vaxis(3, nv), vrot(3, 3, nv), vpos(3, nv), qcoef(nv), qconst(nv), gcoef(ng), &
         kw0(nk), bmass(nb), bcom(3, nb), grav(3), rref(3, 3)
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), etol
@@ -171,6 +182,8 @@ subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, np, nl, &
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
     if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
+    if (info /= sk_ok) return
     call frame_jacobian_batch(m, theta, frame, q, lpost, lvj, lw, eqit, etol, rf, pf, jq, delta, nit, eqinfo, info)
 end subroutine sk_tree_frame_jacobian
 
@@ -179,18 +192,18 @@ end subroutine sk_tree_frame_jacobian
 !> remaining errors resp[nr] (m), resr[nr] (rad), Newton steps nit[nr],
 !> rinfo[nr] (sk_tree_solve%compensate_batch). Payload rows lpost; law
 !> parameters theta(prow(j)) = trow(j, i) for row i (per-row values).
-subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, npr, &
+subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, nr, nl, npr, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
-        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, &
+        bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, &
         prow, trow, full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
-    use sk_tree, only: tree_model, model_setup
+    use sk_tree, only: tree_model, model_body_params, model_setup
     use sk_tree_solve, only: compensate_batch
     implicit none
-    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, npr
+    integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, nr, nl, npr
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
-        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm)
+        kpar(21, nk), bvj(nb), tpar(6), mvj(nm), mpar(3, nm), bpar(3, nbp)
     real(c_double), intent(in) :: vaxis(3, nv), vrot(3, 3, nv), vpos(3, nv), qcoef(nv), qconst(nv), gcoef(ng), &
         kw0(nk), bmass(nb), bcom(3, nb), grav(3), rref(3, 3)
     real(c_double), intent(in) :: theta(npar), qcmd(ndof, nr), rtarget(3, 3, nr), ptarget(3, nr), lw(6, nl), &
@@ -206,6 +219,8 @@ subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nr, nl, npr, &
     rinfo = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
         kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+    if (info /= sk_ok) return
+    call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
     call compensate_batch(m, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, full6, eqit, etol, maxit, &
         ptol, rtol, qout, resp, resr, nit, rinfo, info, prow, trow)

@@ -70,6 +70,14 @@
 !> (first order: I instead of I - D G_ee, everything at delta = 0), and
 !> dx/dxi = dx/dxi|direct + dx/ddelta Z.
 !>
+!> Gravity parameters (sk_tree_grav). Entries p = 1..nbp, bpar[3,nbp] =
+!> (body b, slot s, theta index t): s = 1 a mass factor (mass = bmass(b)
+!> times the product of its factors), s = 2..4 an offset of the centre
+!> along x, y, z of the body's frame (m; centre = bcom(:,b) + the sum of
+!> its offsets). One index on several bodies is a subtree's factor; a body
+!> may carry its own factor and its subtrees' (they multiply). They move no point directly: they drive the
+!> deflections through dw/dtheta (the right-hand side of the sensitivity).
+!>
 !> Markers and tracker. Marker j rides on frame mvj(j) at the point
 !> theta(mpar(:,j)) of that frame. The tracker pose is
 !>   T_tracker = Trans(t) * rref * Rx(a1) Ry(a2) Rz(a3),
@@ -114,6 +122,7 @@ module sk_tree
     public :: poses_batch, evaluate, frame_jacobian_batch
     public :: is_rotation, group_by, q_drivers, posture_values, deflected_frames, load_state, apply_laws
     public :: deflection_change, model_fold, fold_for_frames
+    public :: model_body_params, body_effective
 
     integer, parameter, public :: vj_fixed = 0, vj_revolute = 1, vj_prismatic = 2
     integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
@@ -133,6 +142,9 @@ module sk_tree
         integer, allocatable :: evj(:), vel(:)
         integer, allocatable :: bvj(:)
         real(dp), allocatable :: bmass(:), bcom(:, :)
+        !> gravity-parameter entries (body, slot, theta index) [3,nbp] (module header)
+        integer :: nbp = 0
+        integer, allocatable :: bpar(:, :)
         real(dp) :: grav(3) = 0.0_dp
         !> preorder position and subtree size of joints 0..nv (ancestor tests)
         integer, allocatable :: pre(:), sub(:)
@@ -164,6 +176,11 @@ module sk_tree
         logical, allocatable :: cok(:)
         !> joints whose generalised force and G coefficients are wanted
         logical, allocatable :: need(:)
+        !> bodies' masses and centres at theta (posture_values) [nb], [3,nb];
+        !> their centres cb[3,nb] and frames br[3,3,nb] (base) at the load state
+        real(dp), allocatable :: bm(:), bc(:, :), cb(:, :), br(:, :, :)
+        !> d(mass)/d(factor) of each mass-factor entry at theta [nbp]
+        real(dp), allocatable :: bdm(:)
         integer :: nit = 0, eqit = 0
         logical :: conv = .true.
     end type tree_state
@@ -183,7 +200,35 @@ module sk_tree
         !> zcol(1:nz) their Jacobian columns; entries (vj, Z column, coef)
         integer, allocatable :: zcol(:), ent_vj(:), ent_col(:), lawcol(:, :)
         real(dp), allocatable :: ent_coef(:)
+        !> Z column of each gravity-parameter entry [nbp] (0: not free)
+        integer, allocatable :: bodycol(:)
     end type tree_problem
+
+    interface
+        !> Set the gravity-parameter entries bpar[3,nbp] of a model (module
+        !> header); info = sk_err_size (shape) or sk_err_argument (a body,
+        !> slot or theta index out of range).
+        module subroutine model_body_params(m, bpar, info)
+            type(tree_model), intent(inout) :: m
+            integer(ip), intent(in) :: bpar(:, :)
+            integer(ip), intent(out) :: info
+        end subroutine model_body_params
+        !> Masses bm[nb] and centres bc[3,nb] (body frames) at theta, and
+        !> dm[nbp]: d(mass)/d(factor) of each mass-factor entry.
+        pure module subroutine body_effective(m, theta, bm, bc, dm)
+            type(tree_model), intent(in) :: m
+            real(dp), intent(in) :: theta(:)
+            real(dp), intent(out) :: bm(:), bc(:, :), dm(:)
+        end subroutine body_effective
+        !> rhs[ne,:] += dw/dtheta of the gravity-parameter entries with a Z
+        !> column bodycol[nbp] (0: none), at the load state of st.
+        pure module subroutine body_rhs(m, st, bodycol, rhs)
+            type(tree_model), intent(in) :: m
+            type(tree_state), intent(in) :: st
+            integer, intent(in) :: bodycol(:)
+            real(dp), intent(inout) :: rhs(:, :)
+        end subroutine body_rhs
+    end interface
 
 contains
 
@@ -398,6 +443,7 @@ contains
         m%bvj = bvj
         m%bmass = bmass
         m%bcom = bcom
+        allocate(m%bpar(3, 0))
         m%grav = grav
         m%tpar = tpar
         m%rref = rref
@@ -430,7 +476,8 @@ contains
         integer :: anc(0:m%nv), v, p, n, b, k, j, ng
         integer(ip), allocatable :: vparent(:), vtype(:), qcol(:), gvj(:), gpar(:), kvj(:, :), bvj(:), none(:), &
             nomp(:, :)
-        real(dp), allocatable :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), gcoef(:), bcom(:, :)
+        real(dp), allocatable :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), gcoef(:), bcom(:, :), &
+            bm(:), bc(:, :), dm(:)
         kept = keep .or. m%qcol > 0 .or. m%vel > 0
         n = count(kept)
         allocate(vparent(n), vtype(n), qcol(n), vaxis(3, n), vrot(3, 3, n), vpos(3, n), qcoef(n), qconst(n))
@@ -501,21 +548,23 @@ contains
                 kvj(j, k) = newidx(m%evj(m%kfirst(k) + j - 1))
             end do
         end do
-        allocate(bvj(m%nb), bcom(3, m%nb), none(0), nomp(3, 0))
+        ! bodies at theta's gravity parameters (the folded model has none)
+        allocate(bvj(m%nb), bcom(3, m%nb), none(0), nomp(3, 0), bm(m%nb), bc(3, m%nb), dm(m%nbp))
+        call body_effective(m, theta, bm, bc, dm)
         do b = 1, m%nb
             v = m%bvj(b)
-            bcom(:, b) = m%bcom(:, b)
+            bcom(:, b) = bc(:, b)
             bvj(b) = 0
             if (v == 0) cycle
             if (kept(v)) then
                 bvj(b) = newidx(v)
             else
                 bvj(b) = newidx(anc(v))
-                bcom(:, b) = pacc(:, v) + matmul(racc(:, :, v), m%bcom(:, b))
+                bcom(:, b) = pacc(:, v) + matmul(racc(:, :, v), bc(:, b))
             end if
         end do
         call model_setup(mf, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, &
-            m%ktype, kvj, m%kpar, m%kw0, bvj, m%bmass, bcom, m%grav, m%tpar, m%rref, none, nomp, &
+            m%ktype, kvj, m%kpar, m%kw0, bvj, bm, bcom, m%grav, m%tpar, m%rref, none, nomp, &
             int(m%ndof, ip), int(m%npar, ip), int(m%ne, ip), info)
         mf%lscale = m%lscale
     end subroutine model_fold
@@ -628,6 +677,18 @@ contains
                 end if
             end do
         end do
+        ! gravity parameters of the bodies
+        allocate(pr%bodycol(m%nbp))
+        pr%bodycol = 0
+        do k = 1, m%nbp
+            c = pr%colof(m%bpar(3, k))
+            if (c == 0) cycle
+            if (zof(c) == 0) then
+                nz = nz + 1
+                zof(c) = nz
+            end if
+            pr%bodycol(k) = zof(c)
+        end do
         pr%nz = nz
         allocate(pr%zcol(nz), pr%ent_vj(pr%nent), pr%ent_col(pr%nent), pr%ent_coef(pr%nent), &
             pr%lawcol(nsym, m%nk))
@@ -678,6 +739,12 @@ contains
         st%cval = 0.0_dp
         st%need = .true.
         if (present(need)) st%need = need .or. m%vel > 0
+        st%bm = m%bmass
+        st%bc = m%bcom
+        allocate(st%cb(3, m%nb), st%br(3, 3, m%nb), st%bdm(m%nbp))
+        st%bdm = 0.0_dp
+        st%cb = 0.0_dp
+        st%br = 0.0_dp
     end subroutine state_init
 
     ! ---------------------------------------------------------------- gravity
@@ -700,8 +767,10 @@ contains
         do b = 1, m%nb
             v = m%bvj(b)
             if (v == 0) cycle
-            c = st%pa(:, v) + matmul(st%ra(:, :, v), m%bcom(:, b))
-            fb = m%bmass(b)*m%grav
+            c = st%pa(:, v) + matmul(st%ra(:, :, v), st%bc(:, b))
+            st%cb(:, b) = c
+            st%br(:, :, b) = st%ra(:, :, v)
+            fb = st%bm(b)*m%grav
             st%f(:, v) = st%f(:, v) + fb
             do a = 1, 3
                 st%s(:, a, v) = st%s(:, a, v) + c*fb(a)
@@ -908,6 +977,7 @@ contains
                 if (m%kpar(j, k) > 0) st%par(j, k) = theta(m%kpar(j, k))
             end do
         end do
+        if (m%nbp > 0) call body_effective(m, theta, st%bm, st%bc, st%bdm)
     end subroutine posture_values
 
     !> How far a change dd[ne] of the deflections moves a point, at most
@@ -982,7 +1052,8 @@ contains
     !> of the caller's few rows (lu_solve).
     !> info = sk_err_singular when I - D G_ee is singular (an unstable
     !> equilibrium).
-    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y, reuse, adjoint)
+    subroutine elastic_sensitivity(m, st, ent_vj, ent_col, ent_coef, lawcol, z, info, resid, y, reuse, adjoint, &
+            bodycol)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(inout) :: st
         integer, intent(in) :: ent_vj(:), ent_col(:), lawcol(:, :)
@@ -992,6 +1063,8 @@ contains
         real(dp), intent(in), optional :: resid(:)
         real(dp), intent(out), optional :: y(:)
         logical, intent(in), optional :: reuse, adjoint
+        !> Z columns of the gravity-parameter entries [nbp] (problem_setup)
+        integer, intent(in), optional :: bodycol(:)
         real(dp) :: dmat(6, 6), dpar(6, nsym), w(6)
         integer :: ne, ncol, nc, e, k, n, e0, j, a, c, i, d
         logical :: factor
@@ -1020,6 +1093,7 @@ contains
                 st%rhs(e, c) = st%rhs(e, c) + ent_coef(k)*gpair(m, st, m%evj(e), a)
             end do
         end do
+        if (present(bodycol)) call body_rhs(m, st, bodycol, st%rhs)
         if (factor) then
             ! G_ee is symmetric but for the payload moments (in the
             ! entries of a force distal to a value)
@@ -1348,7 +1422,7 @@ contains
             ! B the drivers' right-hand side (few rows, many parameters)
             if (want_jac) then
                 call elastic_sensitivity(pr%m, st, pr%ent_vj, pr%ent_col, pr%ent_coef, pr%lawcol, b, sinfo, &
-                    adjoint=.true.)
+                    adjoint=.true., bodycol=pr%bodycol)
                 if (sinfo /= sk_ok) then
                     info = sinfo
                     return

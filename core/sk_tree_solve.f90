@@ -75,10 +75,16 @@ contains
     !> info: sk_ok on reasons 1-4; sk_err_noconv on reason 5 (maxit) and 6
     !> (lambda above 1e16: no decrease found), theta then the best found;
     !> an evaluate error at theta0 is returned as it is.
+    !> Optional prior rows (a weak prior toward known values, e.g. the
+    !> URDF's masses): psw(i) (theta(ppar(i)) - pmu(i)) joins the residual
+    !> of the iteration (and hist's cost); jac and res hold the data rows
+    !> only. sk_err_argument when ppar is out of range or psw < 0.
     subroutine tree_lm(pr, theta0, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, &
-            jac, res, rref, info)
+            jac, res, rref, info, ppar, pmu, psw)
         type(tree_problem), intent(in) :: pr
         real(dp), intent(in) :: theta0(:), etol, ftol, xtol, gtol
+        integer(ip), intent(in), optional :: ppar(:)
+        real(dp), intent(in), optional :: pmu(:), psw(:)
         integer(ip), intent(in) :: eqit, maxit
         real(dp), intent(out) :: theta(:), hist(:), jac(:, :), res(:), rref(3, 3)
         integer(ip), intent(out) :: nhist, niter, reason, info
@@ -86,9 +92,11 @@ contains
         type(lm_state) :: lm
         real(dp) :: rt(3, 3), tt(3), tw(3, 3)
         real(dp), allocatable :: pred(:, :), delta(:, :), dx(:), thetat(:), jact(:, :), rest(:), dacc(:, :)
-        integer(ip), allocatable :: nit(:), eqinfo(:)
+        real(dp), allocatable :: jaug(:, :), raug(:)
+        integer(ip), allocatable :: nit(:), eqinfo(:), pp(:)
+        real(dp), allocatable :: pm(:), pw(:)
         integer(ip) :: tinfo
-        integer :: n, mrow
+        integer :: n, mrow, npri, i
         logical :: accepted
         n = pr%nfree
         mrow = 3*pr%nobs
@@ -105,17 +113,35 @@ contains
             .or. any(shape(jac) /= [mrow, n]) .or. size(res) /= mrow .or. mrow < n) return
         info = sk_err_argument
         if (maxit < 0 .or. .not. (ftol >= 0.0_dp .and. xtol >= 0.0_dp .and. gtol >= 0.0_dp)) return
+        npri = 0
+        if (present(ppar)) npri = size(ppar)
+        allocate(pp(npri), pm(npri), pw(npri))
+        if (npri > 0) then
+            info = sk_err_size
+            if (.not. (present(pmu) .and. present(psw))) return
+            if (size(pmu) /= npri .or. size(psw) /= npri) return
+            info = sk_err_argument
+            if (any(ppar < 1) .or. any(ppar > pr%m%npar)) return
+            if (.not. all(psw >= 0.0_dp)) return
+            info = sk_err_nonfinite
+            if (.not. (all_finite(pmu) .and. all_finite(psw))) return
+            pp = ppar
+            pm = pmu
+            pw = psw
+        end if
+        allocate(jaug(mrow + npri, n), raug(mrow + npri))
         allocate(pred(3, pr%nobs), delta(pr%m%ne, pr%np), nit(pr%np), eqinfo(pr%np), dx(n), thetat(pr%m%npar), &
             jact(mrow, n), rest(mrow), dacc(pr%m%ne, pr%np))
         theta = theta0
         pl = pr
         call evaluate(pl, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
         if (info /= sk_ok) return
+        call augment(theta, jac, res)
         ! trials start their equilibria from the deflections at the last
         ! accepted theta (sk_tree%evaluate, warm): the same fixed point to
         ! etol in a few steps instead of a cold start's many
         dacc = delta
-        call lm_start(lm, jac, res, maxit, ftol, xtol, gtol, info)
+        call lm_start(lm, jaug, raug, maxit, ftol, xtol, gtol, info)
         if (info /= sk_ok) return
         nhist = 1
         hist(1) = lm%cost
@@ -125,7 +151,8 @@ contains
             thetat = theta
             thetat(pr%free) = thetat(pr%free) + dx
             call evaluate(pl, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo, warm=dacc)
-            call lm_accept(lm, tinfo == sk_ok, jact, rest, accepted, info)
+            call augment(thetat, jact, rest)
+            call lm_accept(lm, tinfo == sk_ok, jaug, raug, accepted, info)
             if (accepted) then
                 theta = thetat
                 dacc = delta
@@ -146,6 +173,22 @@ contains
         reason = lm%reason
         rref = pl%m%rref
         info = merge(sk_err_noconv, sk_ok, reason == lm_maxit .or. reason == lm_lambda)
+
+    contains
+
+        !> The data rows (j, r) at th followed by the prior rows, in jaug, raug.
+        subroutine augment(th, j, r)
+            real(dp), intent(in) :: th(:), j(:, :), r(:)
+            integer :: c
+            jaug(1:mrow, :) = j
+            raug(1:mrow) = r
+            jaug(mrow + 1:, :) = 0.0_dp
+            do i = 1, npri
+                raug(mrow + i) = pw(i)*(th(pp(i)) - pm(i))
+                c = pr%colof(pp(i))
+                if (c > 0) jaug(mrow + i, c) = pw(i)
+            end do
+        end subroutine augment
     end subroutine tree_lm
 
     !> Compensation of n rows: for row i, the joint command qout(:,i) that

@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import StiffkitWarning
 from ..io.files import atomic_open
 from ..meshing import Mesh
+from ..meshing.refine import PRISM_ARRANGEMENT
 from .config import LinkJob
 from .solve import FeaSolution, resolve_route, solve_fea
 
@@ -78,6 +79,8 @@ def cache_key(job: LinkJob, route: str) -> str:
             "field": [s.key() for s in job.field_sel],
             "load_tol": job.load_tolerance,
         }
+    if job.features:  # only then: keys of plain meshes stay as they were
+        key["features"] = {"across": job.across, "around": job.around, "prism": PRISM_ARRANGEMENT}
     if job.structured:  # only then: keys of unstructured runs stay as they were
         key["structured"] = True
         key["across_factor"] = job.across_factor
@@ -215,11 +218,13 @@ def fea_cached(
         workdir = Path(tempfile.mkdtemp(prefix=f"run-{key}-", dir=base))
     try:
         sol = solve_fea(job, workdir, route, progress)
-    except KeyboardInterrupt:  # Ctrl-C, SIGTERM: no half-run folder left behind
-        if own:
+    except BaseException as exc:
+        # the folder stays for inspection only when the error names a file in
+        # it (a ccx log); Ctrl-C, SIGTERM, a missing solver: nothing left behind
+        if own and (isinstance(exc, KeyboardInterrupt) or str(workdir) not in str(exc)):
             shutil.rmtree(workdir, ignore_errors=True)
         raise
-    if own:  # on failure the folder stays for inspection (the error names its files)
+    if own:
         shutil.rmtree(workdir, ignore_errors=True)
     if entry is not None:
         store_solution(entry, sol, key)

@@ -43,7 +43,8 @@ def paper_beam(size_mm: float = 5.0, route: str = "matrix") -> dict:
             "amplitudes": "auto",
         },
         "field": {"region": "face"},
-        "mesh": {"mesher": "gmsh", "order": 2, "size": float(size_mm)},
+        # the paper's plain mesh (its Table 5): no feature refinement
+        "mesh": {"mesher": "gmsh", "order": 2, "size": float(size_mm), "features": False},
         "fit": {"method": "lin", "trim": 0.0, "confidence": 0.99},
         "solver": {"route": route},
     }
@@ -92,6 +93,11 @@ class LinkJob:
     load_sel: list = field(default_factory=list)  # Selector: the loaded set
     field_sel: list = field(default_factory=list)  # Selector: [field] region = "faces"
     load_tolerance: float | None = None  # m, planes of [load] (default: [support] tolerance)
+    features: bool = True  # size fields at holes, fillets, thin walls, selected faces (meshing.refine)
+    across: int = 3  # elements across the thinnest wall (a built-in box: over its section)
+    around: int = 16  # elements around a hole's full circle
+    accuracy: float | None = None  # relative compliance error to refine to (fea.accuracy)
+    max_nodes: int = 300_000  # the memory limit: nodes of the largest mesh
     raw: dict = field(default_factory=dict)
 
     @property
@@ -153,7 +159,21 @@ SECTIONS = {
     "support": (*KINDS, "tolerance"),
     "load": (*KINDS, "tolerance", "reference_point", "coupling", "amplitudes"),
     "field": ("region", "size", *KINDS, "tolerance"),
-    "mesh": ("mesher", "order", "size", "refine", "refine_radius", "optimize", "structured", "across_factor"),
+    "mesh": (
+        "mesher",
+        "order",
+        "size",
+        "refine",
+        "refine_radius",
+        "optimize",
+        "structured",
+        "across_factor",
+        "features",
+        "across",
+        "around",
+        "accuracy",
+        "max_nodes",
+    ),
     "fit": ("method", "trim", "confidence", "symmetrize", "pooled"),
     "solver": ("route", "timeout"),
     "approximation": ("section", "dims", "length"),
@@ -282,6 +302,11 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     _check_keys(data, path)
     g = data["geometry"]
     units = _get(g, "units", "geometry", path, str, "mm")
+    if "units" not in g:
+        V.warn(
+            f'{path}: [geometry] has no units: millimetres assumed (write units = "mm", or "m")',
+            key=("link-units", str(path)),
+        )
     if units not in UNITS:
         raise ConfigError(f"{path}: [geometry] units = {units!r}{_suggest(units, UNITS)}: one of {', '.join(UNITS)}")
     scale = UNITS[units]
@@ -435,6 +460,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
             raise ConfigError(
                 f'{path}: [mesh] structured = true needs optimize = "none" (the optimiser would unstructure it)'
             )
+    mk = _mesh_keys(me, path, geometry)
     fit = data.get("fit", {})
     method = _choice(_get(fit, "method", "fit", path, str, "lin"), FIT_METHODS, "fit", "method", path)
     trim = _get(fit, "trim", "fit", path, float, 0.0)
@@ -502,6 +528,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         structured=structured,
         across_factor=across,
         raw=data,
+        **mk,
     )
 
 
@@ -523,6 +550,52 @@ def _one_plane(sels: list[Selector]) -> str | None:
     """The plane of a set that is exactly one bounding-box plane, else None."""
     planes = planes_of(sels)
     return planes[0] if len(sels) == 1 and planes else None
+
+
+#: the default memory limit: nodes of the largest mesh (about 8 GB on the
+#: matrix route: 109,531 nodes took 1.7 GB, 237,423 nodes 4.6 GB)
+MAX_NODES = 300_000
+#: ``accuracy``: the relative error a user may ask for
+ACCURACY_RANGE = (1e-5, 0.2)
+
+
+def node_memory_gb(nodes: int) -> float:
+    """Peak memory of a matrix-route run of this many C3D10 nodes, GB (the
+    sweep's model fitted to the paper's beam: 1.7 GB at 109,531 nodes)."""
+    return (100.0 + 1.25 * 465.0 * (nodes / 40084) ** 1.28) / 1024
+
+
+def _int(v: int, key: str, path: str, lo: int) -> int:
+    if v < lo:
+        raise ConfigError(f"{path}: [mesh] {key} = {v!r}: an integer >= {lo}")
+    return v
+
+
+def _mesh_keys(me: dict, path: str, geometry: dict) -> dict:
+    """The [mesh] keys of the feature refinement and the accuracy loop."""
+    from ..meshing.refine import AROUND, default_across
+
+    features = _get(me, "features", "mesh", path, bool, True)
+    for key in ("across", "around"):
+        if key in me and not features:
+            raise ConfigError(f"{path}: [mesh] {key} needs features = true (it sets the feature refinement)")
+    across = _int(_get(me, "across", "mesh", path, int, default_across(geometry)), "across", path, 1)
+    around = _int(_get(me, "around", "mesh", path, int, AROUND), "around", path, 3)
+    if across > 100 or around > 1000:
+        raise ConfigError(
+            f"{path}: [mesh] across = {across}, around = {around}: at most 100 across and 1000 around "
+            "(more than any mesh can hold)"
+        )
+    acc = None
+    if "accuracy" in me:
+        acc = _get(me, "accuracy", "mesh", path, float)
+        lo, hi = ACCURACY_RANGE
+        if not lo <= acc <= hi:
+            raise ConfigError(
+                f"{path}: [mesh] accuracy = {acc!r}: a relative error in [{lo:g}, {hi:g}] (0.001 is 0.1 %)"
+            )
+    max_nodes = _int(_get(me, "max_nodes", "mesh", path, int, MAX_NODES), "max_nodes", path, 1000)
+    return {"features": features, "across": across, "around": around, "accuracy": acc, "max_nodes": max_nodes}
 
 
 def part_dims(geometry: dict) -> list[float] | None:

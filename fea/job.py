@@ -110,7 +110,12 @@ def run_link(
     progress: Callable[[str], None] | None = None,
     workdir: Path | str | None = None,
 ) -> LinkResult:
-    """Run (or resume from the cache) one LINK job and fit its compliance."""
+    """Run (or resume from the cache) one LINK job and fit its compliance;
+    with ``[mesh] accuracy``, the refinement loop of :mod:`.accuracy`."""
+    if job.accuracy is not None:
+        from .accuracy import run_to_accuracy
+
+        return run_to_accuracy(job, run_link, cache_dir, route, progress, workdir)
     cache_dir = Path(cache_dir) if cache_dir else None
     if cache_dir:
         cache_dir.mkdir(parents=True, exist_ok=True)

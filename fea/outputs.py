@@ -20,6 +20,18 @@ from .solve import FeaSolution
 __all__ = ["LinkResult"]
 
 
+def _plain(d: object) -> object:
+    """A JSON-ready copy: no NaN or Infinity (None instead), numpy scalars as floats."""
+    if isinstance(d, dict):
+        return {k: _plain(v) for k, v in d.items()}
+    if isinstance(d, (list, tuple)):
+        return [_plain(v) for v in d]
+    if isinstance(d, (bool, int, str)) or d is None:
+        return d
+    v = float(d)
+    return v if np.isfinite(v) else None
+
+
 @dataclass
 class LinkResult:
     job: LinkJob
@@ -32,6 +44,7 @@ class LinkResult:
     timing: dict
     cached: bool
     key: str
+    accuracy: dict | None = None  # [mesh] accuracy: the levels and the Richardson estimate (fea.accuracy)
 
     @property
     def mesh(self) -> Mesh:
@@ -106,6 +119,10 @@ class LinkResult:
             "stiffkit_version": __version__,
             "source": self.job.source,
         }
+        if self.mesh.info.get("features"):
+            out["mesh"]["features"] = _plain(self.mesh.info["features"])
+        if self.accuracy is not None:
+            out["accuracy"] = _plain(self.accuracy)
         if self.closed_form is not None:
             err = self.closed_form_errors()
             out["closed_form"] = {
@@ -176,6 +193,14 @@ class LinkResult:
             f"{' (cached)' if self.cached else ''}; field {job.region}: {self.field_nodes.size} nodes; "
             f"sigma = {self.compliance.sigma:.3e} m\n"
             f"time: mesh {self.timing['mesh']:.1f} s, FEA {self.timing['fea']:.1f} s, fit {self.timing['fit']:.3f} s"
+            + (
+                ""
+                if self.accuracy is None
+                else f"\naccuracy: estimated error {100 * self.accuracy['estimate']:.3g} % "
+                f"({self.accuracy['worst']}; Richardson, p = {self.accuracy['p']:.2f}"
+                f"{' observed' if self.accuracy['p_observed'] else ' assumed'}) after "
+                f"{len(self.accuracy['levels'])} meshes, target {100 * self.accuracy['target']:g} %"
+            )
         )
 
     def write_json(self, path: Path | str) -> Path:

@@ -32,7 +32,7 @@ from ..errors import InputError
 from ..meshing import Mesh, MeshError, face_connectivity, mesh_part
 from .amplitudes import auto_amplitudes, beam_estimate
 from .ccx import ccx_version, displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck, write_static_deck
-from .config import LinkJob, check_extent, check_mesh_size
+from .config import LinkJob, check_extent, check_mesh_size, node_memory_gb
 from .facesets import CadSets, default_reference_point, mesh_set, resolve_job_sets, set_label
 
 __all__ = ["FeaSolution", "resolve_route", "mesh_job", "support_and_load", "solve_fea"]
@@ -59,7 +59,9 @@ def resolve_route(job: LinkJob) -> str:
 
 def mesh_job(job: LinkJob) -> Mesh:
     """The job's part meshed as its [mesh] table says (refined near the
-    reference point and the clamp when ``refine`` is set)."""
+    reference point and the clamp when ``refine`` is set; at the features,
+    the support and the load faces when ``features`` is on); a MeshError
+    above ``max_nodes``."""
     kw = {}
     if job.refine:
         kw = dict(
@@ -68,6 +70,13 @@ def mesh_job(job: LinkJob) -> Mesh:
             refine_points=[[v / job.scale for v in job.reference_point]] if job.reference_point else [],
             refine_planes=[job.support_plane] if job.support_plane else [],
         )
+    if job.features:
+        kw["features"] = {
+            "across": job.across,
+            "around": job.around,
+            "selected": [p for p in (job.support_plane, job.load_plane) if p],
+            "max_nodes": job.max_nodes,
+        }
     mesh = mesh_part(
         job.geometry,
         job.units,
@@ -81,6 +90,12 @@ def mesh_job(job: LinkJob) -> Mesh:
         source=f"{job.source}: [mesh] size",
         **kw,
     )
+    if mesh.n_nodes > job.max_nodes:
+        raise MeshError(
+            f"{job.source}: the mesh has {mesh.n_nodes} nodes, above [mesh] max_nodes = {job.max_nodes} "
+            f"(the memory limit; about {node_memory_gb(mesh.n_nodes):.1f} GB on the matrix route): give a larger "
+            "size, fewer elements across or around, or raise max_nodes"
+        )
     if "step" in job.geometry:  # a CAD part's size is known once it is read
         extent = mesh.info.get("extent") or list((mesh.bbox()[1] - mesh.bbox()[0]) / job.scale)
         check_extent(max(extent) * job.scale, job.units, f"{job.source}: [geometry] step")

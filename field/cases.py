@@ -21,7 +21,7 @@ def read_fields(nodes_path: Path | str, field_paths: Iterable[Path | str]) -> tu
     one DISP.csv with header ux,uy,uz per case, same nodes in the same order."""
     nodes = read_columns(nodes_path, ["x", "y", "z"], "node", "position")
     extent = float(np.ptp(nodes, axis=0).max()) if nodes.shape[0] > 1 else 0.0
-    disp = []
+    disp, names = [], []
     for f in field_paths:
         d = read_columns(f, ["ux", "uy", "uz"], "displacement", "displacement")
         if d.shape != nodes.shape:
@@ -32,7 +32,17 @@ def read_fields(nodes_path: Path | str, field_paths: Iterable[Path | str]) -> tu
                 f"{f}: displacements up to {big:g} m on a field {extent:g} m across: the fit of a small rigid "
                 "motion assumes deflections far below the size of the field (are the files in one unit, SI?)"
             )
+        for k, e in enumerate(disp):
+            if np.array_equal(d, e):
+                same = "the same file" if Path(f).resolve() == Path(names[k]).resolve() else "identical"
+                V.warn(
+                    f"{f}: load case {len(disp) + 1} has the displacement field of case {k + 1} ({names[k]}; "
+                    f"{same}): each case needs its own field, else the compliance's columns repeat and it "
+                    "comes out asymmetric and meaningless (a file given twice?)"
+                )
+                break
         disp.append(d)
+        names.append(str(f))
     return nodes, np.array(disp)
 
 

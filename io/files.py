@@ -6,12 +6,27 @@ same cache entry): the content goes to a unique temporary in the same
 folder, which ``os.replace`` then moves over the target in one step. The
 temporary is removed when the write fails. The target's folder is created
 when missing.
+
+A target that is not a regular file is never replaced: a character device
+(``/dev/null``, ``/dev/stdout``, ``/dev/full``) or a FIFO is written in
+place (the complete content, once it is ready; a FIFO that no process reads
+is an error, and so is the device's own, e.g. "no space left" for
+``/dev/full``); a block device, a socket or a folder is refused. A symbolic
+link is followed: the file it points to is replaced, the link stays.
+``check_output`` finds the refusals, and a folder that cannot be written,
+before any work is done.
 """
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import json
 import os
+import shutil
+import stat
+import tempfile
+import tomllib
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -26,6 +41,11 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = [
+    "check_output",
+    "check_folder",
+    "check_plots_folder",
+    "model_inputs",
+    "link_inputs",
     "atomic_path",
     "atomic_open",
     "atomic_write_bytes",
@@ -53,27 +73,188 @@ def _named(exc: OSError, path: Path, tmp: Path | None) -> OSError:
     return exc
 
 
+def _kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO"
+    return "not a regular file"
+
+
+def _in_place(mode: int) -> bool:
+    """Targets written in place rather than replaced."""
+    return stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)
+
+
+def _stat(path: Path) -> os.stat_result | None:
+    """The target's status (symbolic links followed), None when missing."""
+    try:
+        return os.stat(path)
+    except FileNotFoundError:
+        return None
+    except NotADirectoryError:
+        return None
+
+
+def check_folder(folder: Path | str, what: str, label: Path | str | None = None) -> Path:
+    """A folder a command will write into, checked before the work: the
+    folder, or its nearest existing ancestor when it is to be created, must
+    be a folder this process can create files in (a file is created there
+    and removed: permissions, a read-only file system). InputError naming
+    ``label`` (the user's path; default the folder) otherwise."""
+    folder = Path(folder)
+    label = folder if label is None else label
+    probe = folder
+    while True:
+        st = _stat(probe)
+        if st is not None or probe == probe.parent:
+            break
+        probe = probe.parent
+    if st is None:
+        raise InputError(f"{what} {label}: no folder to write it in")
+    if not stat.S_ISDIR(st.st_mode):
+        raise InputError(f"{what} {label}: {probe} is a file, not a folder; it cannot hold the output")
+    try:
+        fd, name = tempfile.mkstemp(prefix=".stiffkit-probe-", dir=probe)
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        if exc.errno in (errno.EACCES, errno.EPERM):
+            reason = "permission denied"
+        elif exc.errno == errno.EROFS:
+            reason = "read-only file system"
+        raise InputError(f"{what} {label}: cannot write in the folder {probe} ({reason})") from None
+    os.close(fd)
+    os.unlink(name)
+    return folder
+
+
+def check_output(path: Path | str, what: str) -> Path:
+    """The target of an output, checked before the work (section header):
+    InputError naming ``what`` and ``path`` for a folder, a block device or
+    a socket, or a folder where the file cannot be created. A character
+    device or a FIFO passes (written in place)."""
+    path = Path(path)
+    st = _stat(path)
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        if _in_place(st.st_mode):
+            return path
+        raise InputError(
+            f"{what} {path}: is {_kind(st.st_mode)}; stiffkit writes a regular file there (or a character "
+            f"device or FIFO, in place) and never replaces anything else"
+        )
+    target = Path(os.path.realpath(path))
+    check_folder(target.parent, what, path)
+    return path
+
+
+def check_plots_folder(folder: Path | str | None, what: str) -> Path | None:
+    """A folder of figures (``--plots DIR``), checked before the work: not a
+    file, and a folder files can be created in (it is created when missing)."""
+    if not folder:
+        return None
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"{what} {folder}: a file, not a folder")
+    return check_folder(folder, what)
+
+
+def _referenced(path: Path | str | None, table: str, keys: tuple[str, ...]) -> list[Path]:
+    """``path`` and the files its TOML names in [table] keys (relative to
+    its folder). A file that cannot be read yields only itself: the command
+    reports its error when it reads it."""
+    if not path:
+        return []
+    path = Path(path)
+    out = [path]
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, ValueError):
+        return out
+    sec = doc.get(table)
+    if not isinstance(sec, dict):
+        return out
+    for k in keys:
+        v = sec.get(k)
+        if isinstance(v, str) and v.strip():
+            f = Path(v)
+            out.append(f if f.is_absolute() else path.parent / f)
+    return out
+
+
+def model_inputs(path: Path | str | None) -> list[Path]:
+    """A model TOML and the files it reads ([robot] urdf, nominal_urdf): the
+    inputs no output of a command may overwrite."""
+    return _referenced(path, "robot", ("urdf", "nominal_urdf"))
+
+
+def link_inputs(path: Path | str | None) -> list[Path]:
+    """A LINK.toml and its CAD file ([geometry] step)."""
+    return _referenced(path, "geometry", ("step",))
+
+
+def _write_in_place(src: Path, path: Path) -> None:
+    """The content of ``src`` into the character device or FIFO ``path``
+    (opened without blocking: a FIFO nobody reads is an error)."""
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
+    except OSError as exc:
+        if exc.errno == errno.ENXIO:
+            raise OSError(errno.ENXIO, "a FIFO that no process reads; start its reader first", str(path)) from None
+        raise
+    try:
+        flags = fcntl.fcntl(fd, fcntl.F_GETFL)
+        fcntl.fcntl(fd, fcntl.F_SETFL, flags & ~os.O_NONBLOCK)
+        with open(src, "rb") as fh:
+            while chunk := fh.read(1 << 20):
+                view = memoryview(chunk)
+                while view:
+                    n = os.write(fd, view)
+                    view = view[n:]
+    finally:
+        os.close(fd)
+
+
 @contextmanager
 def atomic_path(path: Path | str) -> Iterator[Path]:
     """Yield the path of a fresh temporary beside ``path``; when the block
     ends without an error the temporary replaces ``path``, otherwise it is
     removed. For writers that want a file name (meshio, numpy). A file
-    error names ``path``, never the temporary."""
+    error names ``path``, never the temporary. A character device or FIFO
+    is written in place, other non-regular targets are refused (module
+    docstring)."""
     path = Path(path)
-    tmp = None
+    tmp = tmpdir = None
+    st = _stat(path)
+    if st is not None and not stat.S_ISREG(st.st_mode) and not _in_place(st.st_mode):
+        check_output(path, "output")
+    in_place = st is not None and _in_place(st.st_mode)
+    # a symbolic link stays; the file it points to is replaced
+    target = Path(os.path.realpath(path)) if path.is_symlink() and not in_place else path
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = _temporary(path)
+        if in_place:
+            tmpdir = Path(tempfile.mkdtemp(prefix="stiffkit-out-"))
+            tmp = tmpdir / f"out.tmp{path.suffix}"
+        else:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            tmp = _temporary(target)
         yield tmp
-        os.replace(tmp, path)
+        if in_place:
+            _write_in_place(tmp, path)
+        else:
+            os.replace(tmp, target)
     except OSError as exc:
-        if tmp is not None:
-            tmp.unlink(missing_ok=True)
         raise _named(exc, path, tmp) from None
-    except BaseException:
+    finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)
-        raise
+        if tmpdir is not None:
+            shutil.rmtree(tmpdir, ignore_errors=True)
 
 
 @contextmanager

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import re
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -30,6 +31,7 @@ import numpy as np
 from ..errors import InputError, PlausibilityWarning, StiffkitError
 
 __all__ = [
+    "shown",
     "Quantity",
     "QUANTITIES",
     "quantity",
@@ -137,6 +139,16 @@ def _range_text(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool
     if lo is not None:
         return f"{'>' if lo_open else '>='} {_fmt(lo)}"
     return f"{'<' if hi_open else '<='} {_fmt(hi)}"
+
+
+_PLAIN = re.compile(r"[A-Za-z0-9_.+\-/]+")
+
+
+def shown(v: object) -> str:
+    """A user's word as a message shows it: as it is when it is a plain name
+    (letters, digits, _ . + - /), else quoted with escapes (repr), so that a
+    newline or a control character never breaks a one-line message."""
+    return v if isinstance(v, str) and _PLAIN.fullmatch(v) else repr(v)
 
 
 def warn(message: str, stacklevel: int = 3, key: object = None) -> None:
@@ -406,7 +418,8 @@ def output_path(
 ) -> Path:
     """The path of an output file, checked before any work is done: not a
     folder, not one of the ``inputs`` (overwriting what is being read), and
-    with one of ``suffixes`` when given (e.g. (".png", ".svg", ".pdf"))."""
+    with one of ``suffixes`` when given (e.g. (".png", ".svg", ".pdf")); not
+    a block device or socket, and its folder writable (io.files.check_output)."""
     p = Path(path)
     if str(path).strip() == "":
         raise InputError(f"{what}: empty file name")
@@ -425,7 +438,9 @@ def output_path(
             same = False
         if same or p.resolve() == s.resolve():
             raise InputError(f"{what} {p}: is an input file of this command; choose another output name")
-    return p
+    from .files import check_output  # io.files imports this module
+
+    return check_output(p, what)
 
 
 def distinct_outputs(items: dict) -> None:

@@ -25,6 +25,14 @@ import numpy as np
 from ..errors import InputError, PlausibilityWarning
 from .faces import CadFace, distances, faces_of_model, groups, surface_triangles
 from .mesh import PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
+from .refine import (
+    estimate_nodes,
+    feature_fields,
+    plane_surfaces,
+    prism_across_factor,
+    prism_mesh,
+    set_background,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -133,10 +141,13 @@ def _add_geometry(gmsh: ModuleType, geometry: dict, units: str) -> None:
         )
 
 
-def _refinement(gmsh: ModuleType, size: float, refine: float, radius: float, points: list, planes: list) -> None:
+def _refinement(
+    gmsh: ModuleType, size: float, refine: float, radius: float, points: list, planes: list, extra: tuple = ()
+) -> None:
     """Background size field: `refine * size` near the given points and
-    axis-aligned planes ((axis, value)), growing to `size` at `radius`."""
-    fields = []
+    axis-aligned planes ((axis, value)), growing to `size` at `radius`;
+    ``extra``: (field ids, their smallest size) of the features' fields."""
+    fields = list(extra[0]) if extra else []
     for expr in [f"Sqrt((x-({p[0]}))^2+(y-({p[1]}))^2+(z-({p[2]}))^2)" for p in points] + [
         f"Fabs({'xyz'[a]}-({v}))" for a, v in planes
     ]:
@@ -155,7 +166,7 @@ def _refinement(gmsh: ModuleType, size: float, refine: float, radius: float, poi
         gmsh.model.mesh.field.setAsBackgroundMesh(m)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeMin", refine * size)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", min(refine * size, extra[1] if extra else size))
 
 
 def _structured_box(gmsh: ModuleType, size: float, across_factor: float) -> None:
@@ -196,6 +207,7 @@ def mesh_part(
     structured: bool = False,
     across_factor: float = 1.0,
     source: str | None = None,
+    features: dict | None = None,
 ) -> Mesh:
     """Mesh one solid with quadratic (order 2, C3D10) or linear (order 1,
     C3D4) tetrahedra of about ``size`` (geometry units).
@@ -213,6 +225,10 @@ def mesh_part(
     a transfinite mesh, hex cells of ``size`` along the longest side and
     ``across_factor * size`` across the section, each split into six tets.
     ``source`` names the job in the messages about the size (e.g. the LINK.toml).
+    ``features`` (``across``, ``around``, ``selected``: bounding-box planes,
+    ``max_nodes``): size fields that resolve holes, fillets, thin walls and
+    the selected faces (:mod:`.refine`); a built-in box gets a structured
+    mesh with ``across`` elements over its section instead.
     """
     if optimize not in ("none", "netgen"):
         raise InputError(f"mesh.optimize = {optimize!r}: none or netgen")
@@ -257,6 +273,14 @@ def mesh_part(
         gmsh.option.setNumber("Mesh.MeshSizeMin", size if not refine else refine * size)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
         gmsh.option.setNumber("Mesh.OptimizeNetgen", 1 if optimize == "netgen" else 0)
+        extra: tuple = ()
+        prism = bool(features) and _prismatic(geometry, mesher, refine, optimize, structured)
+        if prism:
+            structured, across_factor = True, prism_across_factor(geometry["size"], size, features["across"])
+        elif features:
+            extra = _feature_fields(gmsh, size, order, features, where)
+            if not refine:
+                set_background(gmsh, *extra[:2])
         if refine:
             if not 0 < refine < 1:
                 raise InputError(f"mesh.refine = {refine!r}: a size factor in (0, 1)")
@@ -265,11 +289,16 @@ def mesh_part(
             for name in refine_planes or []:
                 axis = "xyz".index(name[0])
                 planes.append((axis, lo_hi[axis] if name.endswith("min") else lo_hi[axis + 3]))
-            _refinement(gmsh, size, refine, refine_radius or 4 * size, refine_points or [], planes)
-        if structured:
+            _refinement(gmsh, size, refine, refine_radius or 4 * size, refine_points or [], planes, extra[:2])
+        if structured and not prism:
             _structured_box(gmsh, size, across_factor)
         where = geometry.get("step", geometry.get("shape"))
-        if mesher == "gmsh":
+        if prism:
+            L, b, h = geometry["size"]  # exact (OCC pads its bounding box)
+            mesh = prism_mesh(
+                np.array([0.0, -b / 2, -h / 2]), np.array([L, b / 2, h / 2]), size, across_factor, order, scale
+            )
+        elif mesher == "gmsh":
             gmsh.option.setNumber("Mesh.ElementOrder", order)
             try:
                 gmsh.model.mesh.generate(3)
@@ -293,6 +322,10 @@ def mesh_part(
     mesh.size_m = size * scale
     mesh.mesher = mesher
     mesh.info["extent"] = [float(e) for e in extent]
+    if extra:
+        mesh.info["features"] = extra[2]
+    elif features:
+        mesh.info["features"] = {"prism": True, "across": features["across"]}
     if structured:
         mesh.info["structured"] = True
         mesh.info["across_factor"] = across_factor
@@ -344,6 +377,29 @@ def cad_faces(
     finally:
         gmsh.finalize()
     return faces, named, dist, box
+
+
+def _prismatic(geometry: dict, mesher: str, refine: float | None, optimize: str, structured: bool) -> bool:
+    """A built-in box meshed by Gmsh without other size controls: structured."""
+    return geometry.get("shape") == "box" and mesher == "gmsh" and not refine and optimize == "none" and not structured
+
+
+def _feature_fields(gmsh: ModuleType, size: float, order: int, features: dict, where: str) -> tuple:
+    """(field ids, smallest size, summary) of the features' size fields; a
+    MeshError before meshing when they would need more than ``max_nodes``."""
+    selected = sorted({t for p in features.get("selected", ()) for t in plane_surfaces(gmsh, p)})
+    fields, info = feature_fields(gmsh, size, features["across"], features["around"], selected)
+    est = estimate_nodes(info, size, order)
+    info["nodes_estimate"] = est
+    limit = features.get("max_nodes")
+    if limit and est > limit:
+        raise MeshError(
+            f"{where}: resolving the part's features (thinnest wall {info['thinnest_wall']:.4g}, "
+            f"{info['across']} elements across; {info['around']} around each hole; smallest size "
+            f"{info['smallest_size']:.3g}) needs about {est:.3g} nodes, above [mesh] max_nodes = {limit:g}: "
+            "give a larger size, fewer elements across or around, or raise max_nodes"
+        )
+    return fields, info["smallest_size"], info
 
 
 def _collect_gmsh(gmsh: ModuleType, order: int, scale: float) -> Mesh:

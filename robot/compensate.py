@@ -42,9 +42,6 @@ Two kinds of model file:
 
 from __future__ import annotations
 
-import csv
-import io
-import math
 import time
 import warnings
 from collections.abc import Sequence
@@ -57,8 +54,9 @@ from numpy.typing import ArrayLike
 from .._core import tree as core
 from ..errors import InputError, StiffkitWarning
 from ..io import validate as V
-from ..io.files import atomic_write_text
-from ..io.tables import Table, read_table, read_toml
+from ..io.files import model_inputs
+from ..io.tables import read_toml
+from .compensate_files import ADDED_COLUMNS, WRENCH, Targets, commands_text, read_targets, write_commands
 from .model import LOAD_NONLINEAR, SPRING_BASE, SPRING_FRAME, SPRING_TOOL, Model, load_model
 from .tree import Tree, load_tree
 from .tree_model import LAW_DEADZONE, TreeModel, load_tree_model, tree_model_from_tables
@@ -71,14 +69,12 @@ __all__ = [
     "load_compensation_model",
     "read_targets",
     "write_commands",
+    "commands_text",
     "compensate",
     "ADDED_COLUMNS",
     "WRENCH",
 ]
 
-WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"]
-#: columns COMMANDS.csv adds to the input's
-ADDED_COLUMNS = ["residual_position_m", "residual_rotation_rad", "converged", "mode"]
 #: Newton tolerances: position (m), rotation (rad), equilibrium (m of point motion)
 PTOL, RTOL, ETOL = 1e-10, 1e-10, 1e-11
 #: most Newton steps per row
@@ -86,6 +82,8 @@ MAXIT = 50
 #: posture-dependent compliances (relative models): solves at most, and the
 #: motion of q' (rad) below which the compliance at q' is taken as settled
 PASSES, PASS_TOL = 8, 1e-11
+#: rows per call of the core: an interrupt waits for one batch at most (~0.05-0.2 s)
+BATCH = 128
 #: kinds of a relative model whose joint compliance depends on the joint angle
 VARYING = ("joint_profile", "gravity_compensator")
 
@@ -175,9 +173,7 @@ class CompensationModel:
         t0 = time.perf_counter()
         names = sorted(set(frames))
         fidx = np.array([names.index(f) for f in frames])
-        # targets: the nominal model (rigid URDF) at the commands
         nom_vj = np.array([self.nominal.vj_of_link[f] for f in names], np.int32)[fidx]
-        P = core.frame_jacobian(0, self.nominal.arrays, self.nominal.theta0, nom_vj, Q, None, 0, ETOL)
         vj = np.array([self.model.vj_of_link[f] for f in names], np.int32)[fidx]
         lvj = vj if self.load_at is None else np.full(n, self.model.vj_of_link[self.load_at], np.int32)
         full6 = np.array([self.full6(f) for f in names], bool)[fidx]
@@ -190,10 +186,18 @@ class CompensationModel:
             full6=full6,
             frames=frames,
         )
-        for mode in (True, False):
-            rows = np.flatnonzero(full6 == mode)
-            if rows.size:
-                self._solve(rows, Q, P["R"], P["p"], vj, lvj, wrench, mode, out)
+        # batches of rows: the time of a row does not grow with their number,
+        # and Ctrl-C (SIGTERM) takes effect between two core calls
+        R, p = np.empty((n, 3, 3)), np.empty((n, 3))
+        for lo in range(0, n, BATCH):
+            batch = np.arange(lo, min(n, lo + BATCH))
+            # targets: the nominal model (rigid URDF) at the commands
+            P = core.frame_jacobian(0, self.nominal.arrays, self.nominal.theta0, nom_vj[batch], Q[batch], None, 0, ETOL)
+            R[batch], p[batch] = P["R"], P["p"]
+            for mode in (True, False):
+                rows = batch[full6[batch] == mode]
+                if rows.size:
+                    self._solve(rows, Q, R, p, vj, lvj, wrench, mode, out)
         out.seconds = time.perf_counter() - t0
         return out
 
@@ -447,113 +451,6 @@ def load_compensation_model(path: str | Path) -> CompensationModel:
     return _absolute(path) if kind == "absolute" else _relative(path)
 
 
-# ---------------------------------------------------------------------------
-# files
-
-
-@dataclass
-class Targets:
-    """A targets file: its table, the joint columns (q order), the commands
-    Q (n, dof), each row's frame and wrench (n, 6) or None."""
-
-    table: Table
-    jcols: list[str]
-    Q: np.ndarray
-    frames: list[str]
-    wrench: np.ndarray | None
-
-
-def read_targets(path: str | Path, cm: CompensationModel, frame: str | None = None) -> Targets:
-    """Read TARGETS.csv (docs/calibration.md 6.5) for the model ``cm``:
-    joint columns named as the actuated joints (or q1..qN), optional
-    ``frame`` and ``fx fy fz mx my mz`` (all or none). ``frame`` (the
-    --frame option) names the frame of every row of a file without a frame
-    column."""
-    path = Path(path)
-    t = read_table(path, "targets")
-    head = t.header
-    for h in head:
-        if h in cm.mimics:
-            raise InputError(
-                f"{path}, line 1: column {h!r} is a mimic joint (it follows {cm.mimics[h]!r}); "
-                f"give only the actuated joints ({', '.join(cm.joints)})"
-            )
-    qnames = [f"q{k + 1}" for k in range(cm.dof)]
-    if all(j in head for j in cm.joints):
-        jcols = list(cm.joints)
-    elif all(q in head for q in qnames) and not any(j in head for j in cm.joints):
-        jcols = qnames
-    else:
-        missing = [j for j in cm.joints if j not in head]
-        raise InputError(
-            f"{path}, line 1: missing joint column(s) {', '.join(missing)} (a column per actuated joint, "
-            f"{', '.join(cm.joints)}, or q1..q{cm.dof}; header has: {', '.join(head)})"
-        )
-    Q = t.numbers(jcols, "angle")
-    if "frame" in head:
-        if frame is not None:
-            raise InputError(f"--frame {frame}: {path} has a frame column, which names each row's frame; give one")
-        frames = []
-        for name, line in zip(t.text("frame"), t.lines):
-            if not name:
-                raise InputError(f"{path}, line {line}: field 'frame' is empty")
-            frames.append(cm.check_frame(name, f"{path}, line {line}"))
-    else:
-        if frame is None:
-            frame = cm.default_frame
-        if frame is None:
-            raise InputError(
-                f"{path}: no 'frame' column and the model has no single tool frame; add a frame column or give "
-                f"--frame (frames: {', '.join(cm.frames)})"
-            )
-        frames = [cm.check_frame(frame, "--frame")] * len(t)
-    have = [c for c in WRENCH if c in head]
-    wrench = None
-    if have and len(have) != 6:
-        missing = [c for c in WRENCH if c not in head]
-        raise InputError(
-            f"{path}, line 1: payload columns must be all of {' '.join(WRENCH)} or none; missing {', '.join(missing)}"
-        )
-    if have:
-        wrench = np.hstack([t.numbers(WRENCH[:3], "force"), t.numbers(WRENCH[3:], "moment")])
-    return Targets(t, jcols, Q, frames, wrench)
-
-
-def _num(v: float) -> str:
-    return repr(float(v)) if math.isfinite(v) else ""
-
-
-def commands_text(targets: Targets, res: Compensation) -> str:
-    """COMMANDS.csv: the input's columns, joint columns replaced by q', and
-    ADDED_COLUMNS (replaced in place when the input has them already)."""
-    t = targets.table
-    head = list(t.header) + [c for c in ADDED_COLUMNS if c not in t.header]
-    jpos = [head.index(c) for c in targets.jcols]
-    apos = [head.index(c) for c in ADDED_COLUMNS]
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(head)
-    for i, row in enumerate(t.rows):
-        cells = list(row) + [""] * (len(head) - len(row))
-        for k, c in enumerate(jpos):
-            cells[c] = _num(res.q[i, k])
-        added = [
-            _num(res.resp[i]),
-            _num(res.resr[i]),
-            "1" if res.converged[i] else "0",
-            "pose" if res.full6[i] else "position",
-        ]
-        for c, v in zip(apos, added):
-            cells[c] = v
-        w.writerow(cells)
-    return buf.getvalue()
-
-
-def write_commands(path: str | Path, targets: Targets, res: Compensation) -> Path:
-    """Write COMMANDS.csv atomically (commands_text)."""
-    return atomic_write_text(path, commands_text(targets, res))
-
-
 @dataclass
 class CompensationReport:
     """What ``stiffkit compensate`` did: the model, the targets, the result."""
@@ -604,6 +501,16 @@ class CompensationReport:
         ]
 
 
+def _has_values(cm: CompensationModel) -> bool:
+    """Whether the model holds a value other than 0 (beyond the tracker and
+    markers): else it is the nominal robot and compensates nothing."""
+    if cm.source is not None:
+        return any(t.value is not None and np.any(np.asarray(t.value) != 0) for t in cm.source.terms)
+    m = cm.model
+    free = [cm.theta[i] for i, p in enumerate(m.params) if p.kind not in ("tracker", "marker")]
+    return bool(np.any(np.asarray(free) != 0)) or "nominal_urdf" in m.robot_table
+
+
 def compensate(
     model: str | Path, targets: str | Path, out: str | Path | None = None, frame: str | None = None
 ) -> CompensationReport:
@@ -613,10 +520,16 @@ def compensate(
     that do not converge are flagged in the file and given as a warning
     (StiffkitWarning)."""
     if out is not None:
-        out = V.output_path(out, "--out", [model, targets])
+        out = V.output_path(out, "--out", [*model_inputs(model), targets])
     cm = load_compensation_model(model)
     tg = read_targets(targets, cm, frame)
     res = cm.compensate(tg.Q, tg.frames, tg.wrench, check_plausible=False)
+    if np.array_equal(res.q, tg.Q) and not _has_values(cm):
+        raise InputError(
+            f"{cm.path}: the model changes no command: its effects have no identified value other than 0 (or it "
+            f"has none), so the {res.n} command(s) of {tg.table.path} would be the targets unchanged; compensate "
+            "with a fitted model (stiffkit fit --write-model)"
+        )
     rep = CompensationReport(cm, tg, res, None)
     if out is not None:
         rep.out = write_commands(out, tg, res)

@@ -360,7 +360,7 @@ def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
 
 
 def _where(path: Path | str, i: int, table: dict) -> str:
-    return f"{path}: [[effect]] #{i + 1} ({table.get('kind', '?')}" + (
+    return f"{path}: [[effect]] #{i + 1} ({V.shown(table.get('kind', '?'))}" + (
         f", target {table['target']!r})" if "target" in table else ")"
     )
 

@@ -1,12 +1,12 @@
 """Writing model files (docs/calibration.md §2, §5): the [robot] and [measurements]
-tables and [[effect]] tables, with or without values."""
+tables and [[effect]] tables, with or without values, by the one TOML
+writer (stiffkit.io.tomlw)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 
-import numpy as np
-import tomli_w
+from ..io import tomlw
 
 __all__ = ["model_toml", "effects_toml"]
 
@@ -27,19 +27,10 @@ def model_toml(
         meas["sigma_rotation"] = float(sigma_rotation)
     if meas:
         doc["measurements"] = meas
-    return tomli_w.dumps(doc) + effects_toml(effects)
+    return tomlw.dumps(doc) + effects_toml(effects)
 
 
 def effects_toml(effects: Iterable[dict]) -> str:
-    """[[effect]] tables, always in the appendable array-of-tables form."""
-    return "".join("\n[[effect]]\n" + tomli_w.dumps(_plain(e)) for e in effects)
-
-
-def _plain(v: object) -> object:
-    if isinstance(v, dict):
-        return {k: _plain(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return [_plain(x) for x in v]
-    if isinstance(v, (np.floating, np.integer)):
-        return v.item()
-    return v
+    """[[effect]] tables, always in the appendable array-of-tables form
+    (stiffkit.io.tomlw: every number exactly)."""
+    return tomlw.effect_tables(effects)

@@ -1,11 +1,13 @@
 """Kinematic trees read from a URDF: every joint from the base link outwards,
 ``<mimic>`` couplings, fixed joints and the links' inertials.
 
-The URDF is parsed by yourdfpy (docs/calibration.md §1: a maintained library, not by
-hand); this module checks what the library accepts silently (duplicate
-names, a link with two parents, loops, broken references, mimic chains that
-close on themselves, negative or non-finite masses, a zero axis) and names
-the file and the element in every message.
+The URDF is read with xml.etree in one pass (:func:`read_urdf`: linear in
+the file's size; a URDF library building its own objects took 2 ms per
+link, minutes for a 100,000-link file); this module checks what a library
+would accept silently (duplicate names, a link with two parents, loops,
+broken references, mimic chains that close on themselves, negative or
+non-finite masses, a zero or non-unit axis) and names the file and the
+element in every message.
 
 Convention (docs/calibration.md §1): a child frame is ``T_parent * T(origin xyz rpy) *
 Motion(axis, q)``; a mimic joint turns by ``multiplier * q_leader + offset``.
@@ -23,11 +25,12 @@ import numpy as np
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_text
+from .urdf_checks import check_inertials, joint_limit
 
 MOVING = ("revolute", "continuous", "prismatic")
 SUPPORTED = MOVING + ("fixed",)
 
-__all__ = ["TreeJoint", "Inertial", "Tree", "load_tree", "parse_urdf"]
+__all__ = ["TreeJoint", "Inertial", "Tree", "UrdfDoc", "load_tree", "parse_urdf", "read_urdf", "AXIS_TOL"]
 
 
 @dataclass
@@ -43,6 +46,7 @@ class TreeJoint:
     axis: np.ndarray
     mimic: tuple[str, float, float] | None = None  # (leader, multiplier, offset)
     index: int = 0  # position in the URDF file
+    limit: tuple[float, float] | None = None  # <limit lower upper> of a revolute or prismatic joint
 
     @property
     def moving(self) -> bool:
@@ -73,11 +77,16 @@ class Tree:
     def __post_init__(self) -> None:
         self._by_name = {j.name: j for j in self.joints}
         self._by_child = {j.child: j for j in self.joints}
+        self._kids: dict[str, list[TreeJoint]] = {}
+        for j in self.joints:
+            self._kids.setdefault(j.parent, []).append(j)
+        self._link_set = set(self.links)
+        self._actuated = [j.name for j in sorted(self.joints, key=lambda j: j.index) if j.moving and j.mimic is None]
 
     @property
     def actuated(self) -> list[str]:
         """Moving joints that are not mimics, in the order of the URDF file."""
-        return [j.name for j in sorted(self.joints, key=lambda j: j.index) if j.moving and j.mimic is None]
+        return list(self._actuated)
 
     @property
     def total_mass(self) -> float:
@@ -93,7 +102,7 @@ class Tree:
 
     def parent_joint(self, link: str) -> TreeJoint | None:
         """The joint whose child is ``link`` (None for the root)."""
-        if link not in self.links:
+        if link not in self._link_set:
             raise InputError(f"{self.urdf}: {link!r} is not a link below {self.root!r}")
         return self._by_child.get(link)
 
@@ -107,7 +116,8 @@ class Tree:
         return out[::-1]
 
     def children(self, link: str) -> list[TreeJoint]:
-        return [j for j in self.joints if j.parent == link]
+        """The joints whose parent is ``link`` (breadth-first order)."""
+        return list(self._kids.get(link, ()))
 
     def leader(self, name: str) -> tuple[str, float, float]:
         """(actuated joint, multiplier, offset) that drives joint ``name``:
@@ -125,15 +135,113 @@ class Tree:
         return j.name, mult, off
 
 
-def _origin(j: object, path: Path | str = "URDF") -> np.ndarray:
-    T = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise InputError(f"{path}: joint {j.name!r} has a malformed origin")
-    return T
+#: how far from 1 the norm of a joint axis may be to be normalised (with a warning); beyond, an error
+AXIS_TOL = 1e-6
 
 
-#: numeric attributes checked before the library reads them: (element, attribute, count)
-_NUMERIC = (("origin", "xyz", 3), ("origin", "rpy", 3), ("axis", "xyz", 3))
+@dataclass
+class UrdfJoint:
+    """A <joint> as written: origin (4, 4), axis as written (not normalised;
+    None when absent), mimic (leader, multiplier, offset) or None."""
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: np.ndarray
+    axis: np.ndarray | None
+    mimic: tuple[str, float, float] | None
+    limit: tuple[float, float] | None = None  # (lower, upper) of a revolute or prismatic joint
+
+
+@dataclass
+class UrdfLink:
+    """A <link>: its inertial as (mass or None, centre of mass (3,)), or None."""
+
+    name: str
+    inertial: tuple[float | None, np.ndarray] | None
+
+
+@dataclass
+class UrdfDoc:
+    """What stiffkit reads of a URDF: links and joints in file order."""
+
+    path: str
+    links: list[UrdfLink]
+    joints: list[UrdfJoint]
+
+    @property
+    def link_map(self) -> dict[str, UrdfLink]:
+        return {ln.name: ln for ln in self.links}
+
+    @property
+    def roots(self) -> list[str]:
+        """Links that are no joint's child, in file order."""
+        children = {j.child for j in self.joints}
+        return [ln.name for ln in self.links if ln.name not in children]
+
+
+def _bad_numbers(path: Path | str, owner: str, tag: str, attr: str, raw: str, n: int) -> InputError:
+    return InputError(f'{path}: {owner}: <{tag} {attr}="{raw}"> must be {n} finite number(s)')
+
+
+def _parse(raw: str, n: int) -> list[float] | None:
+    try:
+        vals = [float(x) for x in raw.split()]
+    except ValueError:
+        return None
+    return vals if len(vals) == n and all(math.isfinite(v) for v in vals) else None
+
+
+class _Vectors:
+    """Numeric attributes of n numbers gathered while reading and converted
+    all at once (numpy), the element named when one is malformed; absent
+    attributes take ``default``."""
+
+    def __init__(self, n: int, tag: str, attr: str, default: tuple[float, ...]) -> None:
+        self.n, self.tag, self.attr, self.default = n, tag, attr, default
+        self.raw: list[str] = []
+        self.owners: list[str] = []
+
+    def add(self, el: ET.Element | None, owner: str) -> None:
+        raw = el.get(self.attr) if el is not None else None
+        self.raw.append(raw)
+        self.owners.append(owner)
+
+    def values(self, path: Path | str) -> np.ndarray:
+        m = len(self.raw)
+        out = np.empty((m, self.n))
+        given = [k for k, r in enumerate(self.raw) if r is not None]
+        absent = np.ones(m, bool)
+        absent[given] = False
+        out[absent] = self.default
+        if given:
+            tokens = [self.raw[k].split() for k in given]
+            try:
+                if any(len(t) != self.n for t in tokens):
+                    raise ValueError
+                vals = np.array(tokens, dtype=float).reshape(len(given), self.n)
+                if not np.all(np.isfinite(vals)):
+                    raise ValueError
+            except ValueError:  # name the first malformed one
+                for k in given:
+                    if _parse(self.raw[k], self.n) is None:
+                        raise _bad_numbers(path, self.owners[k], self.tag, self.attr, self.raw[k], self.n) from None
+                raise
+            out[given] = vals
+        return out
+
+
+def _check_numbers(root: ET.Element, path: Path | str) -> None:
+    """The origins of visuals and collisions hold finite numbers of the
+    right count (those of joints and inertials are read); the link is named."""
+    for part in ("visual", "collision"):
+        for el in root.iterfind(f"link/{part}/origin"):
+            for attr in ("xyz", "rpy"):
+                raw = el.get(attr)
+                if raw is not None and _parse(raw, 3) is None:
+                    parents = {c: p for p in root.iter() for c in p}  # only on the error path
+                    raise _bad_numbers(path, _owner(el, parents), "origin", attr, raw, 3)
 
 
 def _owner(el: ET.Element, parents: dict[ET.Element, ET.Element]) -> str:
@@ -144,12 +252,51 @@ def _owner(el: ET.Element, parents: dict[ET.Element, ET.Element]) -> str:
     return f"{p.tag} {p.get('name')!r}" if p is not None else "the robot"
 
 
-def check_urdf_text(text: str, path: Path | str) -> None:
-    """What the URDF library would accept silently or explain badly: XML
-    that is not well formed (a truncated file), a root other than <robot>,
-    joints or links without a name, numeric attributes that are not finite
-    numbers of the right count; and a joint origin implausibly far for
-    metres (a URDF in mm) gives a warning."""
+def _scalar(el: ET.Element, attr: str, owner: str, path: Path | str, default: float | None) -> float | None:
+    raw = el.get(attr)
+    if raw is None:
+        return default
+    try:
+        v = float(raw)
+    except ValueError:
+        raise InputError(f'{path}: {owner}: <{el.tag} {attr}="{raw}"> must be a number') from None
+    return v
+
+
+def _rpy_matrices(rpy: np.ndarray) -> np.ndarray:
+    """URDF rotations R = Rz(y) Ry(p) Rx(r) of rpy (n, 3), all at once (n, 3, 3)."""
+    cr, cp, cy = np.cos(rpy).T
+    sr, sp, sy = np.sin(rpy).T
+    R = np.empty((rpy.shape[0], 3, 3))
+    R[:, 0, 0] = cy * cp
+    R[:, 0, 1] = cy * sp * sr - sy * cr
+    R[:, 0, 2] = cy * sp * cr + sy * sr
+    R[:, 1, 0] = sy * cp
+    R[:, 1, 1] = sy * sp * sr + cy * cr
+    R[:, 1, 2] = sy * sp * cr - cy * sr
+    R[:, 2, 0] = -sp
+    R[:, 2, 1] = cp * sr
+    R[:, 2, 2] = cp * cr
+    return R
+
+
+def _transforms(xyz: np.ndarray, rpy: np.ndarray) -> np.ndarray:
+    n = len(xyz)
+    T = np.zeros((n, 4, 4))
+    T[:, 3, 3] = 1.0
+    if n:
+        T[:, :3, :3] = _rpy_matrices(rpy)
+        T[:, :3, 3] = xyz
+    return T
+
+
+def read_urdf(text: str, path: Path | str) -> UrdfDoc:
+    """The links and joints of a URDF document (xml.etree, one pass: linear
+    in the size of the file). Raises InputError naming the file and the
+    element for XML that is not well formed (a truncated file), a root other
+    than <robot>, joints or links without a name, a joint without a type,
+    parent or child, numbers that are not finite numbers of the right count;
+    a joint origin implausibly far for metres (a URDF in mm) gives a warning."""
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
@@ -160,80 +307,168 @@ def check_urdf_text(text: str, path: Path | str) -> None:
         ) from None
     if root.tag != "robot":
         raise InputError(f"{path}: the root element is <{root.tag}>, a URDF's is <robot>")
-    parents = {c: p for p in root.iter() for c in p}
-    for tag in ("joint", "link"):
-        for el in root.iter(tag):
-            if parents.get(el) is root and not (el.get("name") or "").strip():
-                raise InputError(f"{path}: a <{tag}> without a name")
-    far = 0.0
-    for tag, attr, n in _NUMERIC:
-        for el in root.iter(tag):
-            if attr not in el.attrib:
-                continue
-            raw = el.get(attr)
-            try:
-                vals = [float(x) for x in raw.split()]
-            except ValueError:
-                vals = None
-            if vals is None or len(vals) != n or not all(math.isfinite(v) for v in vals):
-                raise InputError(f'{path}: {_owner(el, parents)}: <{tag} {attr}="{raw}"> must be {n} finite number(s)')
-            if tag == "origin" and attr == "xyz":
-                far = max(far, max(abs(v) for v in vals))
+    _check_numbers(root, path)
+    links: list[UrdfLink] = []
+    com = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0))
+    com_rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0))
+    has_inertial = []
+    for el in root.iterfind("link"):
+        name = (el.get("name") or "").strip()
+        if not name:
+            raise InputError(f"{path}: a <link> without a name")
+        ie = el.find("inertial")
+        if ie is None:
+            links.append(UrdfLink(name, None))
+            continue
+        owner = f"link {name!r}"
+        me = ie.find("mass")
+        mass = None if me is None else _scalar(me, "value", owner, path, None)
+        oe = ie.find("origin")
+        com.add(oe, owner)
+        com_rpy.add(oe, owner)
+        has_inertial.append(len(links))
+        links.append(UrdfLink(name, (mass, None)))
+    coms = com.values(path)
+    com_rpy.values(path)
+    for k, i in enumerate(has_inertial):
+        links[i].inertial = (links[i].inertial[0], coms[k])
+    raw = []
+    xyz = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0))
+    rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0))
+    axis = _Vectors(3, "axis", "xyz", (math.nan, math.nan, math.nan))
+    for el in root.iterfind("joint"):
+        name = (el.get("name") or "").strip()
+        if not name:
+            raise InputError(f"{path}: a <joint> without a name")
+        owner = f"joint {name!r}"
+        jtype = el.get("type")
+        if not jtype:
+            raise InputError(f"{path}: {owner} has no type")
+        pe, ce = el.find("parent"), el.find("child")
+        parent = (pe.get("link") or "").strip() if pe is not None else ""
+        child = (ce.get("link") or "").strip() if ce is not None else ""
+        if not parent or not child:
+            raise InputError(f'{path}: {owner} has no <{"parent" if not parent else "child"} link="..."/>')
+        oe = el.find("origin")
+        xyz.add(oe, owner)
+        rpy.add(oe, owner)
+        axis.add(el.find("axis"), owner)
+        mimic = None
+        me = el.find("mimic")
+        if me is not None:
+            lead = (me.get("joint") or "").strip()
+            if not lead:
+                raise InputError(f'{path}: {owner}: <mimic> without joint="..."')
+            mimic = (lead, _scalar(me, "multiplier", owner, path, 1.0), _scalar(me, "offset", owner, path, 0.0))
+        le = el.find("limit")
+        lim = None
+        if le is not None:
+            lim = joint_limit(jtype, _scalar(le, "lower", owner, path, None), _scalar(le, "upper", owner, path, None))
+        raw.append((name, jtype, parent, child, mimic, lim))
+    X, A = xyz.values(path), axis.values(path)
+    T = _transforms(X, rpy.values(path))
+    joints = [
+        UrdfJoint(n, t, p, c, T[k], None if math.isnan(A[k, 0]) else A[k], m, lim)
+        for k, (n, t, p, c, m, lim) in enumerate(raw)
+    ]
+    far = float(np.abs(X).max()) if len(X) else 0.0
     if far > V.QUANTITIES["position"].plausible[1]:
         V.warn(
             f"{path}: a joint origin {far:g} m from its parent frame is implausible for a robot in metres; "
             "a URDF is in m (is it in mm? multiply by 0.001)",
             key=("urdf", str(path)),
         )
+    check_inertials(root, path)
+    return UrdfDoc(str(path), links, joints)
 
 
-def parse_urdf(path: str | Path) -> object:
-    """The yourdfpy model of ``path`` (no meshes, no scene graph), after the
-    checks of :func:`check_urdf_text`."""
-    import yourdfpy  # heavy (trimesh): imported when a URDF is read
+def check_urdf_text(text: str, path: Path | str) -> None:
+    """The checks of :func:`read_urdf` alone (what a URDF library would
+    accept silently or explain badly)."""
+    read_urdf(text, path)
 
+
+def parse_urdf(path: str | Path) -> UrdfDoc:
+    """The links and joints of the URDF file ``path`` (:func:`read_urdf`)."""
     if not isinstance(path, (str, Path)):
         raise InputError(f"a URDF is given by its file name, got {type(path).__name__}")
     path = Path(path)
-    check_urdf_text(read_text(path, "URDF"), path)
-    try:
-        return yourdfpy.URDF.load(
-            str(path),
-            build_scene_graph=False,
-            load_meshes=False,
-            build_collision_scene_graph=False,
-            load_collision_meshes=False,
+    return read_urdf(read_text(path, "URDF"), path)
+
+
+def _axis(j: UrdfJoint, path: Path) -> np.ndarray:
+    """The unit axis of a moving joint: (1, 0, 0) when not written (the URDF
+    default); normalised with a warning when its norm is within AXIS_TOL of
+    1 (exporters round), an error beyond."""
+    if j.axis is None:
+        return np.array([1.0, 0.0, 0.0])
+    n = float(np.linalg.norm(j.axis))
+    if n == 0:
+        raise InputError(f"{path}: joint {j.name!r} has a zero or non-finite axis")
+    if abs(n - 1.0) > AXIS_TOL:
+        raise InputError(
+            f"{path}: joint {j.name!r}: axis {' '.join(f'{v:.12g}' for v in j.axis)} has norm {n:.9g}; "
+            f"a URDF axis is a unit vector (normalised only within {AXIS_TOL:g} of 1)"
         )
-    except Exception as exc:  # the library raises many kinds on malformed XML
-        raise InputError(f"{path}: cannot parse the URDF ({type(exc).__name__}: {exc})") from None
+    if n != 1.0:
+        V.warn(
+            f"{path}: joint {j.name!r}: axis norm {n:.12g} is not 1; normalised",
+            key=("urdf-axis", str(path), j.name),
+        )
+    return j.axis / n
 
 
-def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: object | None = None) -> Tree:
+def _duplicates(names: list[str]) -> list[str]:
+    seen, dup = set(), set()
+    for n in names:
+        (dup if n in seen else seen).add(n)
+    return sorted(dup)
+
+
+def _name_list(names: list[str], most: int = 12) -> str:
+    """Names for a message: all of them, or the first ``most`` and how many more."""
+    if len(names) <= most:
+        return ", ".join(names)
+    return f"{', '.join(names[:most])}, ... ({len(names) - most} more)"
+
+
+#: what to say of a joint type the models do not take
+_UNSUPPORTED = {
+    "floating": "a free (6-dof) joint, as between a world frame and a mobile or humanoid base",
+    "planar": "a 3-dof planar joint",
+}
+
+
+def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | None = None) -> Tree:
     """Read the URDF at ``urdf_path`` and return the tree below ``root``.
 
     Raises InputError naming the file for: unreadable XML, duplicate link or
     joint names, a link that is the child of two joints, joints that form a
     loop, a joint naming a missing link, an unsupported joint type (floating,
-    planar) below the root, a zero or non-finite axis, a mimic joint whose
-    leader is missing, fixed, or part of a mimic loop, and an inertial with a
-    missing, negative or non-finite mass or centre of mass.
+    planar) below the root, a zero axis or one whose norm is not 1 (within
+    AXIS_TOL: normalised with a warning), a mimic joint whose leader is
+    missing, fixed, or part of a mimic loop, and an inertial with a missing,
+    negative or non-finite mass. Links above ``root`` (a ``world`` link and
+    its fixed joint) and trees with other roots are left out. Linear in the
+    number of links.
     """
     path = Path(urdf_path)
-    model = urdf if urdf is not None else parse_urdf(path)
-    robot = model.robot
-    names = [ln.name for ln in robot.links]
-    dup = sorted({n for n in names if names.count(n) > 1})
+    doc = urdf if urdf is not None else parse_urdf(path)
+    names = [ln.name for ln in doc.links]
+    dup = _duplicates(names)
     if dup:
         raise InputError(f"{path}: duplicate link name(s) {', '.join(dup)}")
-    jnames = [j.name for j in robot.joints]
-    dup = sorted({n for n in jnames if jnames.count(n) > 1})
+    dup = _duplicates([j.name for j in doc.joints])
     if dup:
         raise InputError(f"{path}: duplicate joint name(s) {', '.join(dup)}")
     links = set(names)
     if root not in links:
-        raise InputError(f"{path}: base_link {root!r} is not a link of the URDF (links: {', '.join(sorted(links))})")
-    by_child: dict[str, object] = {}
-    for j in robot.joints:
+        roots = doc.roots
+        hint = f"the URDF's root link(s): {_name_list(roots)}" if roots else f"links: {_name_list(names)}"
+        raise InputError(f"{path}: base_link {root!r} is not a link of the URDF ({hint}); set [robot] base_link")
+    by_child: dict[str, UrdfJoint] = {}
+    kids: dict[str, list[UrdfJoint]] = {}
+    for j in doc.joints:
         for end in (j.parent, j.child):
             if end not in links:
                 raise InputError(f"{path}: joint {j.name!r} names the link {end!r}, which the URDF does not define")
@@ -242,24 +477,27 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: object | Non
                 f"{path}: link {j.child!r} is the child of two joints ({by_child[j.child].name}, {j.name}): not a tree"
             )
         by_child[j.child] = j
-    # loops: walking up from any link must end at a link without a parent
-    for start in links:
-        seen, link = set(), start
-        while link in by_child:
-            if link in seen:
-                raise InputError(f"{path}: the joints form a loop at link {link!r}")
-            seen.add(link)
-            link = by_child[link].parent
-    # breadth-first from the root: parents before children
-    position = {id(j): k for k, j in enumerate(robot.joints)}
-    order, out_links, frontier = [], [root], [root]
-    kids: dict[str, list] = {}
-    for j in robot.joints:
         kids.setdefault(j.parent, []).append(j)
+    # loops: every link has at most one parent, so walking up either ends at a
+    # link without a parent or closes a loop; each link is walked once
+    state: dict[str, int] = {}  # 1: on the current walk, 2: known to reach a root
+    for start in names:
+        walk, link = [], start
+        while state.get(link, 0) == 0 and link in by_child:
+            state[link] = 1
+            walk.append(link)
+            link = by_child[link].parent
+        if state.get(link, 0) == 1:
+            raise InputError(f"{path}: the joints form a loop at link {link!r}")
+        for ln in walk:
+            state[ln] = 2
+    # breadth-first from the root: parents before children
+    position = {j.name: k for k, j in enumerate(doc.joints)}
+    order, out_links, frontier = [], [root], [root]
     while frontier:
         nxt = []
         for link in frontier:
-            for j in kids.get(link, []):
+            for j in kids.get(link, ()):
                 order.append(j)
                 out_links.append(j.child)
                 nxt.append(j.child)
@@ -267,41 +505,38 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: object | Non
     joints = []
     for j in order:
         if j.type not in SUPPORTED:
-            raise InputError(
-                f"{path}: joint {j.name!r} is {j.type!r}; supported joint types are {', '.join(SUPPORTED)}"
+            what = _UNSUPPORTED.get(j.type)
+            hint = (
+                f" (when it joins the world to the robot, declare [robot] base_link = {j.child!r}: "
+                "the base is then fixed and the tracker measures from it)"
+                if what
+                else ""
             )
-        T = _origin(j, path)
-        if j.type in MOVING:
-            ax = np.asarray(j.axis if j.axis is not None else [1.0, 0.0, 0.0], dtype=float)
-            n = float(np.linalg.norm(ax))
-            if not math.isfinite(n) or n == 0:
-                raise InputError(f"{path}: joint {j.name!r} has a zero or non-finite axis")
-            ax = ax / n
-        else:
-            ax = np.zeros(3)
+            raise InputError(
+                f"{path}: joint {j.name!r} ({j.parent} -> {j.child}) is {j.type!r}"
+                f"{f', {what}' if what else ''}; supported joint types are {', '.join(SUPPORTED)} "
+                f"below the base link {root!r}{hint}"
+            )
+        ax = _axis(j, path) if j.type in MOVING else np.zeros(3)
         mimic = None
         if j.mimic is not None and j.type in MOVING:
-            m = 1.0 if j.mimic.multiplier is None else float(j.mimic.multiplier)
-            o = 0.0 if j.mimic.offset is None else float(j.mimic.offset)
+            lead, m, o = j.mimic
             if not (math.isfinite(m) and math.isfinite(o)):
                 raise InputError(f"{path}: mimic of joint {j.name!r} has a non-finite multiplier or offset")
-            mimic = (j.mimic.joint, m, o)
-        joints.append(TreeJoint(j.name, j.type, j.parent, j.child, T, ax, mimic, position[id(j)]))
+            mimic = (lead, m, o)
+        joints.append(TreeJoint(j.name, j.type, j.parent, j.child, j.origin, ax, mimic, position[j.name], j.limit))
+    below = set(out_links)
     inertials = {}
-    for ln in robot.links:
-        if ln.name not in out_links or ln.inertial is None:
+    for ln in doc.links:
+        if ln.name not in below or ln.inertial is None:
             continue
-        mass = ln.inertial.mass
+        mass, com = ln.inertial
         if mass is None:
             raise InputError(f"{path}: link {ln.name!r} has an <inertial> without a <mass>")
-        mass = float(mass)
         if not math.isfinite(mass) or mass < 0:
             raise InputError(f"{path}: link {ln.name!r} has mass {mass}; a mass must be finite and >= 0 kg")
-        T = np.eye(4) if ln.inertial.origin is None else np.asarray(ln.inertial.origin, dtype=float)
-        if not np.all(np.isfinite(T)):
-            raise InputError(f"{path}: link {ln.name!r} has a non-finite centre of mass")
         if mass > 0:
-            inertials[ln.name] = Inertial(mass, T[:3, 3].copy())
+            inertials[ln.name] = Inertial(mass, com.copy())
     tree = Tree(str(path), root, joints, out_links, inertials)
     for j in joints:
         if j.mimic is None:

@@ -55,6 +55,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from ..io.tables import read_toml
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
+from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
 from .tree import Tree, load_tree
 
 __all__ = [
@@ -83,7 +84,7 @@ ABS_KINDS = (
     "joint_deadzone",
     "link",
     "base",
-)
+) + BODY_KINDS  # the gravity parameters (model_bodies): last, so the reduction keeps compliances first
 GRAVITY = (0.0, 0.0, -9.81)
 #: default tau0 of joint_deadzone: this fraction of the RMS gravity torque about the joint
 DEADZONE_TAU0_FRACTION = 0.05
@@ -101,6 +102,7 @@ KEYS = {
     "joint_deadzone": {"target", "value", "tau0"},
     "link": {"target", "template", "axis", "value", "rpy"},
     "base": {"template", "axis", "value", "rpy"},
+    **BODY_KEYS,
 }
 FRAME_NAMES = ("dx", "dy", "dz", "drx", "dry", "drz")
 LAW_LINEAR, LAW_CUBIC, LAW_DEADZONE, LAW_SPRING6 = 1, 2, 3, 4
@@ -193,6 +195,8 @@ class TreeModel:
     vj_of_joint: dict[str, int] = field(default_factory=dict)
     #: (block index 0-based) -> (kind, target) for reports
     blocks: list[tuple[str, str]] = field(default_factory=list)
+    #: parameter name -> sigma of its prior toward the URDF (model_bodies)
+    priors: dict[str, float] = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
@@ -596,7 +600,8 @@ def tree_model_from_tables(
             i, table, w = links[j.child]
             vj_of_link[j.child] = b.spring6(cur.vj, "link", j.child, i, table, w, 0)
 
-    # arrays for the core (1-based indices; at least one entry per array)
+    # arrays for the core (1-based indices); a list with no entry is an
+    # array of size 0 (the core's interface takes empty lists: no placeholder)
     nv = len(b.v)
     if nv == 0:
         raise InputError(f"{where}: the tree below {tree.root!r} has no joint")
@@ -610,17 +615,14 @@ def tree_model_from_tables(
         "qcoef": np.array([v["qcoef"] for v in b.v], float),
         "qconst": np.array([v["qconst"] for v in b.v], float),
     }
-    g = b.g or [(1, 0, 0.0)]
-    arrays["gvj"] = np.array([e[0] for e in g], np.int32)
-    arrays["gpar"] = np.array([e[1] for e in g], np.int32)
-    arrays["gcoef"] = np.array([e[2] for e in g], float)
-    if not b.g:  # no geometric entry: one inert entry (coefficient 0 of parameter 1)
-        arrays["gpar"][:] = 1
+    arrays["gvj"] = np.array([e[0] for e in b.g], np.int32)
+    arrays["gpar"] = np.array([e[1] for e in b.g], np.int32)
+    arrays["gcoef"] = np.array([e[2] for e in b.g], float)
     nk = len(b.k)
-    kvj = np.zeros((6, max(nk, 1)), np.int32, order="F")
-    kpar = np.zeros((21, max(nk, 1)), np.int32, order="F")
-    ktype = np.zeros(max(nk, 1), np.int32)
-    kw0 = np.ones(max(nk, 1))
+    kvj = np.zeros((6, nk), np.int32, order="F")
+    kpar = np.zeros((21, nk), np.int32, order="F")
+    ktype = np.zeros(nk, np.int32)
+    kw0 = np.ones(nk)
     ne = 0
     for k, (law, vjs, kp, w0) in enumerate(b.k):
         ktype[k] = law
@@ -628,15 +630,8 @@ def tree_model_from_tables(
         kpar[:, k] = kp
         kw0[k] = w0
         ne += len(vjs)
-    if nk == 0:
-        ktype, kvj, kpar, kw0 = (
-            np.zeros(0, np.int32),
-            np.zeros((6, 0), np.int32, order="F"),
-            np.zeros((21, 0), np.int32, order="F"),
-            np.zeros(0),
-        )
     arrays.update(ktype=ktype, kvj=kvj, kpar=kpar, kw0=kw0)
-    bodies = [(vj_of_link[ln], ine.mass, ine.com) for ln, ine in tree.inertials.items() if ln in vj_of_link]
+    bodies = [(vj_of_link[ln], ine.mass, ine.com, ln) for ln, ine in tree.inertials.items() if ln in vj_of_link]
     arrays["bvj"] = np.array([x[0] for x in bodies], np.int32)
     arrays["bmass"] = np.array([x[1] for x in bodies], float)
     arrays["bcom"] = np.asfortranarray(np.array([x[2] for x in bodies], float).reshape(-1, 3).T)
@@ -648,6 +643,7 @@ def tree_model_from_tables(
     arrays["rref"] = np.asfortranarray(rref)
     arrays["mvj"] = np.array([vj_of_link[f] for f in frames], np.int32)
     arrays["mpar"] = np.asfortranarray(np.array(mpar_list, np.int32).T)
+    arrays["bpar"], priors = body_entries(b, tree, by_kind, [x[3] for x in bodies], where)
     return TreeModel(
         tree=tree,
         effects=list(effects),
@@ -661,6 +657,7 @@ def tree_model_from_tables(
         sigma_position=sigma_position,
         vj_of_joint=vj_of_joint,
         blocks=b.blocks,
+        priors=priors,
     )
 
 

@@ -1,4 +1,4 @@
-"""A serial chain read from a URDF (parsed by yourdfpy), as the arrays the core wants.
+"""A serial chain read from a URDF (robot/tree.py reads it), as the arrays the core wants.
 
 Convention (docs/calibration.md §1): a child frame is ``T_parent * T(origin xyz rpy) *
 Rot(axis, q)``. Fixed joints are kept in the chain (they carry the frames
@@ -17,7 +17,7 @@ import numpy.typing as npt
 from .._core import calib as core
 from ..errors import InputError
 from ..field.synthetic import rot_exp
-from .tree import load_tree, parse_urdf
+from .tree import _name_list, load_tree, parse_urdf
 
 ACTUATED = ("revolute", "continuous")
 
@@ -51,6 +51,7 @@ class Chain:
     urdf: str = ""
     trot: np.ndarray = field(default_factory=lambda: np.eye(3))
     tpos: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    limits: list = field(default_factory=list)  # (lower, upper) or None per actuated joint (q order)
 
     @property
     def dof(self) -> int:
@@ -179,7 +180,7 @@ def load_chain(urdf_path: str | Path, base_link: str = "base_link", tool_frame: 
     links = set(urdf.link_map)
     for name, what in ((base_link, "base_link"), (tool_frame, "tool_frame")):
         if name not in links:
-            raise InputError(f"{path}: {what} {name!r} is not a link of the URDF (links: {', '.join(sorted(links))})")
+            raise InputError(f"{path}: {what} {name!r} is not a link of the URDF (links: {_name_list(sorted(links))})")
     tree = load_tree(path, base_link, urdf=urdf)
     if tool_frame not in tree.links:
         raise InputError(f"{path}: {tool_frame!r} is not connected to {base_link!r} by a chain of joints")
@@ -214,6 +215,7 @@ def load_chain(urdf_path: str | Path, base_link: str = "base_link", tool_frame: 
         base_link=base_link,
         tool_frame=tool_frame,
         urdf=str(path),
+        limits=[j.limit for j in joints if j.type in ACTUATED],
     )
 
 

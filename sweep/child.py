@@ -26,6 +26,7 @@ import signal
 import sys
 import time
 import traceback
+import warnings
 from pathlib import Path
 from types import FrameType
 
@@ -86,7 +87,7 @@ def _write_json(path: str, obj: dict) -> None:
 
 def run_spec(spec_path: str, result_path: str) -> int:
     """Run one pickled spec; write its result (a dict of table fields) as JSON."""
-    from ..errors import StiffkitError
+    from ..errors import StiffkitError, StiffkitWarning
     from ..fea.job import run_link
     from .table import failed_fields, run_fields
 
@@ -103,11 +104,17 @@ def run_spec(spec_path: str, result_path: str) -> int:
     for s in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
         signal.signal(s, stop)
     t0 = time.perf_counter()
+    said: list[str] = []
     try:
         with open(spec_path, "rb") as fh:
             spec = pickle.load(fh)
         where["cache"] = spec["cache_dir"]
-        res = run_link(spec["job"], cache_dir=spec["cache_dir"], workdir=spec.get("workdir"))
+        # the run's warnings (an unreadable cache entry solved again) travel
+        # with its result: the sweep gives them on the user's terminal
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", StiffkitWarning)
+            res = run_link(spec["job"], cache_dir=spec["cache_dir"], workdir=spec.get("workdir"))
+        said = [str(w.message) for w in caught if issubclass(w.category, StiffkitWarning)]
         out = run_fields(res)
     except StiffkitError as exc:
         out = failed_fields(str(exc))
@@ -118,6 +125,8 @@ def run_spec(spec_path: str, result_path: str) -> int:
         where = f" at {os.path.basename(tb[-1].filename)}:{tb[-1].lineno}" if tb else ""
         out = failed_fields(f"{type(exc).__name__}: {exc}{where}")
     out["child_s"] = time.perf_counter() - t0
+    if said:
+        out["warnings"] = said
     _write_json(result_path, out)
     return 0
 

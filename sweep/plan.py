@@ -62,12 +62,20 @@ SCHEMA: dict[str, dict[str, str]] = {
         "optimize": "str",
         "structured": "bool",
         "across_factor": "float",
+        "features": "bool",
+        "across": "int",
+        "around": "int",
+        "accuracy": "float",
+        "max_nodes": "int",
     },
     "fit": {"method": "str", "trim": "float", "confidence": "float", "symmetrize": "bool", "pooled": "bool"},
     "solver": {"route": "str", "timeout": "float"},
     "approximation": {"section": "str", "dims": "list", "length": "float"},
 }
 #: keys computed from others (not in LINK.toml): name -> (kind, shapes it applies to)
+#: most runs in one sweep (a plan, or a --dry-run listing, of more is refused)
+MAX_RUNS = 10_000
+
 DERIVED = {("geometry", "wall"): ("float", ("tube",))}
 #: geometry keys that a shape reads (the others would be ignored silently)
 SHAPE_KEYS = {
@@ -456,6 +464,14 @@ def make_plan(link: Path | str | dict, axes: list[Axis], zipped: bool = False) -
             if clash:
                 raise PlanError(f"--vary {k.text}: {clash[0]} is varied already (each key in one --vary)")
             seen[(k.section, name, k.index)] = k.text
+    # at most MAX_RUNS runs, checked before any run is built (or listed)
+    count = max(len(a) for a in axes) if zipped else math.prod(len(a) for a in axes)
+    if count > MAX_RUNS:
+        sizes = (", " if zipped else " x ").join(f"{len(a)} ({a.keys[0].text})" for a in axes)
+        raise PlanError(
+            f"--vary: {count} runs ({'zipped: ' if zipped else ''}{sizes}); a sweep has at most {MAX_RUNS} runs "
+            f"(--dry-run too): vary fewer values, or split it into several sweeps (they share the cache)"
+        )
     # each value with every other axis at its first value: an error then names
     # that key and value (when that reference run itself is valid)
     first = [(k, a.values[j][0]) for a in axes for j, k in enumerate(a.keys)]
@@ -481,6 +497,16 @@ def make_plan(link: Path | str | dict, axes: list[Axis], zipped: bool = False) -
                 + ", ".join(f"{a.keys[0].text}: {len(a)}" for a in axes)
                 + ")"
             )
+        count = len(axes[0])
+    else:
+        count = math.prod(len(a) for a in axes)
+    if count > MAX_RUNS:
+        sizes = " x ".join(f"{len(a)} ({a.keys[0].text})" for a in axes)
+        raise PlanError(
+            f"--vary: {count} runs ({'zipped, ' if zipped else ''}{sizes}); a sweep has at most {MAX_RUNS} runs: "
+            f"vary fewer values, or split it into several sweeps (they share the cache)"
+        )
+    if zipped:
         combos = [tuple([i] * len(axes)) for i in range(len(axes[0]))]
     else:
         combos = list(itertools.product(*[range(len(a)) for a in axes]))
@@ -529,6 +555,7 @@ def _single_key_error(run_data: dict, ov: list[tuple[Key, object]], source: str,
 
 
 __all__ = [
+    "MAX_RUNS",
     "SCHEMA",
     "DERIVED",
     "PlanError",

@@ -45,11 +45,12 @@ import tempfile
 import threading
 import time
 import uuid
+import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
-from ..errors import StiffkitError
+from ..errors import StiffkitError, StiffkitWarning
 from ..fea.cache import remove_stale_temporaries
 from ..fea.job import cache_key, resolve_route
 from .table import failed_fields, one_line
@@ -220,7 +221,14 @@ class _Launcher:
             self.stop()
             with contextlib.suppress(Exception):
                 self.proc.wait(timeout=timeout)
+        self.release()
         self.log_path.unlink(missing_ok=True)
+
+    def release(self) -> None:
+        """Close this side of the launcher's pipes (no unclosed file left)."""
+        for pipe in (self.proc.stdin, self.proc.stdout):
+            with contextlib.suppress(Exception):
+                pipe.close()
 
     def alive(self) -> bool:
         return self.proc.poll() is None
@@ -254,6 +262,7 @@ def stop_local_runs() -> None:
     for la in todo:
         with contextlib.suppress(Exception):
             la.proc.wait(timeout=10)
+        la.release()
         la.log_path.unlink(missing_ok=True)
 
 
@@ -290,6 +299,7 @@ def _run_in_child(spec_path: Path, result_path: Path) -> tuple[int | None, str]:
     status = launcher.run(spec_path, result_path)
     if status is not None:
         return os.waitstatus_to_exitcode(status), launcher.log_tail()
+    launcher.release()
     _local.launcher = None
     if _stopping.is_set():
         return None, ""
@@ -338,12 +348,14 @@ def run_task(spec: dict, *_after: object) -> dict:
                 out = failed_fields(_status_text(code) + (f"; {tail}" if tail else ""))
     except Exception as exc:  # the task itself must not raise
         out = failed_fields(f"{type(exc).__name__}: {exc}")
-    if out.get("status") == "failed" and "interrupted" not in out.get("reason", ""):
+    reason = str(out.get("reason", ""))
+    if out.get("status") == "failed" and "interrupted" not in reason and str(tmp) in reason:
+        # the reason names a file of the run's folder (a ccx log): kept
         for name in ("spec.pkl", "result.json"):
             (tmp / name).unlink(missing_ok=True)
         with contextlib.suppress(OSError):
-            tmp.rmdir()  # nothing to inspect (e.g. a mesh failure)
-    else:
+            tmp.rmdir()
+    else:  # done, interrupted, or nothing to inspect (a missing solver, a mesh failure)
         shutil.rmtree(tmp, ignore_errors=True)
     out["host"] = socket.gethostname()
     out["t_start"], out["t_end"] = t_start, time.time()
@@ -685,6 +697,8 @@ def run_jobs(
                     except BaseException as e:  # cancelled: there is no exception to fetch
                         exc = e
                     r = failed_fields(f"the task failed on its worker ({type(exc).__name__}: {exc})")
+                for text in dict.fromkeys(r.pop("warnings", None) or []):  # the run's warnings, once each
+                    warnings.warn(StiffkitWarning(f"{labels[i]}: {text}"), stacklevel=2)
                 r["memory_est_mb"] = needs[i]
                 if "t_start" in r:
                     r["start_s"], r["end_s"] = r.pop("t_start") - t0, r.pop("t_end") - t0

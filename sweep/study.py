@@ -11,6 +11,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
 from ..errors import InputError
+from ..io import validate as V
+from ..io.files import FIGURE_SUFFIXES, check_folder, link_inputs
 from . import table as tb
 from .plan import Plan, axes_from_python, make_plan, parse_vary
 from .runner import check_address, need_dask, plan_estimates, run_jobs
@@ -173,8 +175,15 @@ def sweep(
 
 
 def check_outputs(
-    varied: list[str], x: str | None = None, y: str | None = None, paths: Iterable[tuple[str, Path | str | None]] = ()
+    varied: list[str],
+    x: str | None = None,
+    y: str | None = None,
+    paths: Iterable[tuple[str, Path | str | None]] = (),
+    inputs: Iterable[Path | str] = (),
 ) -> tuple[str | None, list[str] | None]:
+    """--x and --y checked against the varied keys and the result columns;
+    every output path (``paths``: (option, path)) checked before the work:
+    not an input (``inputs``), its folder writable, --png a figure suffix."""
     cols = tb.columns(varied)
     if x is not None and x not in varied:
         raise InputError(f"--x {x}: plot against a varied key ({', '.join(varied)})")
@@ -190,9 +199,10 @@ def check_outputs(
                     f"--y {c}: not a numeric result column; e.g. k11..k66, k11_ci, cf_max_error, "
                     "nodes, wall_s, memory_mb, sigma_m"
                 )
+    paths = [(opt, p) for opt, p in paths if p]
     for opt, p in paths:
-        if p is not None and Path(p).is_dir():
-            raise InputError(f"{opt} {p}: is a folder; give a file name")
+        V.output_path(p, opt, inputs, FIGURE_SUFFIXES if opt == "--png" else None)
+    V.distinct_outputs(dict(paths))
     return x, ys
 
 
@@ -225,7 +235,10 @@ def command(
     if scheduler:
         check_address(scheduler)
     plan = plan_sweep(link, vary, zip)
-    check_outputs(plan.keys, x, y, [("--json", json_out), ("--csv", csv_out), ("--png", png_out)])
+    inputs = link_inputs(link) if isinstance(link, (str, Path)) else []
+    check_outputs(plan.keys, x, y, [("--json", json_out), ("--csv", csv_out), ("--png", png_out)], inputs)
+    if not dry_run:
+        check_folder(Path(cache).expanduser(), "--cache")
     if dry_run:
         keys, cached, nodes, mem = plan_estimates([r.job for r in plan.runs], Path(cache).expanduser().resolve())
         print(f"{len(plan.runs)} runs (nothing run: --dry-run)", file=out)

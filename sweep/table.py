@@ -22,11 +22,10 @@ import csv
 import io
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..io.files import atomic_write_bytes, save_figure
 from .plan import fmt_value
 
 if TYPE_CHECKING:
@@ -136,19 +135,9 @@ def as_table(rows: list[dict], varied: list[str]) -> object:
 
 
 def _atomic_write(path: Path | str, data: bytes) -> Path:
-    """Write through a unique temporary in the same folder, then rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    """Written atomically by io.files (never replacing a device, a FIFO or
+    anything but a regular file; errors name ``path``)."""
+    return atomic_write_bytes(path, data)
 
 
 def _csv_cell(v: object) -> object:
@@ -272,10 +261,10 @@ def plot(
         ax.set_visible(False)
     fig.suptitle(f"sweep: {len(ok)} of {len(rows)} runs ok")
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, dpi=90, format="png")
-    plt.close(fig)
-    return _atomic_write(path, buf.getvalue())
+    try:  # the format of the name's suffix (the command checked it)
+        return save_figure(fig, path, dpi=90)
+    finally:
+        plt.close(fig)
 
 
 __all__ = [

@@ -1,5 +1,9 @@
 import numpy as np
 import pytest
+from _profiles import load
+
+# hypothesis: derandomized "ci" profile unless HYPOTHESIS_PROFILE=fuzz (tests/_profiles.py)
+load()
 
 
 @pytest.fixture

@@ -227,6 +227,7 @@ def test_random_chain_against_finite_difference_reference(tmp_path):
 
 
 def test_tool_compliance_symmetric_psd_and_batched_like_single_calls():
+    from _profiles import examples
     from hypothesis import given, settings
     from hypothesis import strategies as st
 
@@ -237,7 +238,7 @@ def test_tool_compliance_symmetric_psd_and_batched_like_single_calls():
     )
     angles = st.lists(st.floats(-3.1, 3.1, allow_nan=False), min_size=6, max_size=6)
 
-    @settings(max_examples=30, deadline=None)
+    @settings(max_examples=examples(30), deadline=None)
     @given(st.lists(angles, min_size=1, max_size=5))
     def check(qs):
         Q = np.array(qs)

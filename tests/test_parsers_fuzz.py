@@ -14,6 +14,7 @@ import warnings
 
 import numpy as np
 import pytest
+from _profiles import examples
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -31,7 +32,7 @@ from stiffkit.springs import Spring
 from stiffkit.springs.tree_json import load_tree
 
 SETTINGS = settings(
-    max_examples=int(os.environ.get("STIFFKIT_FUZZ_EXAMPLES", 60)),
+    max_examples=examples(int(os.environ.get("STIFFKIT_FUZZ_EXAMPLES", 60))),
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )

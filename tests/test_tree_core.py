@@ -51,6 +51,7 @@ def arm():
         rref=rot(z, 1.0),
         mvj=[4],
         mpar=np.array([[7], [8], [9]]),
+        bpar=np.zeros((3, 0), int),  # no gravity parameters (core/sk_tree_grav.f90)
     )
     m["kvj"][0] = [2, 3]
     m["kpar"][0] = [11, 12]
@@ -141,6 +142,9 @@ def test_lm_recovers_tracker_and_compliance():
         oxyz=np.asfortranarray(truth),
         owt=np.ones(no),
         free=free,
+        ppar=nl,
+        pmu=np.zeros(0),
+        psw=np.zeros(0),
         eqit=100,
         etol=1e-14,
         maxit=50,

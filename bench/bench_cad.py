@@ -1,0 +1,120 @@
+"""Link stiffness of three realistic CAD parts (issue 18), figures for the README.
+
+The parts (bench/cad_parts.py, made with Gmsh's OpenCASCADE kernel and
+written as STEP): an L-shaped hollow cast arm ending in two bearing
+housings, a clevis with a bolted flange and two pin lugs, a tapered box
+beam with lightening holes and fillets. Each is clamped at the plane x-min
+and loaded through a distributing coupling at its far plane (bounding-box
+faces until the face selectors land), meshed with the default feature
+refinement (C3D10; ``across`` elements across the thinnest wall, ``around``
+around each hole, half the size at the clamp and load faces).
+
+Per part: the default mesh by the matrix route (nodes, wall time, peak
+memory), a mesh 1.5 times coarser in every size (the Richardson estimate of
+the default mesh's error from the two, as ``[mesh] accuracy`` makes it with
+p = 2 assumed), and the six-step ccx route on the default mesh (goal:
+matrix route <= 1.5 x one ccx step, i.e. a quarter of the six steps).
+
+    python bench/bench_cad.py            # the three parts (~10 min on 2 cores)
+    python bench/bench_cad.py arm        # one part
+"""
+
+from __future__ import annotations
+
+import copy
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import numpy as np  # noqa: E402
+from cad_parts import PARTS, write_part  # noqa: E402
+
+from stiffkit.fea.accuracy import estimate_error  # noqa: E402
+from stiffkit.fea.config import parse_link  # noqa: E402
+from stiffkit.fea.job import run_link  # noqa: E402
+
+#: each part's nominal element size (mm)
+SIZES = {"arm": 10.0, "clevis": 8.0, "tapered": 10.0}
+
+
+def link_data(name: str, step: Path, route: str = "matrix") -> dict:
+    plane, ref = PARTS[name]
+    return {
+        "geometry": {"step": str(step), "units": "mm"},
+        "material": {"E": 2.0e11, "nu": 0.3, "density": 7850.0},
+        "support": {"plane": "x-min"},
+        "load": {"plane": plane, "reference_point": ref, "coupling": "distributing", "amplitudes": "auto"},
+        "field": {"region": "face"},
+        "mesh": {"mesher": "gmsh", "order": 2, "size": SIZES[name]},
+        "fit": {"method": "lin"},
+        "solver": {"route": route},
+    }
+
+
+def peak_mb(res) -> float:
+    st = res.solution.stats
+    return max(float(st.get("ccx_max_rss_mb") or 0.0), float(st.get("python_max_rss_mb") or 0.0))
+
+
+def _level(job, scale: float, across: int, route: str):
+    """The job with every element size scaled by ``scale`` and ``across`` elements across."""
+    lj = copy.deepcopy(job)
+    lj.size, lj.across, lj.around, lj.route = job.size * scale, across, job.around / scale, route
+    return lj
+
+
+def bench_part(name: str, tmp: Path) -> dict:
+    step = write_part(name, tmp / f"{name}.step")
+    job = parse_link(link_data(name, step), f"{name}.step")
+    n0 = job.across
+    coarse = _level(job, 1.5, round(n0 / 1.5), "matrix")
+    runs = {}
+    for label, lj in (("coarse", coarse), ("default", job), ("ccx", _level(job, 1.0, n0, "ccx"))):
+        t0 = time.perf_counter()
+        runs[label] = (run_link(lj, cache_dir=None), time.perf_counter() - t0)
+    (rc, tc), (rd, td), (rx, tx) = runs["coarse"], runs["default"], runs["ccx"]
+    est, p, _obs, worst = estimate_error(
+        [1.5, 1.0], [rc.compliance.matrix, rd.compliance.matrix], rd.compliance.significant
+    )
+    feats = rd.mesh.info.get("features", {})
+    ka, kb = rd.compliance.matrix, rx.compliance.matrix
+    scale = np.sqrt(np.outer(np.abs(np.diag(ka)), np.abs(np.diag(ka))))
+    agree = float((np.abs(ka - kb) / scale).max())
+    d, dr = np.diag(ka), np.diag(rd.reference_compliance)
+    print(
+        f"\n{name}: default mesh (size {job.size:g} mm, {n0} across, {job.around} around): "
+        f"{rd.mesh.n_nodes} nodes, thinnest wall {feats.get('thinnest_wall')} mm, "
+        f"{feats.get('curved_faces_refined')} curved and {feats.get('wall_faces_refined')} wall faces refined\n"
+        f"  matrix route {td:.1f} s, peak {peak_mb(rd):.0f} MB; six ccx steps {tx:.1f} s, peak {peak_mb(rx):.0f} MB: "
+        f"matrix = {td / (tx / 6):.2f} x one ccx step (goal <= 1.5); routes agree to {agree:.1e}\n"
+        f"  estimated error {100 * est:.3f} % ({worst}; Richardson with the coarse mesh: {rc.mesh.n_nodes} nodes, "
+        f"{tc:.1f} s, p = {p:.0f} assumed); field fit vs reference node (diagonal) {np.abs(d / dr - 1).max():.2e}",
+        flush=True,
+    )
+    return {
+        "name": name,
+        "nodes": rd.mesh.n_nodes,
+        "seconds": td,
+        "mb": peak_mb(rd),
+        "estimate": est,
+        "ratio": td / (tx / 6),
+    }
+
+
+def main(argv: list[str]) -> None:
+    names = [a for a in argv if a in PARTS] or list(PARTS)
+    with tempfile.TemporaryDirectory(prefix="bench-cad-") as tmp:
+        rows = [bench_part(n, Path(tmp)) for n in names]
+    print("\npart      nodes  wall s  peak MB  est. error %  matrix / one ccx step")
+    for r in rows:
+        print(
+            f"{r['name']:8s} {r['nodes']:7d} {r['seconds']:7.1f} {r['mb']:8.0f} {100 * r['estimate']:12.3f} "
+            f"{r['ratio']:10.2f}"
+        )
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

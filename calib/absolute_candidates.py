@@ -1,0 +1,194 @@
+"""The catalogue of candidate effects of the absolute diagnosis
+(``calib.absolute_diagnose``), and which of them can act on the measured
+points at all.
+
+A candidate is an ``[[effect]]`` table the model lacks: every per-joint kind
+(JOINT_KINDS) on every joint it applies to and on ``all``, a link spring on
+every link that carries mass beyond it, the base spring. To add a kind:
+append its tables in :func:`absolute_candidates`; if its effect moves
+links directly (not only through the weights), say which in
+:func:`moved_links` (a kind it does not know is judged by its columns
+only); if its size has a physical bound, give PLAUSIBLE_SIZE an entry.
+
+A candidate that cannot move any measured point is *inert*: listed with the
+reason, never scored, ranked or proposed (:func:`inert_reason`):
+
+- structurally: its effect moves no link that carries a marker (a joint or
+  a link spring on a branch without a marker, e.g. a head, a gripper's
+  mimic fingers; it can only shift where a weight sits);
+- numerically: its Jacobian columns are zero (below 1e-9 of the largest
+  column of its kind, the reduction's rule), or, for kinds with a plausible
+  size, an effect of that size moves no point by as much as the noise
+  sigma in any row.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..robot.model_bodies import body_candidates
+from ..robot.tree_model import TreeModel, tree_model_from_tables
+
+__all__ = ["absolute_candidates", "moved_links", "inert_reason", "JOINT_KINDS", "PLAUSIBLE_SIZE"]
+
+#: per joint kinds, and the template of link / base springs among the candidates
+JOINT_KINDS = ("joint_offset", "frame", "joint", "lateral")
+SPRING_TEMPLATE = "beam"
+#: the largest plausible size of one parameter of a kind (rad for angles, m for
+#: lengths): a candidate whose effect at this size stays below the noise in every
+#: row cannot be seen. Kinds without an entry (compliances) are judged by the
+#: structure and by zero columns only.
+PLAUSIBLE_SIZE = {
+    "joint_offset": {"dq0": 0.1},
+    "frame": {"dx": 0.01, "dy": 0.01, "dz": 0.01, "drx": 0.1, "dry": 0.1, "drz": 0.1},
+}
+#: a column below this fraction of the largest column of its kind is zero (round-off)
+ZERO_COLUMN = 1e-9
+
+
+def absolute_candidates(model: TreeModel) -> list[dict]:
+    """Effect tables of every catalogued kind on every target the model
+    lacks, the per-joint kinds also on ``all``."""
+    tree = model.tree
+    have = {(p.kind, p.target) for p in model.params}
+    out = []
+    for kind in JOINT_KINDS:
+        if kind in ("joint_offset", "joint"):
+            joints = [j.name for j in tree.joints if j.moving]
+        elif kind == "lateral":
+            joints = [j.name for j in tree.joints if j.moving and j.type != "prismatic"]
+        else:
+            joints = [j.name for j in tree.joints]
+        missing = [j for j in joints if (kind, j) not in have]
+        if len(missing) > 1:
+            out.append({"kind": kind, "target": "all"})
+        out += [{"kind": kind, "target": j} for j in missing]
+    massive = _links_carrying_mass(model)
+    for link in massive:
+        if ("link", link) not in have:
+            out.append({"kind": "link", "target": link, "template": SPRING_TEMPLATE})
+    if ("base", "base") not in have and massive:
+        out.append({"kind": "base", "template": "full"})
+    return out + body_candidates(model)  # mass factors (robot/model_bodies.py)
+
+
+def _links_carrying_mass(model: TreeModel) -> list[str]:
+    """Links with at least one child joint and some mass beyond it."""
+    tree = model.tree
+    mass_below: dict[str, float] = {ln: 0.0 for ln in tree.links}
+    for j in reversed(tree.joints):
+        ine = tree.inertials.get(j.child)
+        mass_below[j.child] += ine.mass if ine else 0.0
+        mass_below[j.parent] += mass_below[j.child]
+    return [ln for ln in tree.links if tree.children(ln) and mass_below[ln] > 0 and ln != tree.root]
+
+
+def _subtree(model: TreeModel, link: str) -> set[str]:
+    """``link`` and every link below it."""
+    out, todo = set(), [link]
+    while todo:
+        ln = todo.pop()
+        out.add(ln)
+        todo += [j.child for j in model.tree.children(ln)]
+    return out
+
+
+#: kinds whose target is a joint and whose effect moves the links below it
+JOINT_TARGET_KINDS = JOINT_KINDS + ("joint_cubic", "joint_deadzone")
+
+
+def moved_links(model: TreeModel, cand: dict) -> set[str] | None:
+    """The links whose pose the candidate's effect changes directly (not
+    through the weights it shifts): below the joint for the per-joint kinds
+    (every target's union for ``all``); below the spring for a link spring
+    (a link with one child joint carries it at that joint's origin, any
+    other at its own frame); every link for the base spring. None for a
+    kind this does not know (e.g. one that acts through the weights, such
+    as a mass): it is then judged by its columns only."""
+    tree = model.tree
+    kind = cand["kind"]
+    target = cand.get("target", kind)
+    if kind not in JOINT_TARGET_KINDS + ("link", "base"):
+        return None
+    if kind == "base":
+        return set(tree.links)
+    if kind == "link":
+        kids = tree.children(target)
+        if len(kids) == 1:
+            return _subtree(model, kids[0].child)
+        return _subtree(model, target)
+    joints = [j for j in tree.joints if target == "all" or j.name == target]
+    out: set[str] = set()
+    for j in joints:
+        out |= _subtree(model, j.child)
+    return out
+
+
+def inert_reason(model: TreeModel, cand: dict) -> str:
+    """Why the candidate cannot move a measured point by its structure
+    ("" when it can, or when its kind is not judged by its structure)."""
+    moved = moved_links(model, cand)
+    if moved is None or moved & set(model.frames):
+        return ""
+    kind, target = cand["kind"], cand.get("target", cand["kind"])
+    where = f"below {'link' if kind == 'link' else 'joint'} {target!r}"
+    if kind == "base":
+        where = "anywhere"
+    return f"moves no marker: no measured frame {where} (it could only shift where a weight sits)"
+
+
+def numerical_inert(model: TreeModel, cols: np.ndarray, Jc: np.ndarray, biggest: dict, sigma: float) -> str:
+    """Why the candidate whose parameters are ``cols`` (indices into
+    ``model.params``; ``Jc`` their columns of the weighted Jacobian,
+    observations in units of the weighted residual) cannot move a measured
+    point ("" when it can): zero columns (``biggest``: the largest column
+    norm of each kind), or below the noise ``sigma`` in every row at the
+    plausible size of its parameters."""
+    if cols.size == 0:
+        return "no parameter left to add"
+    norms = np.linalg.norm(Jc, axis=0)
+    kinds = [model.params[i].kind for i in cols]
+    if all(n <= ZERO_COLUMN * biggest.get(k, 0.0) for n, k in zip(norms, kinds)):
+        return "the measurements do not depend on it (its Jacobian columns are zero)"
+    sizes = [PLAUSIBLE_SIZE.get(k, {}).get(model.params[i].name.rsplit(".", 1)[-1]) for i, k in zip(cols, kinds)]
+    if all(s is not None for s in sizes) and math.isfinite(sigma) and sigma > 0:
+        # the largest displacement of one point (3 coordinates) any one parameter makes at that size
+        d = np.abs(Jc) * np.array(sizes)[None, :]
+        per_point = np.sqrt(np.add.reduceat(d**2, np.arange(0, d.shape[0], 3), axis=0)) if d.shape[0] else d
+        top = float(per_point.max()) if per_point.size else 0.0
+        if top < sigma:
+            return (
+                f"below the noise: at its plausible size ({', '.join(f'{s:g}' for s in dict.fromkeys(sizes))}) "
+                f"it moves no point by more than {top / sigma:.2g} sigma"
+            )
+    return ""
+
+
+def extended_model(model: TreeModel, cands: list[dict]) -> TreeModel:
+    """The model with every candidate's effect added (at zero): per joint
+    effects once per joint (the ``all`` candidates are unions of them)."""
+    extra, seen = [], set()
+    for c in cands:
+        if c.get("target") == "all":
+            continue
+        key = (c["kind"], c.get("target", c["kind"]))
+        if key not in seen:
+            seen.add(key)
+            extra.append(dict(c))
+    ext = tree_model_from_tables(
+        model.tree, list(model.effects) + extra, model.gravity, model.iterations, "diagnosis", model.sigma_position
+    )
+    ext.arrays["rref"] = np.asfortranarray(model.arrays["rref"])
+    return ext
+
+
+def params_of(model: TreeModel, cand: dict) -> list[int]:
+    """Indices of the free parameters of ``model`` that the candidate adds."""
+    kind = cand["kind"]
+    target = cand.get("target", kind)
+    kinds = {"base": ("base",), "link": ("link",)}.get(kind, (kind,))
+    return [
+        i for i, p in enumerate(model.params) if p.kind in kinds and (target == "all" or p.target == target) and p.free
+    ]

@@ -1,0 +1,178 @@
+"""Statistics of the deflection diagnosis (``calib.diagnose``): the
+adequacy test (chi-square against a declared sigma, or the lack-of-fit F
+test against the pure error of replicated rows), the held-out error by
+configuration, and the warnings about the tests' power and over-fitting.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._core import calib as core
+from ..errors import InputError
+from . import crossval as CV
+from .checks import cannot_judge
+from .fit import FitResult, Problem
+from .measure import Measurements
+
+if TYPE_CHECKING:
+    from .diagnose_report import Diagnosis
+
+__all__ = ["pure_error", "logsf_chi2", "logsf_f"]
+
+ALPHA = 0.01
+ZTOL = 1e-6  # a projected unit column shorter than this adds nothing
+CV_FOLDS = 5
+LOW_DOF = 30  # fewer residual degrees of freedom than this (or than half the observations): warn
+OVERFIT = 0.8  # an adequate RMS below this fraction of the noise floor: warn
+NSIM = 999  # Monte Carlo draws of the max-score test
+
+
+def pure_error(pb: Problem, meas: Measurements) -> tuple[float, int]:
+    """Sum of squares and degrees of freedom of replicated rows (same q, w, p)."""
+    key = np.round(np.hstack([meas.q, meas.w, meas.p]), 12)
+    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    y = pb.y[: pb.rows].T  # (n, rows), unweighted
+    ss, dof = 0.0, 0
+    for g in np.nonzero(counts > 1)[0]:
+        rows = y[inv == g]
+        ss += float(((rows - rows.mean(axis=0)) ** 2).sum())
+        dof += (rows.shape[0] - 1) * pb.rows
+    return ss, dof
+
+
+def logsf_chi2(x: float, k: float) -> float:
+    return core.chi2_logsf(x, k)
+
+
+def logsf_f(f: float, d1: float, d2: float) -> float:
+    return core.f_logsf(f, d1, d2)
+
+
+def _adequacy(
+    res: FitResult, pb: Problem, meas: Measurements, copies: int = 0
+) -> tuple[str, float, int, float, float, str, float, int | None]:
+    """(test, statistic, dof, log p, sigma, source, scale2, d_pe); ``meas``
+    holds distinct rows only, ``copies`` rows were exact copies (dropped)."""
+    if res.dof <= 0:
+        raise cannot_judge(
+            meas.path, meas.n, copies, f"{res.nobs} observations for {res.rank} identified parameters leave no residual"
+        )
+    if pb.sigma_declared:
+        stat, dof = res.chi2, res.dof
+        return (
+            "chi2",
+            stat,
+            dof,
+            (logsf_chi2(stat, dof) if dof > 0 else 0.0),
+            float(pb.sigma_position),
+            "declared",
+            1.0,
+            None,
+        )
+    ss_pe, d_pe = pure_error(pb, meas)
+    if d_pe == 0:
+        raise cannot_judge(
+            meas.path,
+            meas.n,
+            copies,
+            "no [measurements] sigma_position in the model and no replicated rows (same posture, wrench and "
+            "point, measured again): the noise level is unknown, so adequacy cannot be tested; declare "
+            "sigma_position or repeat measurements",
+        )
+    s2 = ss_pe / d_pe
+    if not s2 > 0:
+        raise InputError(
+            f"{meas.path}: the replicated rows (same posture, wrench and point) repeat each other exactly "
+            f"(pure error 0): they look copied, not measured again, so they tell nothing about the noise; "
+            f"declare sigma_position or remove the copies"
+        )
+    d_lof = res.dof - d_pe
+    if d_lof > 0:
+        stat = ((res.chi2 - ss_pe) / d_lof) / s2
+        dof, log_p = d_lof, logsf_f(stat, d_lof, d_pe)
+    else:
+        stat, dof, log_p = 0.0, 0, 0.0
+    return "lack-of-fit F", stat, dof, log_p, math.sqrt(s2), "pure error", s2, d_pe
+
+
+def _nested(A: np.ndarray, Zs: np.ndarray, Zb: np.ndarray) -> bool:
+    """Do the columns Zb span Zs off the model A (the smaller candidate is
+    part of the bigger one, e.g. a joint's column in the next link's
+    spring)?"""
+    AZ = np.hstack([A, Zb])
+    _, dof, _ = core.score(AZ, np.zeros(AZ.shape[0]), Zs, np.array([1, Zs.shape[1] + 1], np.int32), 1e-10, ZTOL)
+    return int(dof[0]) == 0
+
+
+def _cos(a: np.ndarray, b: np.ndarray) -> float:
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    return float(a @ b) / (na * nb) if na > 0 and nb > 0 else 0.0
+
+
+def _cv(
+    A: np.ndarray,
+    r: np.ndarray,
+    obs_rows: np.ndarray,
+    folds: list[np.ndarray],
+    npts: int,
+    wp: float,
+    labels: Sequence[object],
+) -> tuple[float | None, np.ndarray | None]:
+    """Held-out positional RMS (m) and the mean squared held-out error of
+    each configuration (for paired comparisons); (None, None) when no fold
+    can be fitted."""
+    e = CV.held_out_residuals(A, r, obs_rows, folds)
+    if not np.any(np.isfinite(e)):
+        return None, None
+    sq = np.sum((e.reshape(-1, npts)[0:3] / wp) ** 2, axis=0)
+    _, idx = np.unique(np.asarray(labels, dtype=object).astype(str), return_inverse=True)
+    ok = np.isfinite(sq)
+    tot = np.bincount(idx[ok], weights=sq[ok], minlength=idx.max() + 1)
+    cnt = np.bincount(idx[ok], minlength=idx.max() + 1)
+    per = np.where(cnt > 0, tot / np.maximum(cnt, 1), np.nan)
+    return CV.rms_rows(e, npts, coords=(0, 1, 2), scale=1.0 / wp), per
+
+
+def _cv_better(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Paired comparison over configurations: is b's held-out error
+    significantly below a's (t < -2)?"""
+    if a is None or b is None or a.size < 3:
+        return False
+    d = b - a
+    d = d[np.isfinite(d)]
+    if d.size < 3:
+        return False
+    se = float(np.std(d, ddof=1)) / math.sqrt(d.size)
+    return bool(se > 0 and d.mean() / se < -2.0)
+
+
+def _warnings(dg: Diagnosis, nobs: int) -> None:
+    res = dg.fit
+    if res.dof < LOW_DOF or res.dof < 0.5 * nobs:
+        dg.warnings.append(
+            f"few residual degrees of freedom: {res.dof} of {nobs} observations ({len(res.names)} parameters); "
+            f"the tests have little power and a fit absorbs part of the noise (expected RMS "
+            f"{math.sqrt(max(res.dof, 0) / nobs):.2f} x the noise floor); judge by the held-out error"
+        )
+    if dg.sigma_source == "declared":
+        floor = dg.floor
+        ratio = res.rms_position / floor if floor > 0 else float("nan")
+        if dg.verdict == "adequate" and ratio < OVERFIT:
+            cv = dg.cv_rms_position_m
+            held = f"; held-out RMS {cv * 1e3:.4g} mm = {cv / floor:.2f} x the floor" if cv is not None else ""
+            dg.warnings.append(
+                f"possible over-fitting: the RMS is {ratio:.2f} x the noise floor ({res.dof} residual dof of "
+                f"{nobs}){held}; more configurations would tell"
+            )
+        cv = dg.cv_rms_position_m
+        if dg.verdict == "adequate" and cv is not None and cv > 1.5 * floor:
+            dg.warnings.append(
+                f"the model fits these rows but predicts held-out configurations at {cv / floor:.2f} x the noise "
+                f"floor: it does not generalise (over-fitted, or the configurations do not inform every parameter)"
+            )
