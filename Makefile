@@ -26,7 +26,7 @@ export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 help:
 	@echo "stiffkit make targets"
 	@echo "  make test        install what is missing, run the Fortran unit tests (-fcheck=all) and pytest"
-	@echo "  make fuzz        the property tests (hypothesis) with fresh random examples, FUZZ_FACTOR=40 x as many (~10 min)"
+	@echo "  make fuzz        the property tests (hypothesis) with fresh random examples, FUZZ_FACTOR=5 x as many (~10 min)"
 	@echo "  make test-valgrind   the Fortran unit tests under valgrind (memory errors, leaks; optional, ~15 s)"
 	@echo "  make demo        install what is missing, run the main job on a built-in example"
 	@echo "  make bench       benchmarks (figures for the README results section)"
@@ -92,7 +92,7 @@ test: test-core test-py
 # runs them derandomized (profile "ci": the same examples every run); here
 # profile "fuzz" draws new ones, FUZZ_FACTOR times as many. A failure prints
 # its reproduction blob and is kept in .hypothesis/ for the next run.
-FUZZ_FACTOR ?= 40
+FUZZ_FACTOR ?= 5
 FUZZ_TESTS := tests/test_parsers_fuzz.py tests/test_roundtrip.py tests/test_fea_dat.py tests/test_fea_sparse.py \
   tests/test_calib_model.py::test_tool_compliance_symmetric_psd_and_batched_like_single_calls
 fuzz: install

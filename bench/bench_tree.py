@@ -192,7 +192,7 @@ def bench_evaluate(npost=1000, reps=3):
                 out = _tree.sk_tree_evaluate(ne, **model, **common, free=free, eqit=eqit, etol=1e-9)
                 cs.append(time.process_time() - c0)
                 ts.append(time.perf_counter() - t0)
-            pred, res, jac, delta, nit, eqinfo, info = out
+            pred, res, jac, delta, nit, eqinfo, info, _errloc = out
             assert info == 0, info
             print(
                 f"{label:>12s} {free.size:5d} {min(ts):9.3f} {min(cs):8.3f} {1e6 * min(ts) / npost:17.0f} "
@@ -236,7 +236,7 @@ def bench_compensate(nrows=5000, nj=7):
     frame = np.full(nrows, tool, np.int32)
     none = dict(lpost=np.zeros(0, np.int32), lvj=np.zeros(0, np.int32), lw=np.zeros((6, 0), order="F"))
     # targets: the nominal model (no geometric errors, rigid)
-    rt, pt, jq, delta, nit, eqinfo, info = _tree.sk_tree_frame_jacobian(
+    rt, pt, jq, delta, nit, eqinfo, info, _errloc = _tree.sk_tree_frame_jacobian(
         ne, **model, theta=np.zeros_like(theta), frame=frame, q=q, **none, eqit=0, etol=1e-9
     )
     assert info == 0
@@ -250,7 +250,7 @@ def bench_compensate(nrows=5000, nj=7):
         for _ in range(3):
             t0 = time.perf_counter()
             c0 = time.process_time()
-            qout, resp, resr, nit, rinfo, info = _tree.sk_tree_compensate(
+            qout, resp, resr, nit, rinfo, info, _errloc = _tree.sk_tree_compensate(
                 ne,
                 **model,
                 theta=theta,

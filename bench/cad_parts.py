@@ -10,7 +10,7 @@ starts at x = 0 so its clamp face is the bounding-box plane x-min.
   76 mm circle) on a block carrying two pin lugs (16 mm pin hole through
   both), flat-ended at x = 110 (the plane x-max takes both lug ends).
 * ``tapered``: a tapered hollow box beam (60 x 40 mm at the root to 36 x 24
-  mm at x = 300, 5 mm walls) with four lightening holes through its webs
+  mm at x = 200, 6 mm walls) with three lightening holes through its webs
   and 4 mm fillets on its four outer longitudinal edges.
 """
 
@@ -19,18 +19,33 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-#: the parts: name -> (load plane, reference point, mm)
+#: the parts: name -> ([support] table, [load] table) with the face selectors
+#: (bores and pin holes as cylinders, the flange's bolt holes, end planes), mm
 PARTS = {
-    "arm": ("y-max", [140.0, 130.0, 0.0]),
-    "clevis": ("x-max", [110.0, 0.0, 0.0]),
-    "tapered": ("x-max", [300.0, 0.0, 0.0]),
+    "arm": (
+        {"cylinder": {"axis": [1.0, 0.0, 0.0], "point": [0.0, 0.0, 0.0], "radius": 20.0}},
+        {"cylinder": {"axis": [0.0, 1.0, 0.0], "point": [110.0, 90.0, 0.0], "radius": 20.0}, "coupling": "rigid"},
+    ),
+    "clevis": (
+        {
+            "cylinder": [
+                {"axis": [1.0, 0.0, 0.0], "point": [0.0, 38.0 * math.cos(a), 38.0 * math.sin(a)], "radius": 4.5}
+                for a in (math.pi / 6 + k * math.pi / 3 for k in range(6))
+            ]
+        },
+        {"cylinder": {"axis": [0.0, 0.0, 1.0], "point": [90.0, 0.0, 0.0], "radius": 8.0}, "coupling": "rigid"},
+    ),
+    "tapered": (
+        {"plane": "x-min"},
+        {"plane": "x-max", "reference_point": [200.0, 0.0, 0.0], "coupling": "distributing"},
+    ),
 }
 
 
 def _arm(occ) -> None:
     b, h, t = 40.0, 30.0, 8.0  # the arm's hollow section and wall
     ro, ri, w = 30.0, 20.0, 40.0  # bearing housings: outer and bore radius, width
-    X, Y = 140.0, 130.0  # the second housing: its axis at x = X, its end at y = Y
+    X, Y = 110.0, 110.0  # the second housing: its axis at x = X, its end at y = Y
     # arm A along x from the first housing, arm B along y into the second
     a = occ.addBox(w - 10.0, -b / 2, -h / 2, X + b / 2 - w + 10.0, b, h)
     c = occ.addBox(X - b / 2, -b / 2, -h / 2, b, Y - w + 10.0 + b / 2, h)
@@ -66,7 +81,7 @@ def _rect(occ, x: float, b: float, h: float) -> int:
 
 
 def _tapered(occ, gmsh) -> None:
-    L, t = 300.0, 5.0
+    L, t = 200.0, 6.0
     ends = [_rect(occ, 0.0, 60.0, 40.0), _rect(occ, L, 36.0, 24.0)]
     outer = occ.addThruSections(ends, makeSolid=True, makeRuled=True)
     occ.synchronize()

@@ -58,6 +58,62 @@ NAMES: dict[int, str] = {
 }
 
 
+#: argument codes of the kinematic-tree core's errloc[0] (core/sk_tree_check.f90,
+#: arg_<name>): code -> (argument, what errloc[1] counts, 1-based); checked
+#: against the Fortran table by tests/test_tree_errors.py
+TREE_ARGUMENTS: dict[int, tuple[str, str]] = {
+    1: ("vparent", "virtual joint"),
+    2: ("vtype", "virtual joint"),
+    3: ("vaxis", "virtual joint"),
+    4: ("vrot", "virtual joint"),
+    5: ("vpos", "virtual joint"),
+    6: ("qcol", "virtual joint"),
+    7: ("qcoef", "virtual joint"),
+    8: ("qconst", "virtual joint"),
+    9: ("gvj", "geometric entry"),
+    10: ("gpar", "geometric entry"),
+    11: ("gcoef", "geometric entry"),
+    12: ("ktype", "elastic block"),
+    13: ("kvj", "elastic block"),
+    14: ("kpar", "elastic block"),
+    15: ("kw0", "elastic block"),
+    16: ("bvj", "body"),
+    17: ("bmass", "body"),
+    18: ("bcom", "body"),
+    19: ("grav", ""),
+    20: ("tpar", "tracker parameter"),
+    21: ("rref", ""),
+    22: ("mvj", "marker"),
+    23: ("mpar", "marker"),
+    24: ("ne", ""),
+    25: ("theta", "parameter"),
+    26: ("q", "posture"),
+    27: ("lpost", "payload"),
+    28: ("lvj", "payload"),
+    29: ("lw", "payload"),
+    30: ("opost", "observation"),
+    31: ("omark", "observation"),
+    32: ("oxyz", "observation"),
+    33: ("owt", "observation"),
+    34: ("free", "free parameter"),
+    35: ("frame", "row"),
+    36: ("rtarget", "row"),
+    37: ("ptarget", "row"),
+    38: ("prow", "per-row parameter"),
+    39: ("trow", "row"),
+    40: ("etol", ""),
+}
+
+
+def located(routine: str, info: int, where: str, problem: str) -> StiffkitError:
+    """The exception of ``info`` with a message naming the argument and the
+    index (``where``) and what is wrong (``problem``)."""
+    cls = INFO.get(int(info), (StiffkitError, ""))[0]
+    exc = cls(f"{routine}: {where}: {problem}")
+    exc.info = int(info)
+    return exc
+
+
 def check(info: int, routine: str, details: dict[int, str] | None = None) -> None:
     """Raise the exception that ``info`` stands for, naming ``routine`` and
     saying what was wrong (the code itself is the exception's ``info``

@@ -15,7 +15,8 @@ import numpy as np
 from ..errors import ConvergenceError, InputError
 from . import _tree
 from .calib import LM_REASONS as LM_REASONS  # why LM stopped (core/sk_lm.f90, shared)
-from .errors import check
+from .tree_errors import CoreArrays as CoreArrays  # the model's arrays with labels for messages
+from .tree_errors import raise_for
 
 _DETAILS = {
     1: "the tree model's arrays are inconsistent (a parent after its child, an index out of range)",
@@ -66,8 +67,9 @@ def _obs(posture: np.ndarray, marker: np.ndarray, xyz: np.ndarray, weight: np.nd
     }
 
 
-def _check(info: int, routine: str) -> None:
-    check(info, routine, _DETAILS)
+def _check(info: int, errloc: object, routine: str, given: dict) -> None:
+    """Raise for info, naming the argument and index the core located (tree_errors)."""
+    raise_for(info, errloc, routine, given, _DETAILS)
 
 
 def poses(
@@ -76,16 +78,11 @@ def poses(
     """Frames after motion ``ra`` (np, nv, 3, 3), ``pa`` (np, nv, 3), generalised
     gravity forces ``wv`` (np, nv) and per joint coordinate ``tauq`` (np, ndof),
     deflections ``delta`` (np, ne), ``nit``, ``eqinfo`` (np,) at postures q (np, ndof)."""
-    ra, pa, wv, tauq, delta, nit, eqinfo, info = _tree.sk_tree_poses(
-        int(ne),
-        **_model(model),
-        theta=_f(theta),
-        q=_f(np.asarray(q, float).T),
-        **_loads(loads),
-        eqit=int(eqit),
-        etol=float(etol),
+    args = dict(theta=_f(theta), q=_f(np.asarray(q, float).T), **_loads(loads))
+    ra, pa, wv, tauq, delta, nit, eqinfo, info, errloc = _tree.sk_tree_poses(
+        int(ne), **_model(model), **args, eqit=int(eqit), etol=float(etol)
     )
-    _check(info, "tree poses (sk_tree_poses)")
+    _check(info, errloc, "tree poses (sk_tree_poses)", dict(args, model=model, ne=ne))
     return {
         "ra": np.transpose(ra, (3, 2, 0, 1)),
         "pa": np.transpose(pa, (2, 1, 0)),
@@ -115,18 +112,17 @@ def evaluate(
     = sqrt(w) (pred - xyz) ordered point by point, their Jacobian ``jac``
     (3 no, nfree) w.r.t. theta[free], ``delta`` (np, ne), ``nit``, ``eqinfo``."""
     free = np.asarray(free, int)
-    pred, res, jac, delta, nit, eqinfo, info = _tree.sk_tree_evaluate(
-        int(ne),
-        **_model(model),
+    args = dict(
         theta=_f(theta),
         q=_f(np.asarray(q, float).T),
         **_loads(loads),
         **_obs(posture, marker, xyz, weight),
         free=_i(free + 1),
-        eqit=int(eqit),
-        etol=float(etol),
     )
-    _check(info, "tree evaluation (sk_tree_evaluate)")
+    pred, res, jac, delta, nit, eqinfo, info, errloc = _tree.sk_tree_evaluate(
+        int(ne), **_model(model), **args, eqit=int(eqit), etol=float(etol)
+    )
+    _check(info, errloc, "tree evaluation (sk_tree_evaluate)", dict(args, model=model, ne=ne))
     return {"pred": pred.T.copy(), "res": res, "jac": jac, "delta": delta.T.copy(), "nit": nit, "eqinfo": eqinfo}
 
 
@@ -161,15 +157,18 @@ def lm(
     free = np.asarray(free, int)
     if free.size == 0:
         raise InputError("no free parameter to fit")
-    theta, hist, nhist, niter, reason, jac, res, rref, info = _tree.sk_tree_lm(
-        int(ne),
-        **_model(model),
+    args = dict(
         theta0=_f(theta0),
         q=_f(np.asarray(q, float).T),
         **_loads(loads),
         **_obs(posture, marker, xyz, weight),
         free=_i(free + 1),
         **_prior(prior),
+    )
+    theta, hist, nhist, niter, reason, jac, res, rref, info, errloc = _tree.sk_tree_lm(
+        int(ne),
+        **_model(model),
+        **args,
         eqit=int(eqit),
         etol=float(etol),
         maxit=int(maxit),
@@ -178,7 +177,8 @@ def lm(
         gtol=float(gtol),
     )
     if info != 7:
-        _check(info, "Levenberg-Marquardt (sk_tree_lm)")
+        given = dict(args, model=model, ne=ne, theta=args["theta0"])
+        _check(info, errloc, "Levenberg-Marquardt (sk_tree_lm)", given)
     return {
         "theta": theta,
         "hist": hist[:nhist].copy(),
@@ -204,17 +204,11 @@ def frame_jacobian(
     """Pose (``R`` (np, 3, 3), ``p`` (np, 3), base) of virtual joint frame[i]
     (1-based) at postures q (np, ndof), at equilibrium, and its total Jacobian
     ``J`` (np, 6, ndof) w.r.t. q (origin velocity, angular velocity)."""
-    rf, pf, jq, delta, nit, eqinfo, info = _tree.sk_tree_frame_jacobian(
-        int(ne),
-        **_model(model),
-        theta=_f(theta),
-        frame=_i(frame),
-        q=_f(np.asarray(q, float).T),
-        **_loads(loads),
-        eqit=int(eqit),
-        etol=float(etol),
+    args = dict(theta=_f(theta), frame=_i(frame), q=_f(np.asarray(q, float).T), **_loads(loads))
+    rf, pf, jq, delta, nit, eqinfo, info, errloc = _tree.sk_tree_frame_jacobian(
+        int(ne), **_model(model), **args, eqit=int(eqit), etol=float(etol)
     )
-    _check(info, "frame Jacobian (sk_tree_frame_jacobian)")
+    _check(info, errloc, "frame Jacobian (sk_tree_frame_jacobian)", dict(args, model=model, ne=ne))
     return {
         "R": np.transpose(rf, (2, 0, 1)),
         "p": pf.T.copy(),
@@ -253,9 +247,7 @@ def compensate(
     else:
         prow = _i(np.asarray(row_params[0]) + 1)
         trow = _f(np.asarray(row_params[1], float).reshape(nr, prow.size).ravel())
-    qout, resp, resr, nit, rinfo, info = _tree.sk_tree_compensate(
-        int(ne),
-        **_model(model),
+    args = dict(
         theta=_f(theta),
         frame=_i(frame),
         qcmd=_f(np.asarray(qcmd, float).T),
@@ -264,6 +256,11 @@ def compensate(
         **_loads(loads),
         prow=prow,
         trow=trow,
+    )
+    qout, resp, resr, nit, rinfo, info, errloc = _tree.sk_tree_compensate(
+        int(ne),
+        **_model(model),
+        **args,
         full6=int(bool(full6)),
         eqit=int(eqit),
         etol=float(etol),
@@ -273,5 +270,5 @@ def compensate(
     )
     if info == 7:
         raise ConvergenceError("compensation (sk_tree_compensate): the Newton iteration did not converge")
-    _check(info, "compensation (sk_tree_compensate)")
+    _check(info, errloc, "compensation (sk_tree_compensate)", dict(args, model=model, ne=ne, q=args["qcmd"]))
     return {"q": qout.T.copy(), "resp": resp, "resr": resr, "nit": nit, "rinfo": rinfo}

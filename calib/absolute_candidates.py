@@ -19,7 +19,10 @@ reason, never scored, ranked or proposed (:func:`inert_reason`):
 - numerically: its Jacobian columns are zero (below 1e-9 of the largest
   column of its kind, the reduction's rule), or, for kinds with a plausible
   size, an effect of that size moves no point by as much as the noise
-  sigma in any row.
+  sigma in any row;
+- or it duplicates an earlier candidate of its kind (the same column space:
+  two coaxial joints at one point, a coupled joint written as two mimics):
+  :func:`duplicate_of`.
 """
 
 from __future__ import annotations
@@ -192,3 +195,35 @@ def params_of(model: TreeModel, cand: dict) -> list[int]:
     return [
         i for i, p in enumerate(model.params) if p.kind in kinds and (target == "all" or p.target == target) and p.free
     ]
+
+
+#: two candidates whose column spaces agree to this (1 - cosine of the largest principal angle) are one
+DUPLICATE_TOL = 1e-9
+
+
+def duplicate_of(blocks: list[np.ndarray]) -> list[int]:
+    """For each block of columns (one candidate's, same kind), the index of
+    an earlier block with the same column space (the same effect on every
+    measured point: e.g. two coaxial joints at one point, a coupled joint
+    written as two ``<mimic>`` joints), or -1."""
+    bases = []
+    for Z in blocks:
+        if Z.size == 0:
+            bases.append(np.zeros((Z.shape[0], 0)))
+            continue
+        n = np.linalg.norm(Z, axis=0)
+        U, s, _ = np.linalg.svd(Z / np.where(n > 0, n, 1.0), full_matrices=False)
+        bases.append(U[:, s > 1e-8 * max(s.max(), 1e-300)])
+    out = []
+    for b, Qb in enumerate(bases):
+        dup = -1
+        for a in range(b):
+            Qa = bases[a]
+            if out[a] == -1 and Qa.shape[1] == Qb.shape[1] > 0:
+                # the smallest cosine of the principal angles between the two spaces
+                cos = np.linalg.svd(Qa.T @ Qb, compute_uv=False)
+                if cos.min() > 1.0 - DUPLICATE_TOL:
+                    dup = a
+                    break
+        out.append(dup)
+    return out

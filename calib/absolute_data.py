@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..io import validate as V
 from ..io.tables import parse_number
 from ..robot.urdf_checks import limit_warnings
 from .checks import copies_message
@@ -121,7 +122,7 @@ def read_absolute(
         ) from None
     dup = sorted({h for h in header if header.count(h) > 1 and h})
     if dup:
-        raise InputError(f"{path}: duplicate column(s) {', '.join(dup)} in the header")
+        raise InputError(f"{path}: duplicate column(s) {', '.join(map(V.shown, dup))} in the header")
     col = {h: k for k, h in enumerate(header)}
     mimic = mimic or {}
     # a column for a mimic joint (joint_states lists them too): with its law

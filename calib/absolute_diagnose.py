@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,23 +49,23 @@ from .absolute_candidates import (
     JOINT_KINDS,
     SPRING_TEMPLATE,
     absolute_candidates,
+    duplicate_of,
     extended_model,
     inert_reason,
     numerical_inert,
     params_of,
 )
 from .absolute_data import AbsoluteData, row_values
-from .absolute_diagnose_report import format_absolute_diagnosis
+from .absolute_diagnose_report import AbsoluteDiagnosis, format_absolute_diagnosis
 from .absolute_fit import (
     AbsoluteFit,
     _loads,
     _marker_index,
     fit_absolute,
-    position_stats,
 )
 from .absolute_propose import propose
 from .absolute_structure import PATH_GAP, STRUCTURE_ALPHA, STRUCTURE_PERMUTATIONS, residual_structure, structure_verdict
-from .backward import BackwardStep, backward_steps
+from .backward import backward_steps, held_for_addition
 from .checks import cannot_judge, drop_copies, outlier_rows, unit_slips
 from .crossval import config_folds, held_out_residuals
 from .diagnose_candidates import Candidate
@@ -93,68 +92,6 @@ CV_FOLDS = 5
 #: held-out errors of this many leading candidates (each one CV of the linearised model)
 CV_TOP = 6
 ZTOL = 1e-6
-
-
-@dataclass
-class AbsoluteDiagnosis:
-    """The verdict, the data checks, the candidates ranked, the backward steps."""
-
-    verdict: str
-    sigma_position: float
-    sigma_source: str
-    fit: AbsoluteFit
-    candidates: list[Candidate]
-    non_identifiable: list[Candidate]
-    cv_rms_position_m: float
-    cv_folds: int
-    data_checks: dict
-    proposal: Candidate | None = None
-    ties: list[dict] = field(default_factory=list)
-    reasons: list[str] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
-    test: str = ""
-    statistic: float = 0.0
-    dof: float = 0.0
-    log_p: float = 0.0
-    nothing_fits: bool = False
-    residual_structure: dict | None = None
-    backward: list[BackwardStep] = field(default_factory=list)
-    removal: BackwardStep | None = None
-    pruned: bool = False  # only the backward steps were made (prune=True)
-
-    @property
-    def floor(self) -> float:
-        return math.sqrt(3) * self.sigma_position
-
-    def to_json(self) -> dict:
-        return {
-            "verdict": self.verdict,
-            "sigma_position_m": self.sigma_position,
-            "rms_position_m": self.fit.rms_position,
-            "candidates": [c.to_json() for c in self.candidates],
-            "kind": "absolute",
-            "sigma_source": self.sigma_source,
-            "noise_floor_position_m": self.floor,
-            "mean_position_m": position_stats(self.fit.residual[self.fit.weight > 0])["mean_position_m"],
-            "cv_rms_position_m": self.cv_rms_position_m,
-            "cv_folds": self.cv_folds,
-            "test": self.test,
-            "statistic": self.statistic if math.isfinite(self.statistic) else None,
-            "dof": self.dof,
-            "log10_p_value": self.log_p / math.log(10),
-            "data_checks": self.data_checks,
-            "proposal": self.proposal.effect if self.proposal is not None else None,
-            "removal": self.removal.to_json() if self.removal is not None else None,
-            "backward_steps": [s.to_json() for s in self.backward],
-            "prune": self.pruned,
-            "ties": self.ties,
-            "nothing_fits": self.nothing_fits,
-            "residual_structure": self.residual_structure,
-            "no_proposal_reasons": self.reasons,
-            "warnings": self.warnings,
-            "non_identifiable_candidates": [c.inert_json() for c in self.non_identifiable],
-            "fit": self.fit.to_json(),
-        }
 
 
 def _data_checks(
@@ -305,12 +242,10 @@ def diagnose_absolute(
             Ac = np.hstack([A, J[:, [col[x] for x in cols]]])
             cand.cv_rms_position_m = _cv_rms(Ac, r, obs_rows, folds, w)
         # 3. the proposal
-        propose(dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, sig_decl, log_p, alpha)
-    if dg.removal is not None and dg.proposal is not None:
-        dg.reasons.append(
-            f"{dg.proposal.label} is held back: first remove {dg.removal.label}, which no longer earns its place"
+        propose(
+            dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, ext.names, sig_decl, log_p, alpha
         )
-        dg.proposal = None
+    held_for_addition(dg)
     if not sig_decl:
         dg.warnings.append(
             "no sigma_position declared: the residual cannot be called noise by a chi-square test; the verdict "
@@ -400,8 +335,16 @@ def _score_candidates(
         if not why and c.get("target") != "all":
             why = numerical_inert(ext, cols, J[:, [col[x] for x in cols]], biggest, sigma)
         inert.append(why)
-        if not why and c.get("target") not in (None, "all") and c["kind"] in JOINT_KINDS:
+        if not why and c.get("target") not in (None, "all"):  # per-joint kinds, and `mass` per link
             acting_cols.setdefault(c["kind"], []).append(cols)
+    # the same columns as an earlier candidate of its kind: one effect under two names
+    for kind in {c["kind"] for c in cands}:
+        idx = [k for k, c in enumerate(cands) if c["kind"] == kind and c.get("target") != "all" and not inert[k]]
+        dup = duplicate_of([J[:, [col[x] for x in cand_cols[k]]] for k in idx])
+        for k, d in zip(idx, dup):
+            if d >= 0:
+                first = cands[idx[d]]
+                inert[k] = f"duplicates {first['kind']}:{first.get('target', first['kind'])} (the same columns)"
     blocks = []
     for c, cols, why in zip(cands, cand_cols, inert):
         cand = Candidate(kind=c["kind"], target=c.get("target", c["kind"]), effect=dict(c))

@@ -1,20 +1,81 @@
-"""The text report of the absolute diagnosis (``calib.absolute_diagnose``):
-the data checks, the verdict, the candidates ranked, the ones that cannot
+"""The record of the absolute diagnosis (``calib.absolute_diagnose``) and
+its JSON, and its text report: the data checks, the verdict, the candidates ranked, the ones that cannot
 act and why, the backward steps, the proposal as a ready [[effect]] table.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
 
-from .backward import format_backward_steps
+from .absolute_fit import AbsoluteFit, position_stats
+from .backward import BackwardStep, format_backward_steps
+from .diagnose_candidates import Candidate
 from .diagnose_report import effect_toml
 
-if TYPE_CHECKING:
-    from .absolute_diagnose import AbsoluteDiagnosis
+__all__ = ["AbsoluteDiagnosis", "format_absolute_diagnosis"]
 
-__all__ = ["format_absolute_diagnosis"]
+
+@dataclass
+class AbsoluteDiagnosis:
+    """The verdict, the data checks, the candidates ranked, the backward steps."""
+
+    verdict: str
+    sigma_position: float
+    sigma_source: str
+    fit: AbsoluteFit
+    candidates: list[Candidate]
+    non_identifiable: list[Candidate]
+    cv_rms_position_m: float
+    cv_folds: int
+    data_checks: dict
+    proposal: Candidate | None = None
+    ties: list[dict] = field(default_factory=list)
+    reasons: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    test: str = ""
+    statistic: float = 0.0
+    dof: float = 0.0
+    log_p: float = 0.0
+    nothing_fits: bool = False
+    residual_structure: dict | None = None
+    backward: list[BackwardStep] = field(default_factory=list)
+    removal: BackwardStep | None = None
+    pruned: bool = False  # only the backward steps were made (prune=True)
+
+    @property
+    def floor(self) -> float:
+        return math.sqrt(3) * self.sigma_position
+
+    def to_json(self) -> dict:
+        return {
+            "verdict": self.verdict,
+            "sigma_position_m": self.sigma_position,
+            "rms_position_m": self.fit.rms_position,
+            "candidates": [c.to_json() for c in self.candidates],
+            "kind": "absolute",
+            "sigma_source": self.sigma_source,
+            "noise_floor_position_m": self.floor,
+            "mean_position_m": position_stats(self.fit.residual[self.fit.weight > 0])["mean_position_m"],
+            "cv_rms_position_m": self.cv_rms_position_m,
+            "cv_folds": self.cv_folds,
+            "test": self.test,
+            "statistic": self.statistic if math.isfinite(self.statistic) else None,
+            "dof": self.dof,
+            "log10_p_value": self.log_p / math.log(10),
+            "data_checks": self.data_checks,
+            "proposal": self.proposal.effect if self.proposal is not None else None,
+            "removal": self.removal.to_json() if self.removal is not None else None,
+            "backward_steps": [s.to_json() for s in self.backward],
+            "prune": self.pruned,
+            "ties": self.ties,
+            "nothing_fits": self.nothing_fits,
+            "residual_structure": self.residual_structure,
+            "no_proposal_reasons": self.reasons,
+            "warnings": self.warnings,
+            "non_identifiable_candidates": [c.inert_json() for c in self.non_identifiable],
+            "fit": self.fit.to_json(),
+        }
 
 
 def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:

@@ -402,7 +402,10 @@ def fit_absolute(
     theta = tracker_start(model, data, theta)
     free = model.free
     if free.size == 0:
-        raise InputError(f"{model.path or 'model'}: every parameter is fixed; nothing to identify")
+        raise InputError(
+            f"{model.path or 'model'}: every parameter is fixed; nothing to identify (the errors of a model as it "
+            "is, on these or fresh data: stiffkit evaluate MODEL.toml MEAS.csv)"
+        )
     w = data.weight.copy()
     # the nominal model with the tracker (and markers) fitted: the error "before"
     # and a generic point for the reduction (a marker start on a joint axis would

@@ -22,7 +22,7 @@ from .absolute_structure import structure_verdict
 from .diagnose_candidates import Candidate
 
 if TYPE_CHECKING:
-    from .absolute_diagnose import AbsoluteDiagnosis
+    from .absolute_diagnose_report import AbsoluteDiagnosis
 
 __all__ = ["propose", "CV_GAIN"]
 
@@ -53,6 +53,7 @@ def propose(
     J: np.ndarray,
     col: dict,
     cv_base: float | None,
+    ext_names: list[str],
     sig_decl: float | None,
     log_p: float,
     alpha: float,
@@ -82,7 +83,8 @@ def propose(
             if c.label in tried:
                 continue
             tried.add(c.label)
-            rms_new = _refit_rms(m, theta, kept_set, c, data, w)
+            scored = {ext_names[x] for x in cols_of[id(c)]}
+            rms_new = _refit_rms(m, theta, kept_set, c, data, w, scored)
             want = fit.rms_position - c.rms_after_m
             if rms_new is not None and fit.rms_position - rms_new >= VERIFY_SHARE * want:
                 best = c
@@ -140,10 +142,13 @@ def _refit_rms(
     cand: Candidate,
     data: AbsoluteData,
     w: np.ndarray,
+    scored: set[str] | None = None,
 ) -> float | None:
     """RMS point error (m) of the fitted model ``m`` plus the candidate's
     effect, fitted: LM from the fitted values (the candidate at 0) on the
-    identified parameters and the candidate's, compliances that come out
+    identified parameters and the candidate's that were scored (``scored``,
+    names; default all: the members of an ``all`` candidate that cannot act
+    stay at 0, their columns would only let the fit wander), compliances that come out
     negative held at 0 and the rest fitted again, as the fit does. None
     when that fails."""
     try:
@@ -155,7 +160,8 @@ def _refit_rms(
         for k, name in enumerate(mc.names):
             if name in m.names:
                 th[k] = theta[m.index(name)]
-        free = np.array([k for k, name in enumerate(mc.names) if name in kept or name not in m.names], int)
+        new = [name not in m.names and (scored is None or name in scored) for name in mc.names]
+        free = np.array([k for k, name in enumerate(mc.names) if name in kept or new[k]], int)
         free = np.array([k for k in free if mc.params[k].free], int)
         mc, sol = _solve(mc, data, th, free, w, VERIFY_MAXIT)
         th = sol["theta"]

@@ -17,7 +17,7 @@ from .absolute_data import AbsoluteData
 from .absolute_fit import AbsoluteFit
 
 if TYPE_CHECKING:
-    from .absolute_diagnose import AbsoluteDiagnosis
+    from .absolute_diagnose_report import AbsoluteDiagnosis
 
 __all__ = ["residual_structure", "structure_verdict", "STRUCTURE_ALPHA", "STRUCTURE_PERMUTATIONS", "PATH_GAP"]
 

@@ -192,7 +192,9 @@ def model_effects(
                     C[a, b] = C[b, a] = vals.get(f"c{a + 1}{b + 1}", 0.0)
                 tab["value"] = C.tolist()
             elif kind in BODY_KINDS:
-                tab.update(body_table(kind, vals))
+                val, clipped = body_table(kind, target, vals)
+                tab.update(val)
+                notes += clipped
             else:  # pragma: no cover - every kind of ABS_KINDS is handled above
                 raise InputError(f"cannot write an effect of kind {kind!r}")
             extra = [f"{HELD_NOTE}: " + ", ".join(said)] if said else []

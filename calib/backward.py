@@ -21,7 +21,11 @@ An effect no longer earns its place when its values are within the noise
 PRUNE_CV_TOL) or lower. An effect with no identified parameter left (every
 one dropped by the reduction or held at 0 as a compliance) earns nothing.
 The removal proposed is the one with the lowest held-out error without it;
-one at a time (the others change when it goes).
+one at a time (the others change when it goes). An addition proposed by
+the same diagnosis comes first (:func:`held_for_addition`): on a model that
+still lacks an effect, the values of the others are judged against a
+residual that is not noise yet; the backward steps are made again after
+it, and a final ``--prune`` removes what is left over.
 """
 
 from __future__ import annotations
@@ -34,7 +38,14 @@ import numpy as np
 
 from .._core import calib as core_calib
 
-__all__ = ["BackwardStep", "backward_steps", "format_backward_steps", "PRUNE_CV_TOL", "FRAME_KINDS"]
+__all__ = [
+    "BackwardStep",
+    "backward_steps",
+    "format_backward_steps",
+    "held_for_addition",
+    "PRUNE_CV_TOL",
+    "FRAME_KINDS",
+]
 
 #: the held-out error without an effect may rise by this fraction and still count as unchanged
 PRUNE_CV_TOL = 0.005
@@ -169,6 +180,14 @@ def backward_steps(
     return steps, pick
 
 
+def held_for_addition(dg: object) -> None:
+    """A diagnosis (either kind: ``proposal``, ``removal``) that proposes an
+    addition holds its removal back until after it (the steps that would
+    remove stay in ``backward``)."""
+    if dg.proposal is not None:
+        dg.removal = None
+
+
 def format_backward_steps(steps: list[BackwardStep], removal: BackwardStep | None) -> list[str]:
     """The table of backward steps and the removal proposed."""
     if not steps:
@@ -188,4 +207,6 @@ def format_backward_steps(steps: list[BackwardStep], removal: BackwardStep | Non
     if removal is not None:
         lines.append("")
         lines.append(f"suggested removal: delete [[effect]] #{removal.index + 1} ({removal.label}): {removal.why}")
+    elif any(s.remove for s in steps):
+        lines.append("  (the addition proposed comes first; the backward steps are made again after it)")
     return lines

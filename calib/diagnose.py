@@ -53,7 +53,7 @@ from ..errors import InputError
 from ..robot.model import Model, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
-from .backward import backward_steps
+from .backward import backward_steps, held_for_addition
 from .checks import cannot_judge, drop_copies
 from .diagnose_candidates import Candidate, candidate_tables, inert_reasons
 from .diagnose_rank import (
@@ -63,7 +63,6 @@ from .diagnose_rank import (
     EQUIVALENT,
     HINT_COMPENSATOR,
     NOTHING_FITS,
-    TIE_LOG10,
     TOGETHER_FITS,
     _rank_honestly,
     compensator_shape_match,
@@ -76,11 +75,11 @@ from .diagnose_stats import (
     LOW_DOF,
     NSIM,
     OVERFIT,
+    TIE_LOG10,
     ZTOL,
     _adequacy,
     _cos,
     _cv,
-    _warnings,
     logsf_chi2,
     logsf_f,
     pure_error,
@@ -319,12 +318,10 @@ def diagnose(
     )
     _rank_honestly(dg, pb, res, A, model, cterms, cands, sig)
     _backward(dg, pb, res, folds, obs_rows, npts, wp, meas, d_pe, alpha)
-    if dg.proposal is not None and (prune or dg.removal is not None):
-        dg.reasons.append(
-            f"{dg.proposal.label} is held back: "
-            + (f"first remove {dg.removal.label}, which no longer earns its place" if dg.removal else "--prune")
-        )
+    if dg.proposal is not None and prune:
+        dg.reasons.append(f"{dg.proposal.label} is not proposed: --prune proposes removals only")
         dg.proposal = None
+    held_for_addition(dg)
     dg.pruned = prune
     _warnings(dg, nobs)
     if verdict == "inadequate" and (dg.nothing_fits or dg.proposal is None):
@@ -375,3 +372,29 @@ def _backward(
         values=lambda cols: res.theta[cols],
         free_effects={t.effect for t in free},
     )
+
+
+def _warnings(dg: Diagnosis, nobs: int) -> None:
+    res = dg.fit
+    if res.dof < LOW_DOF or res.dof < 0.5 * nobs:
+        dg.warnings.append(
+            f"few residual degrees of freedom: {res.dof} of {nobs} observations ({len(res.names)} parameters); "
+            f"the tests have little power and a fit absorbs part of the noise (expected RMS "
+            f"{math.sqrt(max(res.dof, 0) / nobs):.2f} x the noise floor); judge by the held-out error"
+        )
+    if dg.sigma_source == "declared":
+        floor = dg.floor
+        ratio = res.rms_position / floor if floor > 0 else float("nan")
+        if dg.verdict == "adequate" and ratio < OVERFIT:
+            cv = dg.cv_rms_position_m
+            held = f"; held-out RMS {cv * 1e3:.4g} mm = {cv / floor:.2f} x the floor" if cv is not None else ""
+            dg.warnings.append(
+                f"possible over-fitting: the RMS is {ratio:.2f} x the noise floor ({res.dof} residual dof of "
+                f"{nobs}){held}; more configurations would tell"
+            )
+        cv = dg.cv_rms_position_m
+        if dg.verdict == "adequate" and cv is not None and cv > 1.5 * floor:
+            dg.warnings.append(
+                f"the model fits these rows but predicts held-out configurations at {cv / floor:.2f} x the noise "
+                f"floor: it does not generalise (over-fitted, or the configurations do not inform every parameter)"
+            )

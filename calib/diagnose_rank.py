@@ -14,7 +14,7 @@ import numpy as np
 from .._core import calib as core
 from ..robot.model import Model, compensator_h
 from .diagnose_candidates import Candidate
-from .diagnose_stats import ZTOL, _cos, _cv_better, _nested, logsf_chi2
+from .diagnose_stats import TIE_LOG10, ZTOL, _cos, _cv_better, _nested, logsf_chi2
 from .fit import FitResult, Problem, identified_model
 from .measure import Measurements
 
@@ -26,7 +26,6 @@ if TYPE_CHECKING:
 __all__ = ["separating_measurements", "compensator_shape_match"]
 
 DUPLICATE_COS = 0.99
-TIE_LOG10 = 1.0  # within a factor 10 of the leader's p-value: undecidable
 CV_TOP = 5  # held-out error for this many leading candidates (and every tied one)
 NOTHING_FITS = 0.5  # the leader explains less than this fraction of the excess residual
 TOGETHER_FITS = 0.8  # ... unless the leading few together explain this much

@@ -15,8 +15,7 @@ from ..io.tomlw import effect_toml
 from . import residual_map as RM
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
-from .diagnose_rank import TIE_LOG10
-from .diagnose_stats import ALPHA
+from .diagnose_stats import ALPHA, TIE_LOG10
 from .fit import FitResult, Problem
 from .robust import DataChecks, format_checks
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,12 +18,10 @@ from .checks import cannot_judge
 from .fit import FitResult, Problem
 from .measure import Measurements
 
-if TYPE_CHECKING:
-    from .diagnose_report import Diagnosis
-
 __all__ = ["pure_error", "logsf_chi2", "logsf_f"]
 
 ALPHA = 0.01
+TIE_LOG10 = 1.0  # within a factor 10 of the leader's p-value: undecidable
 ZTOL = 1e-6  # a projected unit column shorter than this adds nothing
 CV_FOLDS = 5
 LOW_DOF = 30  # fewer residual degrees of freedom than this (or than half the observations): warn
@@ -150,29 +147,3 @@ def _cv_better(a: np.ndarray | None, b: np.ndarray | None) -> bool:
         return False
     se = float(np.std(d, ddof=1)) / math.sqrt(d.size)
     return bool(se > 0 and d.mean() / se < -2.0)
-
-
-def _warnings(dg: Diagnosis, nobs: int) -> None:
-    res = dg.fit
-    if res.dof < LOW_DOF or res.dof < 0.5 * nobs:
-        dg.warnings.append(
-            f"few residual degrees of freedom: {res.dof} of {nobs} observations ({len(res.names)} parameters); "
-            f"the tests have little power and a fit absorbs part of the noise (expected RMS "
-            f"{math.sqrt(max(res.dof, 0) / nobs):.2f} x the noise floor); judge by the held-out error"
-        )
-    if dg.sigma_source == "declared":
-        floor = dg.floor
-        ratio = res.rms_position / floor if floor > 0 else float("nan")
-        if dg.verdict == "adequate" and ratio < OVERFIT:
-            cv = dg.cv_rms_position_m
-            held = f"; held-out RMS {cv * 1e3:.4g} mm = {cv / floor:.2f} x the floor" if cv is not None else ""
-            dg.warnings.append(
-                f"possible over-fitting: the RMS is {ratio:.2f} x the noise floor ({res.dof} residual dof of "
-                f"{nobs}){held}; more configurations would tell"
-            )
-        cv = dg.cv_rms_position_m
-        if dg.verdict == "adequate" and cv is not None and cv > 1.5 * floor:
-            dg.warnings.append(
-                f"the model fits these rows but predicts held-out configurations at {cv / floor:.2f} x the noise "
-                f"floor: it does not generalise (over-fitted, or the configurations do not inform every parameter)"
-            )

@@ -1,6 +1,6 @@
 """The errors of a model as it is, on measurements it was not fitted to
 (``stiffkit evaluate`` and ``stiffkit fit --validate``; docs/calibration.md
-section 6.8).
+section 6.10).
 
 Nothing is fitted: every parameter takes the value the model file gives.
 A model of deflections under known loads (section 3) must give a value to
@@ -133,8 +133,9 @@ def deflection_rows(res: FitResult) -> list[dict]:
     return out
 
 
-def format_evaluation(res: FitResult, model_path: str, top: int = 10) -> str:
-    """fit's Table 2 for the model as it is, and the rows with the largest errors."""
+def format_evaluation(res: FitResult, model_path: str, top: int = 10, sigma_from: str = "") -> str:
+    """fit's Table 2 for the model as it is, and the rows with the largest
+    errors; ``sigma_from`` says where a sigma not in the model came from."""
     from .results import format_table
 
     meas = res.problem.meas
@@ -143,6 +144,7 @@ def format_evaluation(res: FitResult, model_path: str, top: int = 10) -> str:
     if res.sigma_declared and math.isfinite(res.sigma):
         ratio = res.rms_position / (math.sqrt(3) * res.sigma)
         floor = f"; positional RMS {ratio:.3g} x the noise floor sqrt(3) sigma = {math.sqrt(3) * res.sigma / MM:.4g} mm"
+        floor += f" ({sigma_from})" if sigma_from else ""
     lines = [
         format_table(
             res,
@@ -288,15 +290,18 @@ def _row(label: str, st: dict) -> str:
     )
 
 
-def format_absolute_evaluation(ev: AbsoluteEvaluation, top: int = 10) -> str:
+def format_absolute_evaluation(
+    ev: AbsoluteEvaluation, top: int = 10, label: str = "model (nothing fitted)", sigma_from: str = "declared"
+) -> str:
     """fit's error table (overall and per frame) for the model as it is,
-    against the nominal robot, and the rows with the largest errors."""
+    against the nominal robot, and the rows with the largest errors;
+    ``sigma_from`` says where the sigma came from."""
     after, before = ev.stats(), ev.stats_before()
     lines = [f"{'point errors, mm':34s}{'mean':>9s}{'RMS':>9s}{'max':>9s}{'points':>8s}"]
     lines.append(_row("nominal (URDF, tracker, markers)", before))
     for f, st in before.get("frames", {}).items():
         lines.append(_row(f"  {f}", st))
-    lines.append(_row("model (nothing fitted)", after))
+    lines.append(_row(label[:33], after))
     for f, st in after.get("frames", {}).items():
         lines.append(_row(f"  {f}", st))
     tail = f"{ev.data.n} points in {ev.data.n_postures} configurations"
@@ -305,8 +310,8 @@ def format_absolute_evaluation(ev: AbsoluteEvaluation, top: int = 10) -> str:
     if ev.sigma:
         floor = math.sqrt(3) * ev.sigma
         tail += (
-            f"; declared sigma {ev.sigma / MM:.4g} mm per coordinate: RMS {after['rms_position_m'] / floor:.3g} x "
-            f"the noise floor sqrt(3) sigma = {floor / MM:.4g} mm"
+            f"; sigma {ev.sigma / MM:.4g} mm per coordinate ({sigma_from}): "
+            f"RMS {after['rms_position_m'] / floor:.3g} x the noise floor sqrt(3) sigma = {floor / MM:.4g} mm"
         )
     lines.append(tail)
     d = np.linalg.norm(ev.residual, axis=1)

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from ..calib.absolute_data import AbsoluteData
 from ..calib.absolute_fit import AbsoluteFit, fit_absolute
 from ..calib.absolute_plots import absolute_plots
@@ -231,10 +233,13 @@ def run(args: argparse.Namespace) -> int:
         warn = overlap_warning(overlap_deflection(meas, val), val.lines, val.n, args.validate, args.measurements)
         if warn:
             V.warn(warn)
-        vres = evaluate_deflection(written_model(res), val, sigma_position=args.sigma)
+        # the noise floor: the declared sigma, else the fit's estimate
+        sig = args.sigma if args.sigma is not None else res.sigma
+        vres = evaluate_deflection(written_model(res), val, sigma_position=sig if np.isfinite(sig) else None)
         print()
         print(f"validation: the fitted model (as --write-model writes it) on {val.n} rows from {args.validate}")
-        print(format_evaluation(vres, "the fitted model", top=5))
+        frm = "declared" if res.sigma_declared or args.sigma is not None else "the fit's estimate"
+        print(format_evaluation(vres, "the fitted model", top=5, sigma_from=frm))
         out["validation"] = evaluation_json(vres)
         if args.plots:
             for f in fit_plots(vres, args.plots, label="validate"):
@@ -304,10 +309,13 @@ def _validate_absolute(fit: AbsoluteFit, data: AbsoluteData, val: AbsoluteData, 
     warn = overlap_warning(overlap_absolute(data, val), val.lines, val.n, args.validate, args.measurements)
     if warn:
         V.warn(warn)
-    ev = evaluate_absolute(written_tree_model(fit), val, sigma_position=args.sigma)
+    # the noise floor: the declared sigma, else the fit's estimate
+    sig = args.sigma if args.sigma is not None else fit.sigma
+    ev = evaluate_absolute(written_tree_model(fit), val, sigma_position=sig if np.isfinite(sig) else None)
     print()
     print(f"validation: the fitted model (as --write-model writes it) on {val.n} points from {args.validate}")
-    print(format_absolute_evaluation(ev, top=5))
+    frm = "declared" if fit.sigma_declared or args.sigma is not None else "the fit's estimate"
+    print(format_absolute_evaluation(ev, top=5, label="fitted model", sigma_from=frm))
     if args.plots:
         for f in absolute_plots(ev, args.plots, label="validate"):  # type: ignore[arg-type]
             print(f"wrote {f}")

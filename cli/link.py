@@ -54,6 +54,14 @@ LINK.toml (format: docs/link.md; lengths in geometry.units):
               across_factor = 1.0 (structured: element size across the section, i.e. along the
               box's two shorter sides, = across_factor x size; e.g. size = 2, across_factor = 0.9:
               6 elements across the 10 mm section, paper's beam max error 0.08 % vs 0.22 %)
+              features = true | false (default true: size fields at holes, fillets, thin walls
+              and the support/load faces; a built-in box gets a structured prism mesh instead),
+              across = elements across the thinnest wall (default 8 for a box: over its section,
+              paper's beam 5 mm max error 0.22 % -> see docs/link.md; 3 for other parts),
+              around = 16 (elements around a hole's full circle),
+              accuracy = 0.001 (relative: refine every size by 4/3 per level until the Richardson
+              estimate of the compliance error is below it; reported with the matrix),
+              max_nodes = 300000 (the memory limit, about 8 GB on the matrix route)
   [fit]       method = "lin" | "svd+" | "svd-" | "svd+-" | "exact", trim, confidence, symmetrize,
               pooled (true: one noise estimate for the six fields, paper s3.4; false: each its own)
   [solver]    route = "auto" (= matrix) | "ccx" (six *STEPs) | "matrix" (ccx assembles K once,
@@ -130,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--list-faces PART takes no LINK.toml")
         return list_faces(args.list_faces, args.units)
     if not args.link:
-        raise InputError("the argument LINK.toml is required (or --list-faces PART.step)")
+        raise InputError("a LINK.toml is required (or --list-faces PART.step)")
     inputs = link_inputs(args.link)
     for opt, path, suffixes in (
         ("--json", args.json, None),

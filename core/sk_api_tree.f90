@@ -27,6 +27,10 @@
 !> Observations: opost[no], omark[no], oxyz[3,no] (m, tracker frame),
 !> owt[no] (weights >= 0). Equilibrium: eqit (0 rigid, 1 first order,
 !> >= 2 iterated, at most eqit times), etol (m).
+!> Every routine returns errloc[2] = [argument code, index] with an argument
+!> error (info = size, nonfinite or argument): which argument and which
+!> joint, entry, block, parameter, posture, payload, observation or row
+!> (the codes and indices of sk_tree_check), 0 otherwise.
 
 !> Frames after motion ra[3,3,nv,np], pa[3,nv,np], generalised gravity
 !> forces of every joint wv[nv,np] and joint coordinate tauq[ndof,np],
@@ -35,10 +39,11 @@
 subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta, q, lpost, lvj, lw, eqit, etol, &
-        ra, pa, wv, tauq, delta, nit, eqinfo, info)
+        ra, pa, wv, tauq, delta, nit, eqinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_body_params, model_setup, poses_batch
+    use sk_tree_check, only: inputs_check
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
@@ -48,7 +53,7 @@ subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, &
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), etol
     integer(c_int), intent(in) :: lpost(nl), lvj(nl), eqit
     real(c_double), intent(out) :: ra(3, 3, nv, np), pa(3, nv, np), wv(nv, np), tauq(ndof, np), delta(ne, np)
-    integer(c_int), intent(out) :: nit(np), eqinfo(np), info
+    integer(c_int), intent(out) :: nit(np), eqinfo(np), info, errloc(2)
     type(tree_model) :: m
     ra = 0
     pa = 0
@@ -57,8 +62,11 @@ subroutine sk_tree_poses(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, &
     delta = 0
     nit = 0
     eqinfo = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
     if (info /= sk_ok) return
     call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
@@ -71,10 +79,11 @@ end subroutine sk_tree_poses
 subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
-        free, eqit, etol, pred, res, jac, delta, nit, eqinfo, info)
+        free, eqit, etol, pred, res, jac, delta, nit, eqinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_body_params, tree_problem, model_setup, problem_setup, evaluate
+    use sk_tree_check, only: inputs_check, observations_check
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
@@ -84,7 +93,7 @@ subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no,
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), oxyz(3, no), owt(no), etol
     integer(c_int), intent(in) :: lpost(nl), lvj(nl), opost(no), omark(no), free(nfree), eqit
     real(c_double), intent(out) :: pred(3, no), res(3*no), jac(3*no, nfree), delta(ne, np)
-    integer(c_int), intent(out) :: nit(np), eqinfo(np), info
+    integer(c_int), intent(out) :: nit(np), eqinfo(np), info, errloc(2)
     type(tree_model) :: m
     type(tree_problem) :: pr
     pred = 0
@@ -93,8 +102,13 @@ subroutine sk_tree_evaluate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no,
     delta = 0
     nit = 0
     eqinfo = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
+    if (info /= sk_ok) return
+    call observations_check(np, m%nm, m%npar, opost, omark, oxyz, owt, free, info, errloc)
     if (info /= sk_ok) return
     call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
@@ -112,10 +126,11 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta0, q, lpost, lvj, lw, opost, omark, oxyz, owt, &
         free, npri, ppar, pmu, psw, eqit, etol, maxit, ftol, xtol, gtol, theta, hist, nhist, niter, reason, jac, res, &
-        rrefout, info)
+        rrefout, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_body_params, tree_problem, model_setup, problem_setup
+    use sk_tree_check, only: inputs_check, observations_check
     use sk_tree_solve, only: tree_lm
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree
@@ -128,7 +143,7 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree
     integer(c_int), intent(in) :: npri, ppar(npri)
     real(c_double), intent(in) :: pmu(npri), psw(npri)
     real(c_double), intent(out) :: theta(npar), hist(maxit + 1), jac(3*no, nfree), res(3*no), rrefout(3, 3)
-    integer(c_int), intent(out) :: nhist, niter, reason, info
+    integer(c_int), intent(out) :: nhist, niter, reason, info, errloc(2)
     type(tree_model) :: m
     type(tree_problem) :: pr
     theta = theta0
@@ -139,8 +154,13 @@ subroutine sk_tree_lm(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, no, nfree
     nhist = 0
     niter = 0
     reason = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta0, q, lpost, lvj, lw, etol, info, errloc)
+    if (info /= sk_ok) return
+    call observations_check(np, m%nm, m%npar, opost, omark, oxyz, owt, free, info, errloc)
     if (info /= sk_ok) return
     call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
@@ -158,10 +178,11 @@ end subroutine sk_tree_lm
 subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta, frame, q, lpost, lvj, lw, eqit, etol, &
-        rf, pf, jq, delta, nit, eqinfo, info)
+        rf, pf, jq, delta, nit, eqinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_body_params, model_setup, frame_jacobian_batch
+    use sk_tree_check, only: inputs_check, rows_check
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, nl
     integer(c_int), intent(in) :: vparent(nv), vtype(nv), qcol(nv), gvj(ng), gpar(ng), ktype(nk), kvj(6, nk), &
@@ -171,7 +192,7 @@ subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, n
     real(c_double), intent(in) :: theta(npar), q(ndof, np), lw(6, nl), etol
     integer(c_int), intent(in) :: frame(np), lpost(nl), lvj(nl), eqit
     real(c_double), intent(out) :: rf(3, 3, np), pf(3, np), jq(6, ndof, np), delta(ne, np)
-    integer(c_int), intent(out) :: nit(np), eqinfo(np), info
+    integer(c_int), intent(out) :: nit(np), eqinfo(np), info, errloc(2)
     type(tree_model) :: m
     rf = 0
     pf = 0
@@ -179,8 +200,13 @@ subroutine sk_tree_frame_jacobian(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, np, n
     delta = 0
     nit = 0
     eqinfo = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, q, lpost, lvj, lw, etol, info, errloc)
+    if (info /= sk_ok) return
+    call rows_check(m%nv, np, frame, info, errloc)
     if (info /= sk_ok) return
     call model_body_params(m, bpar, info)
     if (info /= sk_ok) return
@@ -195,10 +221,11 @@ end subroutine sk_tree_frame_jacobian
 subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, nr, nl, npr, &
         vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, kpar, kw0, &
         bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, bpar, theta, frame, qcmd, rtarget, ptarget, lpost, lvj, lw, &
-        prow, trow, full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info)
+        prow, trow, full6, eqit, etol, maxit, ptol, rtol, qout, resp, resr, nit, rinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model, model_body_params, model_setup
+    use sk_tree_check, only: inputs_check, rows_check, params_check
     use sk_tree_solve, only: compensate_batch
     implicit none
     integer(c_int), intent(in) :: nv, ndof, npar, nk, ne, nb, ng, nm, nbp, nr, nl, npr
@@ -210,15 +237,22 @@ subroutine sk_tree_compensate(nv, ndof, npar, nk, ne, nb, ng, nm, nbp, nr, nl, n
         trow(npr, nr), etol, ptol, rtol
     integer(c_int), intent(in) :: frame(nr), lpost(nl), lvj(nl), prow(npr), full6, eqit, maxit
     real(c_double), intent(out) :: qout(ndof, nr), resp(nr), resr(nr)
-    integer(c_int), intent(out) :: nit(nr), rinfo(nr), info
+    integer(c_int), intent(out) :: nit(nr), rinfo(nr), info, errloc(2)
     type(tree_model) :: m
     qout = qcmd
     resp = 0
     resr = 0
     nit = 0
     rinfo = 0
+    errloc = 0
     call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
-        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+        kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
+    if (info /= sk_ok) return
+    call inputs_check(m%nv, m%ndof, m%npar, theta, qcmd, lpost, lvj, lw, etol, info, errloc)
+    if (info /= sk_ok) return
+    call rows_check(m%nv, nr, frame, info, errloc, rtarget, ptarget)
+    if (info /= sk_ok) return
+    call params_check(m%npar, prow, trow, info, errloc)
     if (info /= sk_ok) return
     call model_body_params(m, bpar, info)
     if (info /= sk_ok) return

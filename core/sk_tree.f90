@@ -75,8 +75,10 @@
 !> times the product of its factors), s = 2..4 an offset of the centre
 !> along x, y, z of the body's frame (m; centre = bcom(:,b) + the sum of
 !> its offsets). One index on several bodies is a subtree's factor; a body
-!> may carry its own factor and its subtrees' (they multiply). They move no point directly: they drive the
-!> deflections through dw/dtheta (the right-hand side of the sensitivity).
+!> may carry its own factor and its subtrees' (they multiply). They move
+!> no point directly: they drive the deflections through dw/dtheta (the
+!> right-hand side of the sensitivity). A folded model (model_fold) takes
+!> them at theta into its masses and centres.
 !>
 !> Markers and tracker. Marker j rides on frame mvj(j) at the point
 !> theta(mpar(:,j)) of that frame. The tracker pose is
@@ -113,6 +115,8 @@ module sk_tree
     use sk_errors
     use sk_linalg, only: eye, cross, rot_exp, all_finite, lu_factor, lu_solve, group_by
     use sk_spatial, only: sym_index, nsym
+    use sk_tree_check, only: model_check, is_rotation, vj_fixed, vj_revolute, vj_prismatic, law_linear, &
+        law_cubic, law_deadzone, law_spring6
     implicit none
     private
     public :: frame_step, tree_frames
@@ -124,8 +128,7 @@ module sk_tree
     public :: deflection_change, model_fold, fold_for_frames
     public :: model_body_params, body_effective
 
-    integer, parameter, public :: vj_fixed = 0, vj_revolute = 1, vj_prismatic = 2
-    integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
+    public :: vj_fixed, vj_revolute, vj_prismatic, law_linear, law_cubic, law_deadzone, law_spring6
 
     !> A validated tree model (everything but theta and the postures).
     type :: tree_model
@@ -307,16 +310,20 @@ contains
     !> number of elastic coordinates (1 per block of type 1-3, 6 per type
     !> 4). info: sk_err_size (ne or array sizes), sk_err_nonfinite,
     !> sk_err_argument (parent order, type, non-unit axis, non-orthonormal
-    !> rotation, index out of range, two coordinates on one joint, ...).
+    !> rotation, index out of range, two coordinates on one joint, ...);
+    !> optional errloc: [argument code, index] of the failure
+    !> (sk_tree_check%model_check).
     subroutine model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, &
-            ktype, kvj, kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info)
+            ktype, kvj, kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, errloc)
         type(tree_model), intent(out) :: m
         integer(ip), intent(in) :: vparent(:), vtype(:), qcol(:), gvj(:), gpar(:), ktype(:), kvj(:, :), &
             kpar(:, :), bvj(:), tpar(:), mvj(:), mpar(:, :), ndof, npar, ne
         real(dp), intent(in) :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), gcoef(:), &
             kw0(:), bmass(:), bcom(:, :), grav(:), rref(:, :)
         integer(ip), intent(out) :: info
-        integer :: nv, ng, nk, nb, nm, v, k, j, e, n, p
+        integer(ip), intent(out), optional :: errloc(2)
+        integer :: nv, ng, nk, nb, nm, v, k, j, e, p
+        integer(ip) :: loc(2)
         integer, allocatable :: nxt(:)
         real(dp), allocatable :: reach(:)
         nv = size(vparent)
@@ -324,40 +331,10 @@ contains
         nk = size(ktype)
         nb = size(bvj)
         nm = size(mvj)
-        info = sk_err_size
-        if (size(vtype) /= nv .or. any(shape(vaxis) /= [3, nv]) .or. any(shape(vrot) /= [3, 3, nv]) &
-            .or. any(shape(vpos) /= [3, nv]) .or. size(qcol) /= nv .or. size(qcoef) /= nv &
-            .or. size(qconst) /= nv .or. size(gpar) /= ng .or. size(gcoef) /= ng &
-            .or. any(shape(kvj) /= [6, nk]) .or. any(shape(kpar) /= [nsym, nk]) .or. size(kw0) /= nk &
-            .or. size(bmass) /= nb .or. any(shape(bcom) /= [3, nb]) .or. size(grav) /= 3 &
-            .or. size(tpar) /= 6 .or. any(shape(rref) /= [3, 3]) .or. any(shape(mpar) /= [3, nm]) &
-            .or. ndof < 0 .or. npar < 0) return
-        n = 0
-        do k = 1, nk
-            n = n + merge(6, 1, ktype(k) == law_spring6)
-        end do
-        if (n /= ne) return
-        info = sk_err_nonfinite
-        if (.not. (all_finite(vaxis) .and. all_finite(vrot) .and. all_finite(vpos) .and. all_finite(qcoef) &
-            .and. all_finite(qconst) .and. all_finite(gcoef) .and. all_finite(kw0) .and. all_finite(bmass) &
-            .and. all_finite(bcom) .and. all_finite(grav) .and. all_finite(rref))) return
-        info = sk_err_argument
-        do v = 1, nv
-            if (vparent(v) < 0 .or. vparent(v) >= v) return
-            if (vtype(v) < vj_fixed .or. vtype(v) > vj_prismatic) return
-            if (vtype(v) /= vj_fixed .and. abs(norm2(vaxis(:, v)) - 1.0_dp) > 1.0e-9_dp) return
-            if (.not. is_rotation(vrot(:, :, v))) return
-            if (qcol(v) < 0 .or. qcol(v) > ndof) return
-        end do
-        if (.not. is_rotation(rref)) return
-        do k = 1, ng
-            if (gvj(k) < 1 .or. gvj(k) > nv .or. gpar(k) < 1 .or. gpar(k) > npar) return
-            if (vtype(gvj(k)) == vj_fixed) return
-        end do
-        if (any(tpar < 1) .or. any(tpar > npar)) return
-        if (any(mvj < 0) .or. any(mvj > nv) .or. any(mpar < 1) .or. any(mpar > npar)) return
-        if (any(bvj < 0) .or. any(bvj > nv) .or. any(bmass < 0.0_dp)) return
-        if (any(kpar < 0) .or. any(kpar > npar)) return
+        call model_check(vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, gvj, gpar, gcoef, ktype, kvj, &
+            kpar, kw0, bvj, bmass, bcom, grav, tpar, rref, mvj, mpar, ndof, npar, ne, info, loc)
+        if (present(errloc)) errloc = loc
+        if (info /= sk_ok) return
 
         m%nv = nv
         m%ndof = ndof
@@ -382,14 +359,10 @@ contains
         m%vel = 0
         e = 0
         do k = 1, nk
-            if (ktype(k) < law_linear .or. ktype(k) > law_spring6) return
-            if (ktype(k) == law_deadzone .and. .not. kw0(k) > 0.0_dp) return
             m%kfirst(k) = e + 1
             m%kdim(k) = merge(6, 1, ktype(k) == law_spring6)
             do j = 1, m%kdim(k)
                 v = kvj(j, k)
-                if (v < 1 .or. v > nv) return
-                if (vtype(v) == vj_fixed .or. m%vel(v) /= 0) return
                 e = e + 1
                 m%evj(e) = v
                 m%vel(v) = e
@@ -589,13 +562,6 @@ contains
         end do
         call model_fold(m, theta, keep, mf, newidx, info)
     end subroutine fold_for_frames
-
-    pure logical function is_rotation(r)
-        real(dp), intent(in) :: r(3, 3)
-        is_rotation = maxval(abs(matmul(transpose(r), r) - eye(3))) < 1.0e-9_dp &
-            .and. r(1,1)*(r(2,2)*r(3,3) - r(2,3)*r(3,2)) - r(1,2)*(r(2,1)*r(3,3) - r(2,3)*r(3,1)) &
-            + r(1,3)*(r(2,1)*r(3,2) - r(2,2)*r(3,1)) > 0.0_dp
-    end function is_rotation
 
     !> a is an ancestor of b or b itself (0 is everyone's ancestor).
     pure logical function ancestor(m, a, b)

@@ -197,7 +197,7 @@ def _check_keys(data: dict, path: str) -> None:
         unknown = sorted(set(tbl) - set(keys))
         if unknown:
             raise ConfigError(
-                f"{path}: [{section}] unknown key(s) {', '.join(unknown)}{_suggest(unknown[0], keys)}; "
+                f"{path}: [{section}] unknown key(s) {', '.join(map(V.shown, unknown))}{_suggest(unknown[0], keys)}; "
                 f"known: {', '.join(keys)}"
             )
 
@@ -239,7 +239,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
     if unknown:
         first = sorted(unknown)[0]
         raise ConfigError(
-            f"{path}: unknown section(s) {', '.join(sorted(unknown))}{_suggest(first, known)}; "
+            f"{path}: unknown section(s) {', '.join(map(V.shown, sorted(unknown)))}{_suggest(first, known)}; "
             f"known: {', '.join(sorted(known))}"
         )
     _check_keys(data, path)

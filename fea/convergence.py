@@ -15,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.files import atomic_write_text
+from .amplitudes import closed_form
 from .config import LinkJob
-from .job import atomic_write_text, closed_form
 
 
 @dataclass

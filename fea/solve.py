@@ -57,10 +57,11 @@ def resolve_route(job: LinkJob) -> str:
     return "matrix" if job.route == "auto" else job.route
 
 
-def mesh_job(job: LinkJob) -> Mesh:
+def mesh_job(job: LinkJob, cad: CadSets | None = None) -> Mesh:
     """The job's part meshed as its [mesh] table says (refined near the
     reference point and the clamp when ``refine`` is set; at the features,
-    the support and the load faces when ``features`` is on); a MeshError
+    the support and the load faces (planes, and the CAD faces of ``cad``)
+    when ``features`` is on); a MeshError
     above ``max_nodes``."""
     kw = {}
     if job.refine:
@@ -75,6 +76,7 @@ def mesh_job(job: LinkJob) -> Mesh:
             "across": job.across,
             "around": job.around,
             "selected": [p for p in (job.support_plane, job.load_plane) if p],
+            "faces": [] if cad is None else sorted(set(cad.ids.get("support", [])) | set(cad.ids.get("load", []))),
             "max_nodes": job.max_nodes,
         }
     mesh = mesh_part(
@@ -233,7 +235,7 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str],
         f"size {job.size:g} {job.units}{across})"
     )
     cad = resolve_job_sets(job)
-    mesh = mesh_job(job)
+    mesh = mesh_job(job, cad)
     t_mesh = time.perf_counter() - t0
     say(f"mesh: {mesh.n_nodes} nodes, {mesh.n_elements} {mesh.ccx_type} elements")
     fixed, load, faces = support_and_load(job, mesh, cad)

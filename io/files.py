@@ -22,6 +22,8 @@ from __future__ import annotations
 import errno
 import fcntl
 import json
+import math
+import numbers
 import os
 import shutil
 import stat
@@ -34,8 +36,9 @@ from pathlib import Path
 from types import ModuleType
 from typing import IO, TYPE_CHECKING
 
-from ..errors import InputError
-from .validate import json_ready
+import numpy as np
+
+from ..errors import InputError, StiffkitError
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -317,3 +320,41 @@ def pyplot() -> ModuleType:
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def _key(path: list) -> str:
+    out = ""
+    for k in path:
+        out += f"[{k}]" if isinstance(k, int) else f"[{k!r}]"
+    return out
+
+
+def json_ready(data: object, where: str = "JSON") -> object:
+    """``data`` with numpy scalars and arrays turned into plain Python, or
+    StiffkitError naming the first NaN/Inf (JSON has no such numbers; a
+    writer maps an undefined value to null itself)."""
+
+    def walk(v: object, path: list[str | int]) -> object:
+        if isinstance(v, dict):
+            return {str(k): walk(x, path + [k]) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [walk(x, path + [i]) for i, x in enumerate(v)]
+        if isinstance(v, np.ndarray):
+            return walk(v.tolist(), path)
+        if isinstance(v, (bool, np.bool_)):
+            return bool(v)
+        if isinstance(v, numbers.Integral):
+            return int(v)
+        if isinstance(v, numbers.Real):
+            f = float(v)
+            if not math.isfinite(f):
+                raise StiffkitError(
+                    f"{where}: the value at {_key(path) or 'top level'} is {f}, which JSON cannot hold "
+                    "(a result overflowed or is undefined: check the inputs' units and magnitudes)"
+                )
+            return f
+        if isinstance(v, Path):
+            return str(v)
+        return v
+
+    return walk(data, [])

@@ -134,7 +134,7 @@ def read_table(path: Path | str, what: str = "table") -> Table:
                 raise InputError(f"{path}, line 1: column {k + 1} of the header has no name (a trailing comma?)")
         dup = sorted({h for h in header if header.count(h) > 1})
         if dup:
-            raise InputError(f"{path}, line 1: duplicate column name(s) {', '.join(dup)}")
+            raise InputError(f"{path}, line 1: duplicate column name(s) {', '.join(map(V.shown, dup))}")
         rows, lines = [], []
         for row in reader:
             line = reader.line_num

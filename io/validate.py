@@ -28,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, PlausibilityWarning, StiffkitError
+from ..errors import InputError, PlausibilityWarning
+from .files import check_output, json_ready
 
 __all__ = [
     "shown",
@@ -375,44 +376,6 @@ def symmetric6(
     return 0.5 * (m + m.T), asym
 
 
-def _key(path: list) -> str:
-    out = ""
-    for k in path:
-        out += f"[{k}]" if isinstance(k, int) else f"[{k!r}]"
-    return out
-
-
-def json_ready(data: object, where: str = "JSON") -> object:
-    """``data`` with numpy scalars and arrays turned into plain Python, or
-    StiffkitError naming the first NaN/Inf (JSON has no such numbers; a
-    writer maps an undefined value to null itself)."""
-
-    def walk(v: object, path: list[str | int]) -> object:
-        if isinstance(v, dict):
-            return {str(k): walk(x, path + [k]) for k, x in v.items()}
-        if isinstance(v, (list, tuple)):
-            return [walk(x, path + [i]) for i, x in enumerate(v)]
-        if isinstance(v, np.ndarray):
-            return walk(v.tolist(), path)
-        if isinstance(v, (bool, np.bool_)):
-            return bool(v)
-        if isinstance(v, numbers.Integral):
-            return int(v)
-        if isinstance(v, numbers.Real):
-            f = float(v)
-            if not math.isfinite(f):
-                raise StiffkitError(
-                    f"{where}: the value at {_key(path) or 'top level'} is {f}, which JSON cannot hold "
-                    "(a result overflowed or is undefined: check the inputs' units and magnitudes)"
-                )
-            return f
-        if isinstance(v, Path):
-            return str(v)
-        return v
-
-    return walk(data, [])
-
-
 def output_path(
     path: Path | str, what: str, inputs: Iterable[Path | str | None] = (), suffixes: tuple[str, ...] | None = None
 ) -> Path:
@@ -438,8 +401,6 @@ def output_path(
             same = False
         if same or p.resolve() == s.resolve():
             raise InputError(f"{what} {p}: is an input file of this command; choose another output name")
-    from .files import check_output  # io.files imports this module
-
     return check_output(p, what)
 
 

@@ -226,7 +226,7 @@ def mesh_part(
     ``across_factor * size`` across the section, each split into six tets.
     ``source`` names the job in the messages about the size (e.g. the LINK.toml).
     ``features`` (``across``, ``around``, ``selected``: bounding-box planes,
-    ``max_nodes``): size fields that resolve holes, fillets, thin walls and
+    ``faces``: CAD face ids, ``max_nodes``): size fields that resolve holes, fillets, thin walls and
     the selected faces (:mod:`.refine`); a built-in box gets a structured
     mesh with ``across`` elements over its section instead.
     """
@@ -387,7 +387,10 @@ def _prismatic(geometry: dict, mesher: str, refine: float | None, optimize: str,
 def _feature_fields(gmsh: ModuleType, size: float, order: int, features: dict, where: str) -> tuple:
     """(field ids, smallest size, summary) of the features' size fields; a
     MeshError before meshing when they would need more than ``max_nodes``."""
-    selected = sorted({t for p in features.get("selected", ()) for t in plane_surfaces(gmsh, p)})
+    # curved quadratic elements at small holes can fold (ccx: nonpositive jacobian): let Gmsh untangle them
+    gmsh.option.setNumber("Mesh.HighOrderOptimize", 1)
+    selected = {t for p in features.get("selected", ()) for t in plane_surfaces(gmsh, p)}
+    selected = sorted(selected | set(features.get("faces", ())))  # CAD face ids of the selectors
     fields, info = feature_fields(gmsh, size, features["across"], features["around"], selected)
     est = estimate_nodes(info, size, order)
     info["nodes_estimate"] = est

@@ -60,6 +60,7 @@ from .compensate_files import ADDED_COLUMNS, WRENCH, Targets, commands_text, rea
 from .model import LOAD_NONLINEAR, SPRING_BASE, SPRING_FRAME, SPRING_TOOL, Model, load_model
 from .tree import Tree, load_tree
 from .tree_model import LAW_DEADZONE, TreeModel, load_tree_model, tree_model_from_tables
+from .urdf_checks import limit_warnings
 
 __all__ = [
     "CompensationModel",
@@ -523,6 +524,9 @@ def compensate(
         out = V.output_path(out, "--out", [*model_inputs(model), targets])
     cm = load_compensation_model(model)
     tg = read_targets(targets, cm, frame)
+    lim = {j.name: j.limit for j in cm.model.tree.joints}
+    for msg in limit_warnings(tg.Q, cm.joints, [lim.get(j) for j in cm.joints], tg.table.lines, tg.table.path):
+        V.warn(msg, key=("limits", msg))
     res = cm.compensate(tg.Q, tg.frames, tg.wrench, check_plausible=False)
     if np.array_equal(res.q, tg.Q) and not _has_values(cm):
         raise InputError(

@@ -438,7 +438,7 @@ def expand_effect(
     unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
     if unknown:
         raise InputError(
-            f"{where}: unknown key(s) {', '.join(unknown)} for kind {kind!r}"
+            f"{where}: unknown key(s) {', '.join(map(V.shown, unknown))} for kind {kind!r}"
             f"{_suggest(unknown[0], KEYS[kind])} (allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)"
         )
     target = table.get("target", "all" if kind == "joint" else "")
@@ -643,7 +643,8 @@ MEAS_KEYS = ("sigma_position", "sigma_rotation", "kind")
 def _known(table: dict, known: Collection[str], what: str) -> None:
     unknown = sorted(set(table) - set(known))
     if unknown:
-        raise InputError(f"{what} {', '.join(unknown)}{_suggest(unknown[0], known)}; known: {', '.join(known)}")
+        names = ", ".join(map(V.shown, unknown))
+        raise InputError(f"{what} {names}{_suggest(unknown[0], known)}; known: {', '.join(known)}")
 
 
 def model_from_tables(

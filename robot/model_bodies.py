@@ -21,9 +21,11 @@ Keys: ``value`` (a known factor, or [dx, dy, dz] in m: not identified),
 ``prior`` (the sigma of a weak prior toward the URDF: factor 1, offset 0;
 default MASS_PRIOR, COM_PRIOR; 0 = none). The prior enters the fit as the
 rows ``sigma_position / prior * (theta - URDF)``, sigma_position the
-declared one or PRIOR_POSITION_SCALE. Bounds: a factor in (0, MASS_MAX],
-an offset component within COM_MAX m, a prior in [0, MASS_MAX] or
-[0, COM_MAX].
+declared one or PRIOR_POSITION_SCALE. Bounds: a factor in [0, MASS_MAX]
+(the fit does not bound it: a negative one says something else is
+missing), an
+offset component within COM_MAX m, a prior in [0, MASS_MAX] or
+[0, COM_MAX]; the writer clips a fitted value to them and says so.
 """
 
 from __future__ import annotations
@@ -54,8 +56,8 @@ BODY_KEYS = {
 }
 #: default prior sigmas: a mass factor (dimensionless), a centre offset (m)
 MASS_PRIOR, COM_PRIOR = 0.5, 0.05
-#: bounds: a mass factor in (0, MASS_MAX], a centre offset within COM_MAX m
-MASS_MAX, COM_MAX = 10.0, 1.0
+#: bounds: a mass factor in [0, MASS_MAX], a centre offset within COM_MAX m
+MASS_MAX, COM_MAX = 100.0, 1.0
 #: the position sigma (m) that weighs the prior rows when the model declares none
 PRIOR_POSITION_SCALE = 1e-4
 COM_NAMES = ("com_x", "com_y", "com_z")
@@ -75,6 +77,13 @@ def subtree_links(tree: object, link: str) -> list[str]:
         out.append(ln)
         todo += [j.child for j in tree.children(ln)]
     return out
+
+
+def _factor(table: dict, where: str) -> float:
+    val = _number(table["value"], where, "value")
+    if not 0 <= val <= MASS_MAX:
+        raise InputError(f"{where}: a mass factor must be in [0, {MASS_MAX:g}], got {val:g}")
+    return val
 
 
 def _prior(table: dict, where: str, default: float, bound: float, unit: str) -> float:
@@ -124,9 +133,7 @@ def body_entries(b: object, tree: object, by_kind: dict, bodies: list[str], wher
                 sigma = _prior(table, w, MASS_PRIOR, MASS_MAX, "(a factor)")
                 val = None
                 if "value" in table:
-                    val = _number(table["value"], w, "value")
-                    if not 0 < val <= MASS_MAX:
-                        raise InputError(f"{w}: a mass factor must be in (0, {MASS_MAX:g}], got {val:g}")
+                    val = _factor(table, w)
             else:
                 sigma = _prior(table, w, COM_PRIOR, COM_MAX, "m")
                 val = None
@@ -165,11 +172,7 @@ def body_entries(b: object, tree: object, by_kind: dict, bodies: list[str], wher
         if not members:
             raise InputError(f"{w}: no link of the subtree of {target!r} has mass in the URDF")
         sigma = _prior(table, w, MASS_PRIOR, MASS_MAX, "(a factor)")
-        val = None
-        if "value" in table:
-            val = _number(table["value"], w, "value")
-            if not 0 < val <= MASS_MAX:
-                raise InputError(f"{w}: a mass factor must be in (0, {MASS_MAX:g}], got {val:g}")
+        val = _factor(table, w) if "value" in table else None
         name = f"{target}.subtree_mass"
         pi = b.add_param(name, "subtree_mass", target, i, 1.0 if val is None else val, val is None)
         entries += [(body_of[ln], 1, pi) for ln in members]
@@ -217,9 +220,19 @@ def body_candidates(model: object) -> list[dict]:
     return out
 
 
-def body_table(kind: str, vals: dict[str, float]) -> dict:
+def body_table(kind: str, target: str, vals: dict[str, float]) -> tuple[dict, list[str]]:
     """The ``value`` of a written ``mass``, ``subtree_mass`` or ``com`` table
-    (calib/absolute_write.py) from {parameter suffix: value}."""
+    (calib/absolute_write.py) from {parameter suffix: value}, within the
+    bounds the loader checks, and notes naming a value clipped to them."""
+    notes = []
     if kind == "com":
-        return {"value": [vals[n] for n in COM_NAMES]}
-    return {"value": vals[kind]}
+        v = [vals[n] for n in COM_NAMES]
+        c = [min(max(x, -COM_MAX), COM_MAX) for x in v]
+        if c != v:
+            notes.append(f"{target}.com identified {v} m: beyond {COM_MAX:g} m, written as {c}")
+        return {"value": c}, notes
+    v = vals[kind]
+    c = min(max(v, 0.0), MASS_MAX)
+    if c != v:
+        notes.append(f"{target}.{kind} identified {v:.4g}: a mass factor is in [0, {MASS_MAX:g}], written as {c:g}")
+    return {"value": c}, notes

@@ -198,15 +198,14 @@ class _Vectors:
     all at once (numpy), the element named when one is malformed; absent
     attributes take ``default``."""
 
-    def __init__(self, n: int, tag: str, attr: str, default: tuple[float, ...]) -> None:
-        self.n, self.tag, self.attr, self.default = n, tag, attr, default
-        self.raw: list[str] = []
-        self.owners: list[str] = []
+    def __init__(self, n: int, tag: str, attr: str, default: tuple[float, ...], kind: str) -> None:
+        self.n, self.tag, self.attr, self.default, self.kind = n, tag, attr, default, kind
+        self.raw: list[str | None] = []
+        self.names: list[str] = []
 
-    def add(self, el: ET.Element | None, owner: str) -> None:
-        raw = el.get(self.attr) if el is not None else None
-        self.raw.append(raw)
-        self.owners.append(owner)
+    def add(self, el: ET.Element | None, name: str) -> None:
+        self.raw.append(el.get(self.attr) if el is not None else None)
+        self.names.append(name)
 
     def values(self, path: Path | str) -> np.ndarray:
         m = len(self.raw)
@@ -226,10 +225,19 @@ class _Vectors:
             except ValueError:  # name the first malformed one
                 for k in given:
                     if _parse(self.raw[k], self.n) is None:
-                        raise _bad_numbers(path, self.owners[k], self.tag, self.attr, self.raw[k], self.n) from None
-                raise
+                        owner = f"{self.kind} {self.names[k]!r}"
+                        raise _bad_numbers(path, owner, self.tag, self.attr, self.raw[k], self.n) from None
+                vals = np.array([_parse(self.raw[k], self.n) for k in given], float)  # numpy and Python differ
             out[given] = vals
         return out
+
+
+def _first_children(el: ET.Element) -> dict[str, ET.Element]:
+    """The first child of each tag (as ``find`` gives, without its path machinery)."""
+    out: dict[str, ET.Element] = {}
+    for c in el:
+        out.setdefault(c.tag, c)
+    return out
 
 
 def _check_numbers(root: ET.Element, path: Path | str) -> None:
@@ -309,10 +317,12 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
         raise InputError(f"{path}: the root element is <{root.tag}>, a URDF's is <robot>")
     _check_numbers(root, path)
     links: list[UrdfLink] = []
-    com = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0))
-    com_rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0))
+    com = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "link")
+    com_rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "link")
     has_inertial = []
-    for el in root.iterfind("link"):
+    link_els = [el for el in root if el.tag == "link"]
+    joint_els = [el for el in root if el.tag == "joint"]
+    for el in link_els:
         name = (el.get("name") or "").strip()
         if not name:
             raise InputError(f"{path}: a <link> without a name")
@@ -320,12 +330,12 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
         if ie is None:
             links.append(UrdfLink(name, None))
             continue
-        owner = f"link {name!r}"
-        me = ie.find("mass")
-        mass = None if me is None else _scalar(me, "value", owner, path, None)
-        oe = ie.find("origin")
-        com.add(oe, owner)
-        com_rpy.add(oe, owner)
+        parts = _first_children(ie)
+        me = parts.get("mass")
+        mass = None if me is None else _scalar(me, "value", f"link {name!r}", path, None)
+        oe = parts.get("origin")
+        com.add(oe, name)
+        com_rpy.add(oe, name)
         has_inertial.append(len(links))
         links.append(UrdfLink(name, (mass, None)))
     coms = com.values(path)
@@ -333,43 +343,46 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
     for k, i in enumerate(has_inertial):
         links[i].inertial = (links[i].inertial[0], coms[k])
     raw = []
-    xyz = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0))
-    rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0))
-    axis = _Vectors(3, "axis", "xyz", (math.nan, math.nan, math.nan))
-    for el in root.iterfind("joint"):
+    xyz = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "joint")
+    rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "joint")
+    axis = _Vectors(3, "axis", "xyz", (math.nan, math.nan, math.nan), "joint")
+    for el in joint_els:
         name = (el.get("name") or "").strip()
         if not name:
             raise InputError(f"{path}: a <joint> without a name")
-        owner = f"joint {name!r}"
         jtype = el.get("type")
         if not jtype:
-            raise InputError(f"{path}: {owner} has no type")
-        pe, ce = el.find("parent"), el.find("child")
+            raise InputError(f"{path}: joint {name!r} has no type")
+        parts = _first_children(el)
+        pe, ce = parts.get("parent"), parts.get("child")
         parent = (pe.get("link") or "").strip() if pe is not None else ""
         child = (ce.get("link") or "").strip() if ce is not None else ""
         if not parent or not child:
-            raise InputError(f'{path}: {owner} has no <{"parent" if not parent else "child"} link="..."/>')
-        oe = el.find("origin")
-        xyz.add(oe, owner)
-        rpy.add(oe, owner)
-        axis.add(el.find("axis"), owner)
+            raise InputError(f'{path}: joint {name!r} has no <{"parent" if not parent else "child"} link="..."/>')
+        oe = parts.get("origin")
+        xyz.add(oe, name)
+        rpy.add(oe, name)
+        axis.add(parts.get("axis"), name)
         mimic = None
-        me = el.find("mimic")
+        me = parts.get("mimic")
         if me is not None:
+            owner = f"joint {name!r}"
             lead = (me.get("joint") or "").strip()
             if not lead:
                 raise InputError(f'{path}: {owner}: <mimic> without joint="..."')
             mimic = (lead, _scalar(me, "multiplier", owner, path, 1.0), _scalar(me, "offset", owner, path, 0.0))
-        le = el.find("limit")
+        le = parts.get("limit")
         lim = None
         if le is not None:
-            lim = joint_limit(jtype, _scalar(le, "lower", owner, path, None), _scalar(le, "upper", owner, path, None))
+            who = f"joint {name!r}"
+            lim = joint_limit(jtype, _scalar(le, "lower", who, path, None), _scalar(le, "upper", who, path, None))
         raw.append((name, jtype, parent, child, mimic, lim))
     X, A = xyz.values(path), axis.values(path)
     T = _transforms(X, rpy.values(path))
+    # iterating the arrays yields the rows' views in C (indexing one by one costs more than the rest)
     joints = [
-        UrdfJoint(n, t, p, c, T[k], None if math.isnan(A[k, 0]) else A[k], m, lim)
-        for k, (n, t, p, c, m, lim) in enumerate(raw)
+        UrdfJoint(n, t, p, c, Tk, None if a[0] != a[0] else a, m, lim)
+        for (n, t, p, c, m, lim), Tk, a in zip(raw, T, A)
     ]
     far = float(np.abs(X).max()) if len(X) else 0.0
     if far > V.QUANTITIES["position"].plausible[1]:
@@ -439,6 +452,11 @@ _UNSUPPORTED = {
 }
 
 
+#: the axis of every fixed joint (shared, read-only)
+_NO_AXIS = np.zeros(3)
+_NO_AXIS.flags.writeable = False
+
+
 def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | None = None) -> Tree:
     """Read the URDF at ``urdf_path`` and return the tree below ``root``.
 
@@ -461,6 +479,8 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
     dup = _duplicates([j.name for j in doc.joints])
     if dup:
         raise InputError(f"{path}: duplicate joint name(s) {', '.join(dup)}")
+    if not names:
+        raise InputError(f"{path}: the URDF has no <link> (is it an unexpanded xacro wrapper?)")
     links = set(names)
     if root not in links:
         roots = doc.roots
@@ -517,7 +537,7 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
                 f"{f', {what}' if what else ''}; supported joint types are {', '.join(SUPPORTED)} "
                 f"below the base link {root!r}{hint}"
             )
-        ax = _axis(j, path) if j.type in MOVING else np.zeros(3)
+        ax = _axis(j, path) if j.type in MOVING else _NO_AXIS
         mimic = None
         if j.mimic is not None and j.type in MOVING:
             lead, m, o = j.mimic
@@ -536,14 +556,17 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
         if not math.isfinite(mass) or mass < 0:
             raise InputError(f"{path}: link {ln.name!r} has mass {mass}; a mass must be finite and >= 0 kg")
         if mass > 0:
-            inertials[ln.name] = Inertial(mass, com.copy())
+            inertials[ln.name] = Inertial(mass, com)
     tree = Tree(str(path), root, joints, out_links, inertials)
     for j in joints:
         if j.mimic is None:
             continue
         lead = j.mimic[0]
         if lead not in tree._by_name:
-            raise InputError(f"{path}: joint {j.name!r} mimics {lead!r}, which is not a joint below {root!r}")
+            where = (
+                "which is not a joint of the URDF" if lead not in position else f"which is not a joint below {root!r}"
+            )
+            raise InputError(f"{path}: joint {j.name!r} mimics {lead!r}, {where}")
         if not tree._by_name[lead].moving:
             raise InputError(f"{path}: joint {j.name!r} mimics the fixed joint {lead!r}")
         tree.leader(j.name)  # raises on a mimic loop

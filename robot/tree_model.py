@@ -52,7 +52,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .._core.tree import CoreArrays
 from ..errors import InputError
+from ..io import validate as V
 from ..io.tables import read_toml
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
@@ -244,7 +246,9 @@ class TreeModel:
     def copy(self) -> TreeModel:
         """A copy whose arrays can be changed (tracker rotation, tau0) without touching this one."""
         m = TreeModel(**{k: getattr(self, k) for k in self.__dataclass_fields__})
-        m.arrays = {k: np.array(v, order="F") for k, v in self.arrays.items()}
+        m.arrays = CoreArrays(
+            {k: np.array(v, order="F") for k, v in self.arrays.items()}, labels=getattr(self.arrays, "labels", {})
+        )
         return m
 
     def recentred(self, theta: np.ndarray) -> tuple[TreeModel, np.ndarray]:
@@ -284,7 +288,9 @@ class _Builder:
         self.g = []  # geometric entries: (vj, param, coef)
         self.k = []  # blocks: (type, [vj..], [param..] (21), w0)
         self.params: list[Param] = []
+        self.names: set[str] = set()
         self.blocks: list[tuple[str, str]] = []
+        self.labels: list[str] = []  # what each virtual joint is, for the core's messages
 
     def add_vj(
         self,
@@ -293,7 +299,9 @@ class _Builder:
         axis: ArrayLike = (0, 0, 0),
         rot: np.ndarray | None = None,
         pos: ArrayLike = (0, 0, 0),
+        label: str = "",
     ) -> int:
+        self.labels.append(label)
         self.v.append(
             dict(
                 parent=parent,
@@ -309,8 +317,9 @@ class _Builder:
         return len(self.v)
 
     def add_param(self, name: str, kind: str, target: str, effect: int, start: float = 0.0, free: bool = True) -> int:
-        if any(p.name == name for p in self.params):
+        if name in self.names:
             raise InputError(f"{self.where}: the parameter {name} is defined by two effects (a duplicated effect?)")
+        self.names.add(name)
         self.params.append(Param(name, kind, target, effect, float(start), free))
         return len(self.params)
 
@@ -320,7 +329,9 @@ class _Builder:
         vjs = []
         for i in range(6):
             ax = np.eye(3)[i % 3]
-            vj = self.add_vj(parent if first is None else vjs[-1], 2 if i < 3 else 1, ax)
+            what = f"{kind} spring of {target!r}" if kind != "base" else "base spring"
+            label = f"{what}, {('translation', 'rotation')[i // 3]} {'xyz'[i % 3]}"
+            vj = self.add_vj(parent if first is None else vjs[-1], 2 if i < 3 else 1, ax, label=label)
             first = first or vj
             vjs.append(vj)
         template = table.get("template", "full")
@@ -356,15 +367,16 @@ class _Cursor:
     """Appends the virtual joints of one URDF joint: the first carries the
     joint's origin transform, the others follow it with no offset."""
 
-    def __init__(self, b: _Builder, parent: int, origin: np.ndarray) -> None:
-        self.b, self.vj, self.origin, self.first = b, parent, origin, True
+    def __init__(self, b: _Builder, parent: int, origin: np.ndarray, joint: str = "") -> None:
+        self.b, self.vj, self.origin, self.first, self.joint = b, parent, origin, True, joint
 
-    def add(self, vtype: int = 0, axis: ArrayLike = (0, 0, 0)) -> int:
+    def add(self, vtype: int = 0, axis: ArrayLike = (0, 0, 0), what: str = "") -> int:
+        label = f"URDF joint {self.joint!r}" + (f", {what}" if what else "")
         if self.first:
-            self.vj = self.b.add_vj(self.vj, vtype, axis, self.origin[:3, :3], self.origin[:3, 3])
+            self.vj = self.b.add_vj(self.vj, vtype, axis, self.origin[:3, :3], self.origin[:3, 3], label)
             self.first = False
         else:
-            self.vj = self.b.add_vj(self.vj, vtype, axis)
+            self.vj = self.b.add_vj(self.vj, vtype, axis, label=label)
         return self.vj
 
 
@@ -430,7 +442,7 @@ def tree_model_from_tables(
         unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
         if unknown:
             raise InputError(
-                f"{w}: unknown key(s) {', '.join(unknown)} for kind {kind!r} "
+                f"{w}: unknown key(s) {', '.join(map(V.shown, unknown))} for kind {kind!r} "
                 f"(allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)"
             )
         by_kind[kind].append((i, table, w))
@@ -539,12 +551,12 @@ def tree_model_from_tables(
     qcols = {name: k + 1 for k, name in enumerate(tree.actuated)}
     for j in tree.joints:
         slot = per_joint.get(j.name, {})
-        cur = _Cursor(b, vj_of_link[j.parent], j.origin)
+        cur = _Cursor(b, vj_of_link[j.parent], j.origin, j.name)
         if at_child.get(j.parent) == j.name:
             i, table, w = links[j.parent]
             seg = j.origin[:3, 3]
             axis0 = int(np.argmax(np.abs(seg))) if np.linalg.norm(seg) > 0 else 0
-            cur.vj = b.spring6(cur.add(), "link", j.parent, i, table, w, axis0)
+            cur.vj = b.spring6(cur.add(what="origin"), "link", j.parent, i, table, w, axis0)
         if "frame" in slot:
             i, table, w = slot["frame"]
             val = table.get("value")
@@ -553,7 +565,7 @@ def tree_model_from_tables(
                     raise InputError(f"{w}: a frame value needs one target joint, not 'all'")
                 val = _vec(table, "value", 6, w)
             for k in range(6):
-                vj = cur.add(2 if k < 3 else 1, np.eye(3)[k % 3])
+                vj = cur.add(2 if k < 3 else 1, np.eye(3)[k % 3], f"frame error {FRAME_NAMES[k]}")
                 start = 0.0 if val is None else val[k]
                 pi = b.add_param(f"{j.name}.{FRAME_NAMES[k]}", "frame", j.name, i, start, val is None)
                 b.g.append((vj, pi, 1.0))
@@ -588,7 +600,7 @@ def tree_model_from_tables(
                     if np.any(val < 0):
                         raise InputError(f"{w}: lateral compliances must be >= 0 rad/(N m), got {list(val)}")
                 for k, ax in enumerate(_lateral_axes(j.axis)):
-                    vj = cur.add(1, ax)
+                    vj = cur.add(1, ax, f"lateral tilt c{'xy'[k]}")
                     start = 0.0 if val is None else val[k]
                     pi = b.add_param(f"{j.name}.c{'xy'[k]}", "lateral", j.name, i, start, val is None)
                     b.k.append((LAW_LINEAR, [vj], [pi] + [0] * 20, 1.0))
@@ -605,16 +617,26 @@ def tree_model_from_tables(
     nv = len(b.v)
     if nv == 0:
         raise InputError(f"{where}: the tree below {tree.root!r} has no joint")
-    arrays = {
-        "vparent": np.array([v["parent"] for v in b.v], np.int32),
-        "vtype": np.array([v["type"] for v in b.v], np.int32),
-        "vaxis": np.asfortranarray(np.array([v["axis"] for v in b.v]).T),
-        "vrot": np.asfortranarray(np.transpose(np.array([v["rot"] for v in b.v]), (1, 2, 0))),
-        "vpos": np.asfortranarray(np.array([v["pos"] for v in b.v]).T),
-        "qcol": np.array([v["qcol"] for v in b.v], np.int32),
-        "qcoef": np.array([v["qcoef"] for v in b.v], float),
-        "qconst": np.array([v["qconst"] for v in b.v], float),
-    }
+    arrays = CoreArrays(
+        labels={
+            "vj": b.labels,
+            "param": [p.name for p in b.params],
+            "block": [f"{kind} on {target!r}" for kind, target in b.blocks],
+            "marker": [f"marker on {f!r}" for f in frames],
+        }
+    )
+    arrays.update(
+        {
+            "vparent": np.array([v["parent"] for v in b.v], np.int32),
+            "vtype": np.array([v["type"] for v in b.v], np.int32),
+            "vaxis": np.asfortranarray(np.array([v["axis"] for v in b.v]).T),
+            "vrot": np.asfortranarray(np.transpose(np.array([v["rot"] for v in b.v]), (1, 2, 0))),
+            "vpos": np.asfortranarray(np.array([v["pos"] for v in b.v]).T),
+            "qcol": np.array([v["qcol"] for v in b.v], np.int32),
+            "qcoef": np.array([v["qcoef"] for v in b.v], float),
+            "qconst": np.array([v["qconst"] for v in b.v], float),
+        }
+    )
     arrays["gvj"] = np.array([e[0] for e in b.g], np.int32)
     arrays["gpar"] = np.array([e[1] for e in b.g], np.int32)
     arrays["gcoef"] = np.array([e[2] for e in b.g], float)
@@ -632,6 +654,7 @@ def tree_model_from_tables(
         ne += len(vjs)
     arrays.update(ktype=ktype, kvj=kvj, kpar=kpar, kw0=kw0)
     bodies = [(vj_of_link[ln], ine.mass, ine.com, ln) for ln, ine in tree.inertials.items() if ln in vj_of_link]
+    arrays.labels["body"] = [f"link {ln!r}" for ln, _ine in tree.inertials.items() if ln in vj_of_link]
     arrays["bvj"] = np.array([x[0] for x in bodies], np.int32)
     arrays["bmass"] = np.array([x[1] for x in bodies], float)
     arrays["bcom"] = np.asfortranarray(np.array([x[2] for x in bodies], float).reshape(-1, 3).T)
@@ -690,7 +713,8 @@ def load_tree_model(path: str | Path) -> TreeModel:
         raise InputError(f"{path}: [gravity] must be a table")
     unknown = sorted(set(grav) - {"vector", "iterations"})
     if unknown:
-        raise InputError(f"{path}: [gravity] has unknown key(s) {', '.join(unknown)} (allowed: vector, iterations)")
+        names = ", ".join(map(V.shown, unknown))
+        raise InputError(f"{path}: [gravity] has unknown key(s) {names} (allowed: vector, iterations)")
     vector = grav.get("vector", list(GRAVITY))
     g = np.asarray(vector, dtype=float) if isinstance(vector, list) else None
     if g is None or g.shape != (3,) or not np.all(np.isfinite(g)):

@@ -41,7 +41,7 @@ def _keys(val: object, allowed: Collection[str], where: str) -> dict:
         raise InputError(f"{where}: must be an object {{...}}, got {val!r:.60}")
     unknown = sorted(set(val) - set(allowed))
     if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(allowed)}")
+        raise InputError(f"{where}: unknown key(s) {', '.join(map(V.shown, unknown))}; allowed: {', '.join(allowed)}")
     return val
 
 
@@ -127,7 +127,8 @@ def load_tree(path: Path | str) -> TreeFile:
         raise InputError(f"{path}: no 'tree' key (see stiffkit robot tree --help)")
     unknown = sorted(set(spec) - {"tree", "tool", "tool_axes", "lscale", "note"})
     if unknown:
-        raise InputError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: tree, tool, tool_axes, lscale, note")
+        names = ", ".join(map(V.shown, unknown))
+        raise InputError(f"{path}: unknown key(s) {names}; allowed: tree, tool, tool_axes, lscale, note")
     axes = None
     if spec.get("tool_axes") is not None:
         axes = V.array(spec["tool_axes"], f"{path}: tool_axes", (3, 3))

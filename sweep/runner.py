@@ -133,13 +133,12 @@ def estimate_nodes(job: LinkJob) -> int:
     h = job.size
     if g.get("shape") == "box":
         L, b, c = g["size"]
-        if job.structured:
+        prism = job.features and job.mesher == "gmsh" and not job.refine and job.optimize == "none"
+        if job.structured or prism:
             ext = [L, b, c]
             along = max(range(3), key=lambda i: ext[i])
-            n = [
-                max(1, math.ceil(e / (h if i == along else job.across_factor * h) * (1 - 1e-6)))
-                for i, e in enumerate(ext)
-            ]
+            af = job.across_factor if job.structured else min(1.0, min(ext) / (job.across * h))
+            n = [max(1, math.ceil(e / (h if i == along else af * h) * (1 - 1e-6))) for i, e in enumerate(ext)]
             k = 2 if job.order == 2 else 1
             return int(math.prod(k * m + 1 for m in n))
         V, S, P = L * b * c, 2 * (L * b + b * c + L * c), 4 * (L + b + c)
@@ -152,6 +151,8 @@ def estimate_nodes(job: LinkJob) -> int:
         S = 2 * math.pi * (ro + ri) * L + 2 * math.pi * (ro * ro - ri * ri)
         P = 4 * math.pi * (ro + ri)
         lmax = max(L, 2 * ro)
+        if job.features and ri > 0:  # the wall's size field: across elements through it
+            h = min(h, (ro - ri) / job.across)
     else:
         V, S, P = _cad_measures(g["step"])
         lmax = max(V ** (1 / 3), 1e-12) if V > 0 else h

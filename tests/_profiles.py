@@ -7,7 +7,7 @@ not change what runs), no deadline (the machine may be shared).
 
 ``fuzz`` (``make fuzz``, or ``HYPOTHESIS_PROFILE=fuzz``): fresh random
 examples on every run and ``FUZZ_FACTOR`` times as many of them (env
-``STIFFKIT_FUZZ_FACTOR``, default 40); failures are saved to the example
+``STIFFKIT_FUZZ_FACTOR``, default 5); failures are saved to the example
 database (.hypothesis/) and printed with their reproduction blob.
 
 A test asks for its number of examples with :func:`examples` (its count
@@ -21,7 +21,7 @@ import os
 from hypothesis import HealthCheck, settings
 
 PROFILE = os.environ.get("HYPOTHESIS_PROFILE", "ci")
-FUZZ_FACTOR = int(os.environ.get("STIFFKIT_FUZZ_FACTOR", "40"))
+FUZZ_FACTOR = int(os.environ.get("STIFFKIT_FUZZ_FACTOR", "5"))
 _QUIET = [HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
 
 settings.register_profile("ci", derandomize=True, database=None, deadline=None, print_blob=True)

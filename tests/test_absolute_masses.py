@@ -196,10 +196,10 @@ def test_written_model_reads_back_with_the_same_numbers(masses, tmp_path):
     [
         ({"kind": "mass", "target": "nowhere"}, "target must be a link"),
         ({"kind": "mass", "target": "l_tcp"}, "has no mass in the URDF"),
-        ({"kind": "mass", "target": "l1", "value": 0.0}, "a mass factor must be in (0, 10]"),
+        ({"kind": "mass", "target": "l1", "value": -0.5}, "a mass factor must be in [0, 100]"),
         ({"kind": "mass", "target": "l1", "value": True}, "value must be a finite number"),
         ({"kind": "mass", "target": "all", "value": 1.1}, "needs one target link"),
-        ({"kind": "mass", "target": "l1", "prior": -0.1}, "prior = -0.1 must be a sigma in [0, 10]"),
+        ({"kind": "mass", "target": "l1", "prior": -0.1}, "prior = -0.1 must be a sigma in [0, 100]"),
         ({"kind": "com", "target": "l1", "value": [30, 0, 0]}, "beyond 1 m"),
         ({"kind": "com", "target": "l1", "value": [0.1, 0]}, "value must be [dx, dy, dz] in m"),
         ({"kind": "com", "target": "l1", "prior": 2.0}, "must be a sigma in [0, 1] m"),
@@ -223,3 +223,18 @@ def test_two_mass_effects_on_one_link_are_refused(masses):
     )
     assert m.theta0[m.index("l1.mass")] == 1.1 and not m.params[m.index("l1.mass")].free
     assert m.params[m.index("l2.mass")].free
+
+
+def test_a_fitted_factor_out_of_bounds_is_written_clipped_and_named(masses):
+    model = tree_model_from_tables(
+        masses["urdf"], FRAMES + [{"kind": "mass", "target": "l2"}, {"kind": "com", "target": "l3"}], where="m"
+    )
+    theta = model.theta0.copy()
+    theta[model.index("l2.mass")] = -0.4
+    theta[model.index("l3.com_y")] = 1.5
+    tables, notes = model_effects(model, theta)
+    got = {t["kind"]: t["value"] for t in tables if t["kind"] in ("mass", "com")}
+    assert got == {"mass": 0.0, "com": [0.0, 1.0, 0.0]}
+    assert any("l2.mass identified -0.4" in n and "written as 0" in n for n in notes)
+    assert any("l3.com identified" in n for n in notes)
+    tree_model_from_tables(masses["urdf"], tables, where="written")  # reads back

@@ -238,3 +238,18 @@ def test_below_the_noise_at_a_plausible_size(case0):
     assert numerical_inert(m, frame, 10 * J, biggest, SIGMA) == ""
     assert numerical_inert(m, joint, J[:, :1], biggest, SIGMA) == ""  # small, but no size to judge it by
     assert "columns are zero" in numerical_inert(m, joint, 1e-10 * J[:, :1], biggest, SIGMA)
+
+
+def test_duplicate_columns_are_one_effect():
+    """Two candidates whose columns span one space (two coaxial joints at one
+    point: a coupled joint written as two mimics) are one effect: the later
+    one is named a duplicate of the first; a column off by 1e-3 rad is not."""
+    from stiffkit.calib.absolute_candidates import duplicate_of
+
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(90, 2))
+    other = rng.normal(size=(90, 2))
+    tilted = A.copy()
+    tilted[:, 1] += 1e-3 * np.linalg.norm(A[:, 1]) * other[:, 0] / np.linalg.norm(other[:, 0])
+    blocks = [A, other, -3.0 * A @ np.array([[1.0, 2.0], [0.5, -1.0]]), tilted, np.zeros((90, 2))]
+    assert duplicate_of(blocks) == [-1, -1, 0, -1, -1]

@@ -68,6 +68,15 @@ def _no_value(ws: Path) -> str:
     return str(p)
 
 
+def _all_fixed(ws: Path) -> str:
+    p = ws / "da" / "fixed.toml"
+    text = (ws / "da" / "truth.toml").read_text()
+    for kind in ("tracker", "marker"):
+        text = text.replace(f'kind = "{kind}"\n', f'kind = "{kind}"\nfixed = true\n')
+    p.write_text(text)
+    return str(p)
+
+
 def _weights_zero(ws: Path) -> str:
     rows = _rows(ws / "da" / "measurements.csv")
     return _put(ws, "da/w0.csv", [rows[0] + ["weight"]] + [r + ["0"] for r in rows[1:]])
@@ -117,6 +126,8 @@ ROWS = [
      ["da/empty.csv", "no data rows"]),
     ("abs-every-weight-zero", lambda w: ["evaluate", str(w / DA_T), _weights_zero(w)], 2,
      ["da/w0.csv: every row has weight 0"]),
+    ("abs-fit-nothing-free", lambda w: ["fit", _all_fixed(w), str(w / DA_M)], 2,
+     ["fixed.toml: every parameter is fixed; nothing to identify", "stiffkit evaluate"]),
     ("abs-validate-unknown-marker", lambda w: ["fit", str(w / DA_U), str(w / DA_M), "--validate",
                                                _edit(w, DA_M, "da/vf.csv", 2, "frame", "head")], 2,
      ["da/vf.csv, line 2: frame 'head' has no marker"]),

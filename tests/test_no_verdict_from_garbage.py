@@ -173,6 +173,22 @@ def test_postures_beyond_a_joint_limit_are_named(kr, tmp_path, capsys):
     assert f"measurements.csv, line 2: joint 'joint_a2' = {q2:.6g} is beyond its URDF lower limit -0.8" in err
 
 
+def test_compensate_targets_beyond_a_limit_are_named(kr, tmp_path, capsys):
+    d = tmp_path / "kr"
+    shutil.copytree(kr, d)
+    text = (d / "robot.urdf").read_text()
+    i = text.index('<joint name="joint_a2"')
+    j = text.index("<limit", i)
+    k = text.index("/>", j)
+    (d / "robot.urdf").write_text(text[:j] + '<limit lower="-0.8" upper="0.8" effort="1000" velocity="1"' + text[k:])
+    m = lines_of(d / "measurements.csv")
+    targets = write(tmp_path / "targets.csv", m[:4])
+    q2 = float(m[1].split(",")[2])
+    code, _, err = run(capsys, "compensate", d / "truth.toml", targets, "--out", tmp_path / "c.csv")
+    assert code == 0
+    assert f"targets.csv, line 2: joint 'joint_a2' = {q2:.6g} is beyond its URDF lower limit -0.8" in err
+
+
 def test_tracker_postures_beyond_a_limit_are_named(da, tmp_path):
     d = tmp_path / "da"
     shutil.copytree(da, d)

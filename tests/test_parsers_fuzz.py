@@ -289,3 +289,22 @@ def test_field_fits(pts, scale, method):
 def test_option_vectors_named_examples(text):
     with pytest.raises(sk.InputError, match="--point"):
         A.vector(text, 3, "--point", "position")
+
+
+@pytest.mark.parametrize(
+    "effect",
+    [{"kind": "\n"}, {"kind": "joint\r\nx"}, {"kind": "joint", "\n": 1}, {"kind": "joint", "target": "a\nb"}],
+)
+def test_user_words_are_quoted_in_one_line_messages(tmp_path, effect):
+    """What `make fuzz` found: an effect kind of "\\n" made a two-line
+    message; user words are shown with repr-like escaping."""
+    from stiffkit.calib.synth import KR270_JOINTS
+    from stiffkit.robot.model import model_from_tables
+    from stiffkit.robot.urdf import load_chain, urdf_text
+
+    u = tmp_path / "r.urdf"
+    u.write_text(urdf_text("r", KR270_JOINTS))
+    with pytest.raises(sk.InputError) as exc:
+        _quiet(model_from_tables, load_chain(u, "base_link", "tool0"), [effect])
+    _ok(exc.value)
+    assert "\\n" in str(exc.value)

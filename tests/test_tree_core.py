@@ -95,7 +95,7 @@ def test_jacobian_matches_central_differences():
     rng = np.random.default_rng(7)
     q = rng.uniform(-1.2, 1.2, (3, 6))
     free = np.arange(1, theta.size + 1)
-    pred, res, jac, delta, nit, eqinfo, info = evaluate(model, theta, q, free)
+    pred, res, jac, delta, nit, eqinfo, info, _errloc = evaluate(model, theta, q, free)
     _errors.check(info, "sk_tree_evaluate")
     assert np.all(eqinfo == 0) and np.max(np.abs(delta)) > 1e-3  # deflections matter
     np.testing.assert_allclose(res, pred.T.ravel())  # weights 1, measured 0
@@ -111,8 +111,9 @@ def test_jacobian_matches_central_differences():
 def test_bad_input_maps_to_input_error():
     model, theta = arm()
     model["vparent"] = np.array([0, 1, 3, 2], np.int32)  # parent after its child
-    info = evaluate(model, theta, np.zeros((3, 2)), [1])[-1]
+    *_out, info, errloc = evaluate(model, theta, np.zeros((3, 2)), [1])
     assert info == 6
+    assert list(errloc) == [1, 3]  # vparent of virtual joint 3
     with pytest.raises(stiffkit.InputError, match="sk_tree_evaluate"):
         _errors.check(info, "sk_tree_evaluate")
 
@@ -152,7 +153,7 @@ def test_lm_recovers_tracker_and_compliance():
         xtol=1e-14,
         gtol=0.0,
     )
-    fit, hist, nhist, niter, reason, jac, res, rref, info = out
+    fit, hist, nhist, niter, reason, jac, res, rref, info, _errloc = out
     _errors.check(info, "sk_tree_lm")
     assert hist[nhist - 1] < 1e-24 and np.all(np.diff(hist[:nhist]) <= 0)
     # the tracker rotation comes back re-centred: rref * Rx Ry Rz of the truth

@@ -32,7 +32,7 @@ def test_mass_and_com_jacobian_matches_central_differences(eqit):
     model, theta = arm_with_masses()
     q = np.random.default_rng(11).uniform(-1.2, 1.2, (3, 6))
     free = np.arange(1, theta.size + 1)
-    pred, res, jac, delta, nit, eqinfo, info = evaluate(model, theta, q, free, eqit)
+    pred, res, jac, delta, nit, eqinfo, info, _errloc = evaluate(model, theta, q, free, eqit)
     _errors.check(info, "sk_tree_evaluate")
     for k in range(13, theta.size):
         h = 1e-4 if 15 <= k <= 20 else 1e-3
@@ -67,7 +67,7 @@ def test_bad_gravity_parameter_index_is_an_argument_error():
     for row, bad in ((0, 4), (1, 5), (2, theta.size + 1)):  # body, slot, theta index out of range
         m = dict(model, bpar=model["bpar"].copy(order="F"))
         m["bpar"][row, 0] = bad
-        assert evaluate(m, theta, np.zeros((3, 2)), [1])[-1] == 6
+        assert evaluate(m, theta, np.zeros((3, 2)), [1])[-2] == 6  # info (errloc last)
 
 
 def test_prior_rows_pull_toward_their_centre():
@@ -107,12 +107,35 @@ def test_prior_rows_pull_toward_their_centre():
 
     start = theta.copy()
     start[13] = 1.0
-    fit, *_rest, info = lm(start, 0.0)
+    fit, *_rest, info, _errloc = lm(start, 0.0)
     _errors.check(info, "sk_tree_lm")
     assert abs(fit[13] - 1.2) < 1e-8
     jac = evaluate(model, theta, q, [14])[2][:, 0]
     sw = 1e-3 * np.linalg.norm(jac)  # a weak prior: its pull is 1e-6 of the data's
-    fit, *_rest, info = lm(start, sw)
+    fit, *_rest, info, _errloc = lm(start, sw)
     # the minimiser of |J (x - 1.2)|^2 + sw^2 (x - 1)^2 (linear near the truth)
     expect = (jac @ jac * 1.2 + sw**2 * 1.0) / (jac @ jac + sw**2)
     assert abs(fit[13] - expect) < 1e-9 and abs(fit[13] - 1.2) > 1e-8
+
+
+def test_frame_jacobian_of_the_folded_model_takes_the_gravity_parameters_at_theta():
+    """The frame pose and Jacobian (computed on the folded model) with
+    gravity parameters equal those of the model whose masses and centres
+    are written in."""
+    model, theta = arm_with_masses()
+    q = np.random.default_rng(4).uniform(-1, 1, (3, 5))
+    plain = dict(model, bpar=np.zeros((3, 0), np.int32, order="F"))
+    plain["bmass"] = np.asfortranarray(model["bmass"] * [0.85, 0.85 * 1.1, 1.2])
+    plain["bcom"] = np.asfortranarray(model["bcom"] + np.column_stack([[0, 0, 0], theta[15:18], theta[18:21]]))
+    nl = np.zeros(0, np.int32)
+
+    def frames(m, th):
+        out = _tree.sk_tree_frame_jacobian(
+            2, **m, theta=th, frame=np.full(5, 4, np.int32), q=np.asfortranarray(q),
+            lpost=nl, lvj=nl, lw=np.zeros((6, 0), order="F"), eqit=100, etol=1e-14,
+        )  # fmt: skip
+        _errors.check(out[-2], "sk_tree_frame_jacobian")
+        return out[:3]
+
+    for a, b in zip(frames(model, theta), frames(plain, theta[:13])):
+        np.testing.assert_allclose(a, b, atol=1e-14)
