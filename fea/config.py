@@ -9,15 +9,18 @@ key and what was wrong.
 from __future__ import annotations
 
 import copy
-import difflib
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_toml
 from .selectors import KINDS, Selector, SelectorError, cad_selectors, parse_set, planes_of
+from .tomlvalues import ConfigError
+from .tomlvalues import choice as _choice
+from .tomlvalues import get_value as _get
+from .tomlvalues import number as _num
+from .tomlvalues import positive as _positive
+from .tomlvalues import suggest as _suggest
 
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "in": 0.0254}
 PLANES = ("x-min", "x-max", "y-min", "y-max", "z-min", "z-max")
@@ -48,10 +51,6 @@ def paper_beam(size_mm: float = 5.0, route: str = "matrix") -> dict:
         "fit": {"method": "lin", "trim": 0.0, "confidence": 0.99},
         "solver": {"route": route},
     }
-
-
-class ConfigError(InputError):
-    """LINK.toml is missing, malformed or has an invalid value."""
 
 
 @dataclass
@@ -186,62 +185,6 @@ SHAPE_KEYS = {
 }
 #: a link is 1 mm to 50 m long (beyond: the unit of the geometry is wrong)
 PART_EXTENT_M = (1e-3, 50.0)
-
-
-def _suggest(word: object, choices: Iterable[str]) -> str:
-    close = difflib.get_close_matches(str(word), list(choices), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
-def _get(tbl: dict, key: str, where: str, path: str, kind: type | None = None, default: object = ...) -> object:
-    if key not in tbl:
-        if default is ...:
-            raise ConfigError(f"{path}: [{where}] {key} is missing")
-        return default
-    v = tbl[key]
-    name = f"{path}: [{where}] {key}"
-    if kind is float:
-        return _num(v, name)
-    if kind is int:
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise ConfigError(f"{name} = {v!r} must be an integer")
-        return v
-    if kind is str:
-        if not isinstance(v, str):
-            raise ConfigError(f"{name} = {v!r} must be a string")
-        return v
-    if kind is list:
-        if not isinstance(v, list) or not v:
-            raise ConfigError(f"{name} = {v!r} must be a list of numbers")
-        return [_num(x, f"{name}[{i}]") for i, x in enumerate(v)]
-    if kind is bool:
-        if not isinstance(v, bool):
-            raise ConfigError(f"{name} = {v!r}: true or false")
-        return v
-    return v
-
-
-def _num(v: object, name: str, q: str | None = None, **limits: object) -> float:
-    """validate.number raising ConfigError (the LINK.toml reader's class)."""
-    try:
-        return V.number(v, name, q, **limits)
-    except InputError as exc:
-        raise ConfigError(str(exc)) from None
-
-
-def _choice(v: object, choices: Iterable[object], where: str, key: str, path: str) -> object:
-    if v not in choices:
-        raise ConfigError(
-            f"{path}: [{where}] {key} = {v!r}{_suggest(v, map(str, choices))}: "
-            f"choose one of {', '.join(map(str, choices))}"
-        )
-    return v
-
-
-def _positive(v: float, where: str, key: str, path: str) -> float:
-    if not v > 0:
-        raise ConfigError(f"{path}: [{where}] {key} = {v!r} must be positive")
-    return v
 
 
 def _check_keys(data: dict, path: str) -> None:

@@ -30,7 +30,7 @@ def cfg(part, support=None, load=None, **extra):
         "material": {"E": 2.0e11, "nu": 0.3},
         "support": support or {"plane": "x-min"},
         "load": load or {"cylinder": {"axis": [0, 0, 1], "point": [X1, Y1, 0.0], "radius": R1}},
-        "mesh": {"size": 10.0},
+        "mesh": {"size": 10.0, "features": False},
     }
     c.update(extra)
     return c
@@ -119,7 +119,7 @@ def test_step_without_solids(tmp_path):
 def test_cli_selector_error_and_list_faces(plate, tmp_path):
     p = tmp_path / "l.toml"
     p.write_text(
-        f'[geometry]\nstep = "{plate}"\n[material]\nE = 2e11\nnu = 0.3\n[support]\nplane = "x-min"\n'
+        f'[geometry]\nstep = "{plate}"\nunits = "mm"\n[material]\nE = 2e11\nnu = 0.3\n[support]\nplane = "x-min"\n'
         f"[load]\ncylinder = {{axis = [0, 0, 1], point = [{X1}, {Y1}, 0], radius = 4.5}}\n[mesh]\nsize = 10.0\n"
     )
     assert_clean_error(stiffkit("link", p, "--no-cache"), "[load] cylinder", "nearest radii: 5, 8 mm")

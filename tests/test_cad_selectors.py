@@ -33,7 +33,7 @@ def link(part, support, load, field=None, size=10.0):
         "material": {"E": 2.0e11, "nu": 0.3},
         "support": support,
         "load": load,
-        "mesh": {"size": size},
+        "mesh": {"size": size, "features": False},
     }
     if field:
         cfg["field"] = field
