@@ -22,8 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .config import LinkJob, node_memory_gb
+from .config import LinkJob
 from .convergence import richardson
+from .meshkeys import node_memory_gb
 
 #: element sizes shrink by this factor from one level to the next
 RATIO = 4.0 / 3.0

@@ -14,6 +14,8 @@ from pathlib import Path
 
 from ..io import validate as V
 from ..io.tables import read_toml
+from ..meshing.refine import AROUND, default_across
+from .meshkeys import MAX_NODES, MESH_KEYS, check_mesh_keys
 from .selectors import KINDS, Selector, SelectorError, cad_selectors, parse_set, planes_of
 from .tomlvalues import ConfigError
 from .tomlvalues import choice as _choice
@@ -158,21 +160,7 @@ SECTIONS = {
     "support": (*KINDS, "tolerance"),
     "load": (*KINDS, "tolerance", "reference_point", "coupling", "amplitudes"),
     "field": ("region", "size", *KINDS, "tolerance"),
-    "mesh": (
-        "mesher",
-        "order",
-        "size",
-        "refine",
-        "refine_radius",
-        "optimize",
-        "structured",
-        "across_factor",
-        "features",
-        "across",
-        "around",
-        "accuracy",
-        "max_nodes",
-    ),
+    "mesh": MESH_KEYS,
     "fit": ("method", "trim", "confidence", "symmetrize", "pooled"),
     "solver": ("route", "timeout"),
     "approximation": ("section", "dims", "length"),
@@ -403,7 +391,16 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
             raise ConfigError(
                 f'{path}: [mesh] structured = true needs optimize = "none" (the optimiser would unstructure it)'
             )
-    mk = _mesh_keys(me, path, geometry)
+    mk = check_mesh_keys(
+        me,
+        path,
+        ConfigError,
+        features=_get(me, "features", "mesh", path, bool, True),
+        across=_get(me, "across", "mesh", path, int, default_across(geometry)),
+        around=_get(me, "around", "mesh", path, int, AROUND),
+        accuracy=_get(me, "accuracy", "mesh", path, float, None),
+        max_nodes=_get(me, "max_nodes", "mesh", path, int, MAX_NODES),
+    )
     fit = data.get("fit", {})
     method = _choice(_get(fit, "method", "fit", path, str, "lin"), FIT_METHODS, "fit", "method", path)
     trim = _get(fit, "trim", "fit", path, float, 0.0)
@@ -493,52 +490,6 @@ def _one_plane(sels: list[Selector]) -> str | None:
     """The plane of a set that is exactly one bounding-box plane, else None."""
     planes = planes_of(sels)
     return planes[0] if len(sels) == 1 and planes else None
-
-
-#: the default memory limit: nodes of the largest mesh (about 8 GB on the
-#: matrix route: 109,531 nodes took 1.7 GB, 237,423 nodes 4.6 GB)
-MAX_NODES = 300_000
-#: ``accuracy``: the relative error a user may ask for
-ACCURACY_RANGE = (1e-5, 0.2)
-
-
-def node_memory_gb(nodes: int) -> float:
-    """Peak memory of a matrix-route run of this many C3D10 nodes, GB (the
-    sweep's model fitted to the paper's beam: 1.7 GB at 109,531 nodes)."""
-    return (100.0 + 1.25 * 465.0 * (nodes / 40084) ** 1.28) / 1024
-
-
-def _int(v: int, key: str, path: str, lo: int) -> int:
-    if v < lo:
-        raise ConfigError(f"{path}: [mesh] {key} = {v!r}: an integer >= {lo}")
-    return v
-
-
-def _mesh_keys(me: dict, path: str, geometry: dict) -> dict:
-    """The [mesh] keys of the feature refinement and the accuracy loop."""
-    from ..meshing.refine import AROUND, default_across
-
-    features = _get(me, "features", "mesh", path, bool, True)
-    for key in ("across", "around"):
-        if key in me and not features:
-            raise ConfigError(f"{path}: [mesh] {key} needs features = true (it sets the feature refinement)")
-    across = _int(_get(me, "across", "mesh", path, int, default_across(geometry)), "across", path, 1)
-    around = _int(_get(me, "around", "mesh", path, int, AROUND), "around", path, 3)
-    if across > 100 or around > 1000:
-        raise ConfigError(
-            f"{path}: [mesh] across = {across}, around = {around}: at most 100 across and 1000 around "
-            "(more than any mesh can hold)"
-        )
-    acc = None
-    if "accuracy" in me:
-        acc = _get(me, "accuracy", "mesh", path, float)
-        lo, hi = ACCURACY_RANGE
-        if not lo <= acc <= hi:
-            raise ConfigError(
-                f"{path}: [mesh] accuracy = {acc!r}: a relative error in [{lo:g}, {hi:g}] (0.001 is 0.1 %)"
-            )
-    max_nodes = _int(_get(me, "max_nodes", "mesh", path, int, MAX_NODES), "max_nodes", path, 1000)
-    return {"features": features, "across": across, "around": around, "accuracy": acc, "max_nodes": max_nodes}
 
 
 def part_dims(geometry: dict) -> list[float] | None:

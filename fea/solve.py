@@ -32,8 +32,9 @@ from ..errors import InputError
 from ..meshing import Mesh, MeshError, face_connectivity, mesh_part
 from .amplitudes import auto_amplitudes, beam_estimate
 from .ccx import ccx_version, displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck, write_static_deck
-from .config import LinkJob, check_extent, check_mesh_size, node_memory_gb
+from .config import LinkJob, check_extent, check_mesh_size
 from .facesets import CadSets, default_reference_point, mesh_set, resolve_job_sets, set_label
+from .meshkeys import node_memory_gb
 
 __all__ = ["FeaSolution", "resolve_route", "mesh_job", "support_and_load", "solve_fea"]
 
