@@ -20,13 +20,14 @@ LINK ?= examples/beam.toml
 export OMP_NUM_THREADS ?= 1
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
-.PHONY: help system-deps venv install test test-core test-py fuzz test-valgrind lint format demo bench clean link-stiffness convergence sweep
+.PHONY: help system-deps venv install test test-core test-py test-slow fuzz test-valgrind lint format demo bench clean link-stiffness convergence sweep
 .DEFAULT_GOAL := help
 
 help:
 	@echo "stiffkit make targets"
 	@echo "  make test        install what is missing, run the Fortran unit tests (-fcheck=all) and pytest"
 	@echo "  make fuzz        the property tests (hypothesis) with fresh random examples, FUZZ_FACTOR=5 x as many (~10 min)"
+	@echo "  make test-slow   the fine-mesh FEA tests (default beam mesh, accuracy loop; several minutes each)"
 	@echo "  make test-valgrind   the Fortran unit tests under valgrind (memory errors, leaks; optional, ~15 s)"
 	@echo "  make demo        install what is missing, run the main job on a built-in example"
 	@echo "  make bench       benchmarks (figures for the README results section)"
@@ -84,7 +85,12 @@ test-valgrind: install
 	$(VENV)/bin/meson test -C $(CHECK_BUILD) --print-errorlogs --timeout-multiplier 20 --wrap='$(VALGRIND)'
 
 test-py: install
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q -m "not slow" tests
+
+# Fine-mesh FEA tests (the paper's beam at the default mesh, 116k nodes, and
+# the accuracy loop to 0.1 %): several minutes each, so not in `make test`.
+test-slow: install
+	$(PY) -m pytest -q -m slow tests
 
 test: test-core test-py
 

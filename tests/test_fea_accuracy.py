@@ -33,6 +33,7 @@ def _max_error(res) -> float:
     return float(np.nanmax(np.abs(err)))
 
 
+@pytest.mark.slow  # 116k / 180k nodes: make test-slow
 def test_default_beam_reaches_0p05_percent(cache):
     """examples/beam.toml as it is (size 5 mm, features on by default): the
     box is prismatic, so its mesh is structured with 8 quadratic elements
@@ -47,6 +48,7 @@ def test_default_beam_reaches_0p05_percent(cache):
     assert r.to_json()["mesh"]["features"]["across"] == 8
 
 
+@pytest.mark.slow  # 116k / 180k nodes: make test-slow
 def test_accuracy_loop_reaches_0p1_percent(cache):
     """accuracy = 0.001 from a coarse start (10 mm, 3 across): the loop
     refines until the Richardson estimate is below 0.1 %; the true error
