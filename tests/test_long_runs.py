@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import _thread
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -112,10 +113,18 @@ def test_interrupt_acts_between_batches(da, monkeypatch):
         fired["t"] = time.perf_counter()
         _thread.interrupt_main()
 
-    timer = threading.Timer(1.0, fire)
-    timer.start()
-    with pytest.raises(KeyboardInterrupt):
-        cm.compensate(Q, frames)
+    # Python's own SIGINT handler (an earlier test or CLI run may have left
+    # another one installed), and the interrupt well inside the run
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    total = per_batch * len(Q) / C.BATCH
+    timer = threading.Timer(min(1.0, total / 4), fire)
+    try:
+        timer.start()
+        with pytest.raises(KeyboardInterrupt):
+            cm.compensate(Q, frames)
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, old)
     late = time.perf_counter() - fired["t"]
     assert late < max(1.0, 3 * per_batch), (late, per_batch)
 

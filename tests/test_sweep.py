@@ -41,6 +41,7 @@ reference_point = [100.0, 0.0, 0.0]
 [mesh]
 order = 2
 size = 5.0
+features = false  # the plain mesh these sweeps were measured on (the structured box has 8x the nodes)
 """
 BOX = 'shape = "box"\nsize = [100.0, 5.0, 5.0]'
 #: two lengths (the reference point stays at the tip) x two materials
