@@ -390,7 +390,9 @@ def open_cluster(
             processes=False,
             memory_limit=0,
             resources={RESOURCE: budget * 2**20},
-            dashboard_address=None,
+            # a free port: with None the scheduler's HTTP server still takes
+            # 8787, and a second sweep on the machine then warns and leaks a socket
+            dashboard_address=":0",
             silence_logs=logging.CRITICAL,
             local_directory=str(_tmp_root()),
         )

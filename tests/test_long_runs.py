@@ -178,6 +178,26 @@ def test_sweep_says_it_recomputes_an_unreadable_entry_and_closes_its_files(beam,
     assert not list(cache.glob("run-*"))
 
 
+def test_sweep_beside_another_cluster_says_nothing(beam, tmp_path):
+    """Another Dask cluster on the machine (here: a socket holding Dask's
+    default port 8787) does not make a sweep warn or leak a socket."""
+    import socket
+
+    held = socket.socket()
+    held.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        held.bind(("0.0.0.0", 8787))
+        held.listen()
+    except OSError:
+        pass  # already taken by something else: the same condition
+    try:
+        p = stiffkit("sweep", beam, "--vary", "mesh.size=10", "-j", "1", "--cache", tmp_path / "c", "--quiet")
+    finally:
+        held.close()
+    assert p.returncode == 0, p.stderr
+    assert "warning" not in p.stderr and "unclosed" not in p.stderr, p.stderr
+
+
 def test_no_run_folder_left_when_the_solver_is_missing(beam, tmp_path):
     tmp = tmp_path / "tmp"
     tmp.mkdir()
