@@ -20,23 +20,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _links import small_beam
 
-BEAM = """[geometry]
-shape = "box"
-size = [40.0, 10.0, 10.0]
-units = "mm"
-[material]
-E = 2.0e11
-nu = 0.3
-[support]
-plane = "x-min"
-[load]
-plane = "x-max"
-reference_point = [40.0, 0.0, 0.0]
-[mesh]
-order = 1
-size = 5.0
-"""
+BEAM = small_beam(5.0)
 
 FAKE_CCX = """#!/bin/sh
 # a ccx that never finishes: a grandchild in its group, both pids recorded

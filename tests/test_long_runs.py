@@ -17,27 +17,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _links import small_beam
 
 from stiffkit.cli import main
 from stiffkit.robot import compensate as C
 from stiffkit.sweep.plan import MAX_RUNS
 
-BEAM = """[geometry]
-shape = "box"
-size = [40.0, 10.0, 10.0]
-units = "mm"
-[material]
-E = 2.0e11
-nu = 0.3
-[support]
-plane = "x-min"
-[load]
-plane = "x-max"
-reference_point = [40.0, 0.0, 0.0]
-[mesh]
-order = 1
-size = 10.0
-"""
+BEAM = small_beam(10.0)
 
 
 @pytest.fixture(scope="module")

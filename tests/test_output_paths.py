@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _links import small_beam
 
 import stiffkit as sk
 from stiffkit.cli import main
@@ -35,22 +36,7 @@ from stiffkit.field.synthetic import cantilever_fields, square_grid
 
 ROOT = os.geteuid() == 0
 
-BEAM = """[geometry]
-shape = "box"
-size = [40.0, 10.0, 10.0]
-units = "mm"
-[material]
-E = 2.0e11
-nu = 0.3
-[support]
-plane = "x-min"
-[load]
-plane = "x-max"
-reference_point = [40.0, 0.0, 0.0]
-[mesh]
-order = 1
-size = 10.0
-"""
+BEAM = small_beam(10.0)
 
 
 def run(argv: list, capsys: pytest.CaptureFixture) -> tuple[int, str, str]:
