@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_text
+from .capsules import Capsule, collision_capsules
 from .urdf_checks import check_inertials, joint_limit
 
 MOVING = ("revolute", "continuous", "prismatic")
@@ -73,6 +74,8 @@ class Tree:
     joints: list[TreeJoint]
     links: list[str]
     inertials: dict[str, Inertial] = field(default_factory=dict)
+    #: link -> bounding capsules of its primitive <collision> shapes (robot/capsules.py)
+    collisions: dict[str, list[Capsule]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self._by_name = {j.name: j for j in self.joints}
@@ -169,6 +172,7 @@ class UrdfDoc:
     path: str
     links: list[UrdfLink]
     joints: list[UrdfJoint]
+    collisions: dict[str, list[Capsule]] = field(default_factory=dict)
 
     @property
     def link_map(self) -> dict[str, UrdfLink]:
@@ -391,7 +395,7 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
             key=("urdf", str(path)),
         )
     check_inertials(root, path)
-    return UrdfDoc(str(path), links, joints)
+    return UrdfDoc(str(path), links, joints, collision_capsules(link_els, path))
 
 
 def check_urdf_text(text: str, path: Path | str) -> None:
@@ -556,7 +560,8 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
             raise InputError(f"{path}: link {ln.name!r} has mass {mass}; a mass must be finite and >= 0 kg")
         if mass > 0:
             inertials[ln.name] = Inertial(mass, com)
-    tree = Tree(str(path), root, joints, out_links, inertials)
+    shapes = {ln: c for ln, c in doc.collisions.items() if ln in below}
+    tree = Tree(str(path), root, joints, out_links, inertials, shapes)
     for j in joints:
         if j.mimic is None:
             continue
