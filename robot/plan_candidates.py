@@ -45,8 +45,10 @@ from .tree_model import load_tree_model, model_kind
 __all__ = ["Candidates", "PlanSettings", "plan_settings", "sample_postures", "feasible", "REASONS", "joint_bounds"]
 
 REASONS = ("joint limit", "self-collision", "floor", "out of view", "occluded")
-#: postures checked per batch (memory: batch x capsule pairs doubles, several arrays)
+#: postures drawn per round of sampling
 BATCH = 2000
+#: doubles of one temporary array of a batch's checks (postures x (capsule pairs + markers x capsules) x 3)
+BATCH_DOUBLES = 3_000_000
 #: give up when this many sampled postures gave no feasible one
 GIVE_UP = 10_000
 #: at most this many tries per requested candidate
@@ -178,8 +180,11 @@ class _Checks:
         n = Q.shape[0]
         reason = np.full(n, -1)
         detail = [""] * n if details else []
-        for start in range(0, n, BATCH):
-            sl = slice(start, min(n, start + BATCH))
+        sk = self.sk
+        per = 3 * (sk.pairs.shape[0] + sk.marker_link.size * sk.radius.size) + 1
+        rows = int(min(BATCH, max(16, BATCH_DOUBLES // per)))
+        for start in range(0, n, rows):
+            sl = slice(start, min(n, start + rows))
             r, d = self._batch(Q[sl], details)
             reason[sl] = r
             if details:

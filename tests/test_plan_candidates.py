@@ -23,10 +23,11 @@ from stiffkit.calib.fit import write_model as write_model_deflection
 from stiffkit.calib.measure import read_measurements
 from stiffkit.errors import InputError
 from stiffkit.robot.capsules import collision_capsules, segment_distance
-from stiffkit.robot.model import load_model
-from stiffkit.robot.plan_candidates import REASONS, _Checks, feasible, plan_settings, sample_postures
+from stiffkit.robot.model import load_model, model_from_tables
+from stiffkit.robot.plan_candidates import REASONS, PlanSettings, _Checks, feasible, plan_settings, sample_postures
 from stiffkit.robot.tree import load_tree
-from stiffkit.robot.tree_model import load_tree_model
+from stiffkit.robot.tree_model import load_tree_model, tree_model_from_tables
+from stiffkit.robot.urdf import load_chain
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACKER = "tracker = {position = [2.8, 0.4, 1.1], direction = [-1, 0, -0.1], cone_deg = 30}"
@@ -155,6 +156,20 @@ def test_urdf_primitive_shapes_become_bounding_capsules(tmp_path: Path) -> None:
     np.testing.assert_allclose([box.a, box.b], [(0, -0.3, 0), (0, 0.3, 0)], atol=1e-12)
     assert box.r == pytest.approx(0.5 * math.hypot(0.1, 0.2))
     assert sph.a == sph.b == (0.0, 0.0, 0.0) and sph.r == 0.07
+    # the capsules go with the link's frame (the tree core's, the chain core's), replacing its skeleton
+    tree = load_tree(urdf)
+    tm = tree_model_from_tables(tree, [{"kind": "tracker"}, {"kind": "marker", "target": "a"}])
+    sm = model_from_tables(load_chain(urdf, "base_link", "a"), [])
+    Q = np.array([[0.3], [-0.9]])
+    for model in (tm, sm):
+        sk = _Checks(model, PlanSettings()).sk
+        assert len(sk.labels) == 3 and all("collision" in lb for lb in sk.labels)
+        A, B, _M = sk.world(Q)
+        for k, q in enumerate(Q):
+            T = reference_frames(tree, ["j"], q)["a"]
+            for c, cap in enumerate(caps):
+                np.testing.assert_allclose(A[k, c], T[:3, :3] @ cap.a + T[:3, 3], atol=1e-12)
+                np.testing.assert_allclose(B[k, c], T[:3, :3] @ cap.b + T[:3, 3], atol=1e-12)
     import xml.etree.ElementTree as ET
 
     bad = ET.fromstring('<link name="a"><collision><geometry><sphere radius="-1"/></geometry></collision></link>')
@@ -244,6 +259,10 @@ def test_planted_collision_and_occlusion_are_rejected(dual) -> None:
     c = feasible(model, np.array([ok, folded]), s)
     assert list(c.rows) == [0] and list(c.failed) == [1]
     assert c.failed[1].startswith("self-collision") and "left_link" in c.failed[1]
+    good = sample_postures(model, 3, seed=8, settings=s)
+    good.q[1] = folded
+    with pytest.raises(InputError, match="candidate 2: self-collision"):
+        good.check()
     T = reference_frames(model.tree, names, folded)
     caps = reference_capsules(model.tree, s, T)
     a1, b1, r1 = caps["link 'left_link3' (towards joint 'left_4')"]
