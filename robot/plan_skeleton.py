@@ -120,6 +120,18 @@ def _frames(model: object, links: list[str], Q: np.ndarray) -> tuple[np.ndarray,
     return R, p
 
 
+def _kinematic(model: object) -> object:
+    """The model as its rigid kinematics sees it: a TreeModel whose dead-zone
+    widths are still unset (they come from the data's torques) gets a
+    placeholder of 1 N m on a copy; rigid poses do not use it."""
+    if not hasattr(model, "tree") or not np.any(np.asarray(model.arrays["kw0"]) <= 0):
+        return model
+    kin = model.copy()
+    kw0 = np.asarray(kin.arrays["kw0"], float)
+    kin.arrays["kw0"] = np.where(kw0 > 0, kw0, 1.0)
+    return kin
+
+
 def _joints(model: object) -> list[tuple[str, str, str, str, float]]:
     """(name, type, parent, child, origin length) of every joint of the model's links."""
     if hasattr(model, "tree"):
@@ -164,6 +176,7 @@ def _path_lengths(nb: int, edges: list[tuple[int, int, np.ndarray]]) -> np.ndarr
 def skeleton(model: object, settings: PlanSettings, q_ref: np.ndarray) -> Skeleton:
     """The collision skeleton of ``model`` (module docstring); ``q_ref`` a
     posture within the limits (the joint points of the path lengths)."""
+    model = _kinematic(model)
     tree = getattr(model, "tree", None)
     links = list(tree.links) if tree is not None else list(model.chain.links)
     shapes = tree.collisions if tree is not None else model.chain.collisions

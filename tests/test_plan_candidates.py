@@ -398,3 +398,15 @@ def test_writers_keep_the_plan_table(tmp_path: Path, dual, kr) -> None:
     kback = load_model(out)
     assert kback.plan == kmodel.plan
     assert plan_settings(out) == ks.__class__(**{**ks.__dict__, "path": str(out)})
+
+
+def test_elastic_tree_model_samples_on_its_rigid_kinematics(dual) -> None:
+    """Elastic effects (a dead zone whose width comes from data later) do not change the candidates."""
+    _path, model, s = dual
+    eff = list(model.effects) + [{"kind": k, "target": "all"} for k in ("joint_offset", "frame", "joint", "lateral")]
+    eff += [{"kind": "joint_deadzone", "target": "left_2"}, {"kind": "link", "target": "left_link3"}, {"kind": "base"}]
+    elastic = tree_model_from_tables(model.tree, eff, GRAVITY)
+    assert elastic.ne > 0
+    a, b = sample_postures(elastic, 30, seed=6, settings=s), sample_postures(model, 30, seed=6, settings=s)
+    np.testing.assert_array_equal(a.q, b.q)
+    assert a.rejected == b.rejected
