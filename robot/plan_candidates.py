@@ -99,6 +99,34 @@ class Candidates:
             k = int(bad[0])
             raise InputError(f"candidate {k + 1}: {REASONS[reason[k]]} ({detail[k]})")
 
+    def take(self, index: object) -> Candidates:
+        """The candidates at ``index`` (0-based rows of q, e.g. a selected design), same model and settings."""
+        idx = np.asarray(index, int).reshape(-1)
+        if idx.size and (idx.min() < 0 or idx.max() >= len(self)):
+            raise InputError(f"candidate index out of range 0..{len(self) - 1}: {idx.tolist()}")
+        rows = None if self.rows is None else self.rows[idx]
+        return Candidates(
+            self.q[idx],
+            list(self.joint_names),
+            dict(self.rejected),
+            self.tried,
+            rows,
+            {},
+            self.loads,
+            self.model,
+            self.settings,
+        )
+
+    def failure_lines(self, most: int = 10, first_row: int = 1) -> list[str]:
+        """ "row N: reason (detail)" for the failed rows of :func:`feasible`
+        (row numbers from ``first_row``: 1 for a list, 2 for a CSV with a
+        header), at most ``most`` lines and one saying how many more."""
+        keys = sorted(self.failed)
+        out = [f"row {k + first_row}: {self.failed[k]}" for k in keys[:most]]
+        if len(keys) > most:
+            out.append(f"... and {len(keys) - most} more")
+        return out
+
     def summary(self) -> str:
         """One line: kept, tried and the rejections by reason."""
         rej = ", ".join(f"{n:,} {r}" for r, n in self.rejected.items() if n)

@@ -259,6 +259,8 @@ def test_planted_collision_and_occlusion_are_rejected(dual) -> None:
     c = feasible(model, np.array([ok, folded]), s)
     assert list(c.rows) == [0] and list(c.failed) == [1]
     assert c.failed[1].startswith("self-collision") and "left_link" in c.failed[1]
+    assert c.failure_lines(first_row=2) == [f"row 3: {c.failed[1]}"]
+    assert c.take([0]).q.tolist() == [ok.tolist()] and list(c.take([0]).rows) == [0]
     good = sample_postures(model, 3, seed=8, settings=s)
     good.q[1] = folded
     with pytest.raises(InputError, match="candidate 2: self-collision"):
