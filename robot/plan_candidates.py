@@ -45,8 +45,10 @@ from .tree_model import load_tree_model, model_kind
 __all__ = ["Candidates", "PlanSettings", "plan_settings", "sample_postures", "feasible", "REASONS", "joint_bounds"]
 
 REASONS = ("joint limit", "self-collision", "floor", "out of view", "occluded")
-#: postures drawn per round of sampling
+#: postures checked per batch, at most
 BATCH = 2000
+#: postures drawn per round of sampling: twice those still missing, at least this many
+DRAW_MIN = 64
 #: doubles of one temporary array of a batch's checks (postures x (capsule pairs + markers x capsules) x 3)
 BATCH_DOUBLES = 3_000_000
 #: give up when this many sampled postures gave no feasible one
@@ -339,7 +341,7 @@ def sample_postures(model: object, n: int, seed: int = 0, settings: PlanSettings
     reasons = []
     found = 0
     while found < n and tried < most:
-        m = min(most - tried, max(BATCH, 2 * (n - found)))
+        m = min(most - tried, max(DRAW_MIN, 2 * (n - found)))
         Q = rng.uniform(checks.lo, checks.hi, (m, checks.lo.size))
         r, _ = checks.run(Q)
         ok = np.flatnonzero(r < 0)

@@ -153,20 +153,22 @@ def _bodies(links: list[str], joints: list[tuple]) -> np.ndarray:
     return body
 
 
-def _path_lengths(nb: int, edges: list[tuple[int, int, np.ndarray]]) -> np.ndarray:
-    """(nb, nb) skeleton path length between bodies (0 for adjacent ones, inf
-    for the same body), through the moving joints ``edges`` (body a, body b,
-    joint point at a reference posture)."""
+def _path_lengths(solid: list[int], edges: list[tuple[int, int, np.ndarray]]) -> dict[tuple[int, int], float]:
+    """(a, b) -> skeleton path length between the bodies ``solid`` (those
+    with capsules; a < b, 0 for adjacent ones), through the moving joints
+    ``edges`` (body a, body b, joint point at a reference posture)."""
     around: dict[int, list[tuple[int, np.ndarray]]] = {}
     for a, b, x in edges:
         around.setdefault(a, []).append((b, x))
         around.setdefault(b, []).append((a, x))
-    d = np.full((nb, nb), np.inf)
-    for src in range(nb):
+    wanted = set(solid)
+    d: dict[tuple[int, int], float] = {}
+    for src in solid:
         stack = [(b, x, 0.0, src) for b, x in around.get(src, ())]
         while stack:
             body, entry, dist, came = stack.pop()
-            d[src, body] = dist
+            if body in wanted and src < body:
+                d[src, body] = dist
             for nxt, x in around.get(body, ()):
                 if nxt != came:
                     stack.append((nxt, x, dist + float(np.linalg.norm(x - entry)), body))
@@ -203,18 +205,21 @@ def skeleton(model: object, settings: PlanSettings, q_ref: np.ndarray) -> Skelet
         labels.append(f"link {pa!r} (towards joint {name!r})")
     owner = np.array(owner, int)
     radius = np.array(radius, float)
-    nb = len(links)
     _R, p = _frames(model, links, np.atleast_2d(q_ref))
     edges = [(body[index[pa]], body[index[ch]], p[0, index[ch]]) for _n, t, pa, ch, _l in joints if t != "fixed"]
-    dist = _path_lengths(nb, edges)
     cb = body[owner] if owner.size else np.zeros(0, int)
-    rb = np.zeros(nb)
-    np.maximum.at(rb, cb, radius)
-    i, j = np.triu_indices(owner.size, 1)
-    bi, bj = cb[i], cb[j]
-    keep = (bi != bj) & (dist[bi, bj] > 0) & (dist[bi, bj] >= rb[bi] + rb[bj] + settings.margin)
-    keep &= np.isfinite(dist[bi, bj])
-    pairs = np.column_stack([i[keep], j[keep]]).astype(int).reshape(-1, 2)
+    caps_of: dict[int, list[int]] = {}
+    for c, bc in enumerate(cb):
+        caps_of.setdefault(int(bc), []).append(c)
+    rb = {bc: float(radius[cs].max()) for bc, cs in caps_of.items()}
+    pairs = [
+        (ci, cj)
+        for (a, b), d in _path_lengths(sorted(caps_of), edges).items()
+        if d > 0 and d >= rb[a] + rb[b] + settings.margin
+        for ci in caps_of[a]
+        for cj in caps_of[b]
+    ]
+    pairs = np.array(pairs, int).reshape(-1, 2)
     floor = cb != body[0] if owner.size else np.zeros(0, bool)
     mlink, mpoint = _markers(model, index)
     own = body[mlink][:, None] == cb[None, :] if mlink.size else np.zeros((0, owner.size), bool)
