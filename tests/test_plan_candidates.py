@@ -412,3 +412,16 @@ def test_elastic_tree_model_samples_on_its_rigid_kinematics(dual) -> None:
     a, b = sample_postures(elastic, 30, seed=6, settings=s), sample_postures(model, 30, seed=6, settings=s)
     np.testing.assert_array_equal(a.q, b.q)
     assert a.rejected == b.rejected
+
+
+def test_both_loaders_take_plan_and_refuse_a_plan_that_is_no_table(tmp_path: Path) -> None:
+    good = load_model(kr_model(tmp_path / "k"))
+    assert good.plan["floor_z"] == 0.0 and good.plan["radius"] == {"link_6": 0.06}
+    path = kr_model(tmp_path / "k2", "")
+    path.write_text("plan = 3\n" + path.read_text())
+    with pytest.raises(InputError, match=r"model.toml: \[plan\] must be a table"):
+        load_model(path)
+    text = dual_model(tmp_path / "d").read_text().replace(DUAL_PLAN, "")
+    (tmp_path / "d" / "bad.toml").write_text('plan = "x"\n' + text)
+    with pytest.raises(InputError, match=r"bad.toml: \[plan\] must be a table"):
+        load_tree_model(tmp_path / "d" / "bad.toml")
