@@ -563,6 +563,10 @@ contains
         if (ridge == 0.0_dp) gvalue = st%value
         do while (passes < max_passes)
             passes = passes + 1
+            ! fresh blocks (bounded round-off); the value stays incremental
+            d = st%value
+            call state_init(st, jc, m0, ridge, bad)
+            st%value = d
             call swap_pass(st, jc, sel, nswap, info)
             if (info /= sk_ok) return
             swaps = swaps + int(nswap, ip)
