@@ -25,7 +25,7 @@ module sk_design
     implicit none
     private
     public :: design_state, design_scales, design_check, state_init, state_update, add_cache, swap_pass
-    public :: criterion_direct, small_chol, lower_solve, chol_checked, design_select, design_covariance
+    public :: criterion_direct, small_chol, lower_solve, chol_checked, design_select, design_covariance, state_alloc
 
     integer(ip), parameter, public :: crit_d = 1, crit_a = 2, crit_task = 3
     !> argument codes of loc(1) (named in bindings/design.py, DESIGN_ARGUMENTS)
