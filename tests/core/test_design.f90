@@ -2,9 +2,10 @@
 !> updates of M^-1 and of the per-candidate blocks B_c = J_c M^-1 J_c^T,
 !> C_c = J_c M^-1 Q M^-1 J_c^T after adding and removing a candidate equal
 !> the blocks rebuilt from scratch; the criterion change of adding a
-!> candidate (add_cache) and of a swap (swap_pass) equal the difference of
-!> direct evaluations; the greedy + exchange selection returns a value equal
-!> to the direct evaluation of its selection and never worse than greedy.
+!> candidate (add_cache) equals the difference of direct evaluations; the
+!> criterion after every greedy step, and after the exchange passes (the
+!> swap formulas of swap_pass), equals the direct evaluation of the
+!> selection, and the exchange is never worse than greedy.
 program test_design
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
