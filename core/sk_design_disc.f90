@@ -29,7 +29,7 @@ module sk_design_disc
         darg_f, darg_jh, darg_k, darg_n0, darg_nobs, darg_max_passes
     implicit none
     private
-    public :: disc_select, disc_pairs, disc_check
+    public :: disc_select, disc_pairs, disc_check, disc_evaluate, rows_of
 
     !> Per hypothesis: the inverse of its (ridged) scaled G over the rows.
     type hyp_state
@@ -151,7 +151,7 @@ contains
     !> For the rows R: tc[ncand] = T after adding each candidate alone (the
     !> Woodbury formula of the module header; -huge for the candidates in
     !> skip), and tnow = T of R itself, both from the (ridged) normal equations.
-    subroutine evaluate(f, js, hoff, n0, nobs, rows, skip, tc, tnow, info)
+    subroutine disc_evaluate(f, js, hoff, n0, nobs, rows, skip, tc, tnow, info)
         real(dp), intent(in) :: f(:, :), js(:, :)
         integer(ip), intent(in) :: hoff(:), n0, nobs
         integer, intent(in) :: rows(:)
@@ -243,7 +243,7 @@ contains
                 aa(1:jj - 1, jj) = aa(jj, 1:jj - 1)
             end do
         end subroutine invert
-    end subroutine evaluate
+    end subroutine disc_evaluate
 
     !> Greedy + exchange T-optimal selection: sel[k] (in order, exchanged
     !> positions replaced in place), value = T of the selection and pairs[nh,nh]
@@ -273,7 +273,7 @@ contains
         gvalue = 0.0_dp
         pairs = 0.0_dp
         do step = 1, k
-            call evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, sel(1:step - 1)), chosen, tc, tnow, info)
+            call disc_evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, sel(1:step - 1)), chosen, tc, tnow, info)
             if (info /= sk_ok) return
             best = maxloc(tc, 1)
             chosen(best) = .true.
@@ -289,7 +289,7 @@ contains
                 r = sel(i)
                 skip = chosen
                 skip(r) = .false.
-                call evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, pack(sel, [(j /= i, j = 1, k)])), skip, &
+                call disc_evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, pack(sel, [(j /= i, j = 1, k)])), skip, &
                     tc, tnow, info)
                 if (info /= sk_ok) return
                 skip(r) = .true.
