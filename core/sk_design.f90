@@ -366,7 +366,9 @@ contains
     !>   A/task: -tr(L^-1 C_c L^-T) + tr(S2^-1 C_r1),
     !>   C_r1 = C_r - T^T Rt - Rt^T T + T^T Ct T, Rt = L^-1 R, Ct = L^-1 C_c L^-T);
     !> the swap is made when it lowers the criterion by more than
-    !> design_improve (relative). nswap counts the swaps.
+    !> design_improve (relative) and S2 stays regular (pivots^2 >
+    !> design_removal: r does not carry all the information of a direction).
+    !> nswap counts the swaps.
     subroutine swap_pass(st, jc, sel, nswap, info)
         type(design_state), intent(inout) :: st
         real(dp), intent(in) :: jc(:, :, :)
@@ -428,7 +430,7 @@ contains
             do ii = 1, n
                 s2(ii, ii) = s2(ii, ii) + 1.0_dp
             end do
-            call chol_small(n, s2, l2, design_singular, ok)
+            call chol_small(n, s2, l2, design_removal, ok)
             if (.not. ok) return
             if (st%crit == crit_d) then
                 dd = st%dadd(cc)
@@ -516,6 +518,7 @@ contains
             ! fresh blocks (bounded round-off); the value stays incremental
             d = st%value
             call state_init(st, jc, m0, ridge, bad)
+            if (bad > 0) exit
             st%value = d
             call swap_pass(st, jc, sel, nswap, info)
             if (info /= sk_ok) return
@@ -523,10 +526,10 @@ contains
             if (nswap == 0) exit
         end do
         info = sk_ok
-        if (ridge > 0.0_dp) then
-            ! the ridge stayed: the final criterion without it
-            call criterion_direct(jc, m0, jt, sel, crit, st%value, bad, s)
-        end if
+        ! the final M without the ridge: singular -> +huge; when the ridge
+        ! stayed, the final criterion is this direct one
+        call criterion_direct(jc, m0, jt, sel, crit, d, bad, s)
+        if (ridge > 0.0_dp .or. bad > 0) st%value = d
         value = st%value
         if (value >= huge(1.0_dp)) singular = 1
     contains

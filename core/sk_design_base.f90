@@ -24,6 +24,9 @@ module sk_design_base
     real(dp), parameter, public :: design_ridge = 1.0e-8_dp
     !> a Cholesky pivot^2 at or below this (scaled units) is a singular direction
     real(dp), parameter, public :: design_singular = 1.0e-12_dp
+    !> a swap may not leave less than this fraction of the information of
+    !> any direction (the pivots^2 of S2 = I - U_r^T M1^-1 U_r, sk_design)
+    real(dp), parameter, public :: design_removal = 1.0e-8_dp
     !> an exchange is made when it improves the criterion by more than this (relative)
     real(dp), parameter, public :: design_improve = 1.0e-10_dp
 
