@@ -29,7 +29,7 @@ module sk_design_disc
         darg_f, darg_jh, darg_k, darg_n0, darg_nobs, darg_max_passes
     implicit none
     private
-    public :: disc_select, disc_pairs, disc_check, disc_evaluate, rows_of
+    public :: disc_select, disc_pairs, disc_check, disc_evaluate, rows_of, tmin
 
     !> Per hypothesis: the inverse of its (ridged) scaled G over the rows.
     type hyp_state

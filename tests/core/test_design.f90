@@ -14,7 +14,7 @@ program test_design
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_design
-    use sk_design_disc, only: disc_evaluate, disc_pairs, rows_of
+    use sk_design_disc, only: disc_evaluate, disc_pairs, rows_of, tmin
     implicit none (type, external)
 
     integer, parameter :: npar = 7, nobs = 3, ncand = 25, nt = 4
@@ -148,17 +148,5 @@ contains
             call expect(rel(tc(c), tmin(pairs)) < 1e-10_dp, 'T after adding a candidate = direct')
         end do
     end subroutine check_discrimination
-
-    !> min over a /= b of p(a, b).
-    real(dp) function tmin(p)
-        real(dp), intent(in) :: p(:, :)
-        integer :: i, j
-        tmin = huge(1.0_dp)
-        do j = 1, size(p, 2)
-            do i = 1, size(p, 1)
-                if (i /= j) tmin = min(tmin, p(i, j))
-            end do
-        end do
-    end function tmin
 
 end program test_design
