@@ -67,7 +67,7 @@ from .absolute_propose import propose
 from .absolute_structure import PATH_GAP, STRUCTURE_ALPHA, STRUCTURE_PERMUTATIONS, residual_structure, structure_verdict
 from .backward import backward_steps, held_for_addition
 from .checks import cannot_judge, drop_copies, outlier_rows, unit_slips
-from .crossval import config_folds, held_out_residuals
+from .crossval import FoldFactors, config_folds
 from .diagnose_candidates import Candidate
 
 __all__ = [
@@ -198,7 +198,6 @@ def diagnose_absolute(
     folds = config_folds(labels, cv_folds)
     npts = data.n
     obs_rows = np.repeat(np.arange(npts), 3)
-    cv_base = _cv_rms(A, r, obs_rows, folds, w)
     dg = AbsoluteDiagnosis(
         verdict="adequate",
         sigma_position=sigma,
@@ -206,7 +205,7 @@ def diagnose_absolute(
         fit=fit,
         candidates=[],
         non_identifiable=[],
-        cv_rms_position_m=cv_base,
+        cv_rms_position_m=None,
         cv_folds=len(folds),
         data_checks=dchecks,
         test=test,
@@ -215,6 +214,20 @@ def diagnose_absolute(
         log_p=log_p,
         pruned=prune,
     )
+    # 2. candidates: score tests in one core call (the held-out errors below)
+    ranked = [] if prune else _score_candidates(dg, ext, cands, cand_cols, J, col, A, r, s2, sig_decl, nres, w)
+    top = ranked[:CV_TOP]
+    # every held-out error of the diagnosis (the model's, without each of its effects, with each
+    # leading candidate) on one factorisation per fold of the model's and those candidates' columns
+    extra = np.unique(np.concatenate([np.zeros(0, int)] + [np.array([col[x] for x in cols], int) for _c, cols in top]))
+    p_a = A.shape[1]
+    cvf = FoldFactors(np.hstack([A, J[:, extra]]), r, obs_rows, folds)
+    at = {int(k): p_a + i for i, k in enumerate(extra)}  # Jacobian column -> column of the factors
+
+    def cv_of(cols: np.ndarray, shift_cols: np.ndarray | None = None, shift: np.ndarray | None = None) -> float | None:
+        return _cv_rms(cvf.held_out(cols, shift_cols, shift), w)
+
+    cv_base = dg.cv_rms_position_m = cv_of(np.arange(p_a))
     # 4. backward steps: the effects already in the model
     kept = fit.reduction.kept
     dg.backward, dg.removal = backward_steps(
@@ -226,21 +239,19 @@ def diagnose_absolute(
         s2,
         bool(sig_decl),
         nres,
-        lambda Ab, rb: _cv_rms(Ab, rb, obs_rows, folds, w),
+        None,
         cv_base,
         lambda e: _rms_points(e, w),
         alpha,
         free_effects={p.effect for p in m.params if p.free},
+        cv_without=lambda rest, own, coef: cv_of(rest, own, coef),
     )
     if prune:
         _prune_verdict(dg, data, fit, w, sig_decl, alpha)
     else:
-        # 2. candidates: score tests in one core call, held-out errors by linearised CV
-        ranked = _score_candidates(dg, ext, cands, cand_cols, J, col, A, r, s2, sig_decl, nres, w)
-        top = ranked[:CV_TOP]
+        # held-out errors by linearised CV of the leading candidates
         for cand, cols in top:
-            Ac = np.hstack([A, J[:, [col[x] for x in cols]]])
-            cand.cv_rms_position_m = _cv_rms(Ac, r, obs_rows, folds, w)
+            cand.cv_rms_position_m = cv_of(np.concatenate([np.arange(p_a), [at[col[x]] for x in cols]]).astype(int))
         # 3. the proposal
         propose(
             dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, ext.names, sig_decl, log_p, alpha
@@ -401,10 +412,10 @@ def _rms_points(e: np.ndarray, w: np.ndarray) -> float:
     return float(math.sqrt(np.mean(d2))) if d2.size else 0.0
 
 
-def _cv_rms(A: np.ndarray, r: np.ndarray, obs_rows: np.ndarray, folds: list, w: np.ndarray) -> float | None:
-    """Held-out RMS point error (m) of the linearised model A x ~ r, by folds
-    of configurations; weights w per point (rows of weight 0 left out)."""
-    e = held_out_residuals(A, r, obs_rows, folds)
+def _cv_rms(e: np.ndarray, w: np.ndarray) -> float | None:
+    """Held-out RMS point error (m) of held-out weighted residuals e (3 per
+    point; crossval.FoldFactors: the linearised model by folds of
+    configurations); weights w per point (rows of weight 0 left out)."""
     e = e.reshape(-1, 3)
     sw = np.sqrt(np.where(w > 0, w, np.nan))
     d2 = np.sum((e / sw[:, None]) ** 2, axis=1)

@@ -101,12 +101,13 @@ def backward_steps(
     s2: float,
     declared: bool,
     nres: int,
-    cv: Callable[[np.ndarray, np.ndarray], float | None],
+    cv: Callable[[np.ndarray, np.ndarray], float | None] | None,
     cv_base: float | None,
     rms: Callable[[np.ndarray], float],
     alpha: float,
     values: Callable[[np.ndarray], np.ndarray] | None = None,
     free_effects: set[int] | None = None,
+    cv_without: Callable[[np.ndarray, np.ndarray, np.ndarray], float | None] | None = None,
 ) -> tuple[list[BackwardStep], BackwardStep | None]:
     """Test every effect of the model (module docstring), on either data
     kind. ``effects``: the model's [[effect]] tables; ``A``: the weighted
@@ -120,8 +121,11 @@ def backward_steps(
     ``values(cols)`` the fitted values of those columns in the parameters'
     units (default ``coef``); ``free_effects``: the effects with a
     parameter to identify (the others hold known values and are not
-    tested; default: every effect). Returns the steps and the removal
-    proposed (None when every effect earns its place)."""
+    tested; default: every effect); ``cv_without(rest, own, coef)``, in
+    place of ``cv``: the same held-out RMS from the column indices (the
+    columns ``rest`` of A, right-hand side r + A[:, own] @ coef), for a
+    caller that shares the folds' factorisations. Returns the steps and the
+    removal proposed (None when every effect earns its place)."""
     steps = []
     for e, table in enumerate(effects):
         if table.get("kind") in FRAME_KINDS or (free_effects is not None and e not in free_effects):
@@ -152,7 +156,10 @@ def backward_steps(
         # the rest refitted without it: r is orthogonal to every column, so its residual is r
         # plus the part of r_without that the effect's columns explain off the rest
         st.rms_without_m = rms(r + pr[:, 0])
-        st.cv_rms_position_m = cv(A[:, rest] if rest.size else np.zeros((A.shape[0], 0)), r_without)
+        if cv_without is not None:
+            st.cv_rms_position_m = cv_without(rest, own, coef[own])
+        else:
+            st.cv_rms_position_m = cv(A[:, rest] if rest.size else np.zeros((A.shape[0], 0)), r_without)
         noise = st.log_p >= math.log(alpha)
         same_cv = (
             st.cv_rms_position_m is not None

@@ -143,6 +143,10 @@ module sk_tree
         real(dp), allocatable :: kw0(:)
         !> elastic coordinate -> joint; joint -> elastic coordinate (0: none)
         integer, allocatable :: evj(:), vel(:)
+        !> the elastic joints in tree order [ne]; the nearest elastic joint at
+        !> or above each joint [0:nv] (0: none): the tree the equilibrium's
+        !> iterations accumulate the loads on
+        integer, allocatable :: elist(:), eanc(:)
         integer, allocatable :: bvj(:)
         real(dp), allocatable :: bmass(:), bcom(:, :)
         !> gravity-parameter entries (body, slot, theta index) [3,nbp] (module header)
@@ -401,6 +405,16 @@ contains
             nxt(p) = nxt(p) + m%sub(v)
             nxt(v) = m%pre(v) + 1
             reach(v) = reach(p) + norm2(vpos(:, v))
+        end do
+        allocate(m%elist(ne), m%eanc(0:nv))
+        m%eanc(0) = 0
+        e = 0
+        do v = 1, nv
+            m%eanc(v) = m%eanc(vparent(v))
+            if (m%vel(v) == 0) cycle
+            m%eanc(v) = v
+            e = e + 1
+            m%elist(e) = v
         end do
         allocate(m%erel(ne, ne))
         m%erel = 0
@@ -718,24 +732,43 @@ contains
     !> Loads of the current frames: per-subtree aggregates (force, first
     !> moment, payload moment), and for the joints st%need: axes, origins,
     !> generalised forces wv and the coefficients of G (gpair). Payloads
-    !> lvj(lsel(:)), lw(:, lsel(:)).
-    pure subroutine load_state(m, st, lsel, lvj, lw)
+    !> lvj(lsel(:)), lw(:, lsel(:)). elastic_only: the aggregates and the
+    !> per-joint part of the elastic joints only (what an iteration of the
+    !> equilibrium reads; the other joints' entries are left as they were).
+    pure subroutine load_state(m, st, lsel, lvj, lw, elastic_only)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(inout) :: st
         integer, intent(in) :: lsel(:)
         integer(ip), intent(in) :: lvj(:)
         real(dp), intent(in) :: lw(:, :)
-        real(dp) :: c(3), fb(3), u(3), mv(3)
-        integer :: b, v, p, i, l, a
-        st%f = 0.0_dp
-        st%s = 0.0_dp
-        st%mp = 0.0_dp
+        logical, intent(in), optional :: elastic_only
+        real(dp) :: c(3), fb(3)
+        integer :: b, v, p, i, l, a, f
+        logical :: only
+        only = .false.
+        if (present(elastic_only)) only = elastic_only
+        ! the aggregates of every joint, or (only) of the elastic ones, each
+        ! load entered at the nearest elastic joint above it (m%eanc)
+        if (only) then
+            do i = 1, m%ne
+                v = m%elist(i)
+                st%f(:, v) = 0.0_dp
+                st%s(:, :, v) = 0.0_dp
+                st%mp(:, v) = 0.0_dp
+            end do
+        else
+            st%f = 0.0_dp
+            st%s = 0.0_dp
+            st%mp = 0.0_dp
+        end if
         do b = 1, m%nb
-            v = m%bvj(b)
-            if (v == 0) cycle
-            c = st%pa(:, v) + matmul(st%ra(:, :, v), st%bc(:, b))
+            f = m%bvj(b)
+            if (f == 0) cycle
+            c = st%pa(:, f) + matmul(st%ra(:, :, f), st%bc(:, b))
             st%cb(:, b) = c
-            st%br(:, :, b) = st%ra(:, :, v)
+            st%br(:, :, b) = st%ra(:, :, f)
+            v = merge(m%eanc(f), f, only)
+            if (v == 0) cycle
             fb = st%bm(b)*m%grav
             st%f(:, v) = st%f(:, v) + fb
             do a = 1, 3
@@ -744,23 +777,49 @@ contains
         end do
         do i = 1, size(lsel)
             l = lsel(i)
-            v = lvj(l)
+            f = lvj(l)
+            if (f == 0) cycle
+            v = merge(m%eanc(f), f, only)
             if (v == 0) cycle
             st%f(:, v) = st%f(:, v) + lw(1:3, l)
             do a = 1, 3
-                st%s(:, a, v) = st%s(:, a, v) + st%pa(:, v)*lw(a, l)
+                st%s(:, a, v) = st%s(:, a, v) + st%pa(:, f)*lw(a, l)
             end do
             st%mp(:, v) = st%mp(:, v) + lw(4:6, l)
         end do
-        do v = m%nv, 1, -1
-            p = m%parent(v)
-            if (p == 0) cycle
-            st%f(:, p) = st%f(:, p) + st%f(:, v)
-            st%s(:, :, p) = st%s(:, :, p) + st%s(:, :, v)
-            st%mp(:, p) = st%mp(:, p) + st%mp(:, v)
-        end do
+        if (only) then
+            do i = m%ne, 1, -1
+                v = m%elist(i)
+                p = m%eanc(m%parent(v))
+                if (p == 0) cycle
+                st%f(:, p) = st%f(:, p) + st%f(:, v)
+                st%s(:, :, p) = st%s(:, :, p) + st%s(:, :, v)
+                st%mp(:, p) = st%mp(:, p) + st%mp(:, v)
+            end do
+        else
+            do v = m%nv, 1, -1
+                p = m%parent(v)
+                if (p == 0) cycle
+                st%f(:, p) = st%f(:, p) + st%f(:, v)
+                st%s(:, :, p) = st%s(:, :, p) + st%s(:, :, v)
+                st%mp(:, p) = st%mp(:, p) + st%mp(:, v)
+            end do
+        end if
+        call joint_loads(m, st, only)
+    end subroutine load_state
+
+    !> The per-joint part of load_state from the aggregates: for the joints
+    !> st%need (the elastic ones only when elastic_only), axes, origins,
+    !> generalised forces wv and the coefficients of G.
+    pure subroutine joint_loads(m, st, elastic_only)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(inout) :: st
+        logical, intent(in) :: elastic_only
+        real(dp) :: u(3), mv(3)
+        integer :: v
         do v = 1, m%nv
             if (.not. st%need(v)) cycle
+            if (elastic_only .and. m%vel(v) == 0) cycle
             u = matmul(st%rb(:, :, v), m%axis(:, v))
             st%lu(:, v) = u
             st%lo(:, v) = st%pb(:, v)
@@ -780,7 +839,7 @@ contains
                 st%wv(v) = 0.0_dp
             end select
         end do
-    end subroutine load_state
+    end subroutine joint_loads
 
     !> G(s, a) = dw_s/dval_a at the load state (module header), from the
     !> coefficients of the distal joint d (load_state) and the axis of the
@@ -991,9 +1050,11 @@ contains
             call deflected_frames(m, st)
             return
         end if
+        ! the iterations read the elastic joints' forces only; every load is
+        ! taken once more, in full, at the frames the iteration stops at
         do it = 1, eqit
             call deflected_frames(m, st)
-            call load_state(m, st, lsel, lvj, lw)
+            call load_state(m, st, lsel, lvj, lw, elastic_only=.true.)
             call apply_laws(m, st, dn)
             st%nit = it
             ch = deflection_change(m, dn - st%delta)
@@ -1001,6 +1062,7 @@ contains
             if (st%conv .or. it == eqit .or. .not. ch < huge(1.0_dp)) exit
             st%delta = dn
         end do
+        call load_state(m, st, lsel, lvj, lw)
     end subroutine solve_posture
 
     !> Sensitivity z[ne,ncol] of the deflections to ncol drivers at a solved
@@ -1343,7 +1405,7 @@ contains
         real(dp), intent(in), optional :: warm(:, :)
         type(tree_state) :: st
         real(dp) :: rt(3, 3), tt(3), tw(3, 3), y(3)
-        real(dp), allocatable :: b(:, :), jrow(:, :), lam(:, :), jd(:, :)
+        real(dp), allocatable :: b(:, :), jrow(:, :), lam(:, :), jd(:, :), jz(:, :)
         logical :: need(pr%m%nv)
         integer :: ipost, k, i, r0, nrow, ne, j, maxrow
         integer(ip) :: sinfo
@@ -1374,7 +1436,7 @@ contains
         do ipost = 1, pr%np
             maxrow = max(maxrow, 3*(pr%ostart(ipost + 1) - pr%ostart(ipost)))
         end do
-        allocate(b(ne, pr%nz), jrow(3, pr%nfree), lam(ne, maxrow), jd(3, ne))
+        allocate(b(ne, pr%nz), jrow(3, pr%nfree), lam(ne, maxrow), jd(3, ne), jz(maxrow, pr%nz))
         info = sk_ok
         do ipost = 1, pr%np
             if (present(warm)) st%delta = warm(:, ipost)
@@ -1408,13 +1470,14 @@ contains
             if (.not. want_jac .or. ne == 0 .or. pr%nz == 0) cycle
             ! lam holds J_delta^T; (I - D G)^-T J_delta^T when iterated
             if (st%eqit >= 2) call lu_solve(st%amat, st%ipiv, lam(:, 1:nrow), transposed=.true.)
+            ! the posture's rows of the deflection part at once: lam^T B
+            jz(1:nrow, :) = matmul(transpose(lam(:, 1:nrow)), b)
             nrow = 0
             do k = pr%ostart(ipost), pr%ostart(ipost + 1) - 1
                 i = pr%oidx(k)
                 r0 = 3*(i - 1)
                 do j = 1, pr%nz
-                    jac(r0 + 1:r0 + 3, pr%zcol(j)) = jac(r0 + 1:r0 + 3, pr%zcol(j)) &
-                        + pr%osw(i)*matmul(b(:, j), lam(:, nrow + 1:nrow + 3))
+                    jac(r0 + 1:r0 + 3, pr%zcol(j)) = jac(r0 + 1:r0 + 3, pr%zcol(j)) + pr%osw(i)*jz(nrow + 1:nrow + 3, j)
                 end do
                 nrow = nrow + 3
             end do

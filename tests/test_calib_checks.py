@@ -121,6 +121,36 @@ def test_folds_never_split_a_configuration_and_held_out_is_exact():
     assert CV.rms_rows(e, 36) == pytest.approx(np.sqrt(np.mean(e.reshape(2, 36) ** 2) * 2))
 
 
+def test_fold_factors_give_the_held_out_residuals_of_every_column_subset():
+    """One factorisation per fold of [M b] (crossval.FoldFactors) gives the
+    held-out residuals of any subset of M's columns and of a right-hand side
+    shifted by some columns, as a fit of each fold on those columns does:
+    including a rank-deficient subset (the minimum-norm solution) and a fold
+    with fewer training rows than columns (NaN)."""
+    rng = np.random.default_rng(5)
+    labels = [f"c{i // 3}" for i in range(60)]
+    folds = CV.config_folds(labels, 4)
+    rows = np.repeat(np.arange(60), 3)
+    M = rng.normal(size=(180, 9)) * np.array([1.0, 1e3, 1e-3, 1, 1, 1, 1, 1, 1])  # unequal scales
+    M[:, 8] = M[:, 0] - 2.0 * M[:, 3]  # a dependent column
+    b = rng.normal(size=180)
+    ff = CV.FoldFactors(M, b, rows, folds)
+    for cols, sh, t in [
+        (np.arange(8), None, None),
+        (np.array([1, 2, 5]), None, None),
+        (np.array([0, 3, 8, 4]), None, None),  # rank 3 of 4
+        (np.array([0, 2, 6]), np.array([4, 7]), np.array([0.3, -2.0])),
+        (np.zeros(0, int), np.array([1]), np.array([1e-3])),
+    ]:
+        rhs = b if sh is None else b + M[:, sh] @ t
+        np.testing.assert_allclose(ff.held_out(cols, sh, t), CV.held_out_residuals(M[:, cols], rhs, rows, folds),
+                                   rtol=1e-9, atol=1e-11)  # fmt: skip
+    few = CV.FoldFactors(M[:12], b[:12], rows[:12], [np.array([0]), np.array([1, 2, 3])])
+    e = few.held_out(np.arange(6))
+    assert np.isnan(e[3:]).all() and np.isfinite(e[:3]).all()  # 9 rows train the first fold, 3 the second
+    np.testing.assert_allclose(e, CV.held_out_residuals(M[:12, :6], b[:12], rows[:12], [[0], [1, 2, 3]]), atol=1e-11)
+
+
 def test_max_score_between_best_p_and_bonferroni():
     """The corrected p of the best of m candidates lies between its own p and
     m times it; duplicating every candidate changes nothing."""

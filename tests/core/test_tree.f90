@@ -35,6 +35,7 @@ program test_tree
     call test_jacobians(100, 'full equilibrium')
     call test_jacobians(1, 'first order')
     call test_warm_start()
+    call test_iteration_loads()
     call test_frame_jacobian()
     call test_recovery()
     call test_compensate(7, 1)
@@ -450,6 +451,53 @@ contains
         call evaluate(pr, t2(1:b%npar), 100_ip, etol, .true., pw, rw, jw, dw, nitw, eqinfo, info, warm=d1(:, 1:np - 1))
         call expect(info == sk_err_size, 'warm start: a warm array of the wrong shape is refused')
     end subroutine test_warm_start
+
+    !> The loads an iteration of the equilibrium takes (load_state with
+    !> elastic_only: aggregated on the tree of the elastic joints) are the
+    !> full loads at the elastic joints, payload included, at a deflected
+    !> pose of the tree (branches, 6-dof springs, fixed and frame joints).
+    subroutine test_iteration_loads()
+        integer, parameter :: np = 2
+        type(builder) :: b
+        type(tree_model) :: m
+        type(tree_state) :: st
+        real(dp) :: q(7, np), err, big
+        real(dp), allocatable :: lw(:, :), oxyz(:, :), owt(:), wv(:), gh(:, :), ghm(:, :)
+        integer(ip), allocatable :: lpost(:), lvj(:), opost(:), omark(:)
+        integer(ip) :: info
+        integer :: e, v, ip0
+        integer, allocatable :: lsel(:)
+        call build_tree(b, 3.0_dp)
+        call setup(b, m, info)
+        call expect(info == sk_ok, 'iteration loads: model')
+        call observations(b, q, np, lpost, lvj, lw, opost, omark, oxyz, owt)
+        call state_init(m, st)
+        err = 0.0_dp
+        big = 0.0_dp
+        do ip0 = 1, np
+            lsel = pack([(e, e = 1, size(lpost))], lpost == ip0)
+            call posture_values(m, b%theta(1:b%npar), q(:, ip0), st)
+            st%delta = [(1.0e-3_dp*sin(real(e + ip0, dp)), e = 1, m%ne)]
+            call deflected_frames(m, st)
+            call load_state(m, st, lsel, lvj, lw)
+            wv = st%wv
+            gh = st%gh
+            ghm = st%ghm
+            st%wv = 0.0_dp
+            st%gh = 0.0_dp
+            st%ghm = 0.0_dp
+            call load_state(m, st, lsel, lvj, lw, elastic_only=.true.)
+            do e = 1, m%ne
+                v = m%evj(e)
+                err = max(err, abs(st%wv(v) - wv(v)), maxval(abs(st%gh(:, v) - gh(:, v))), &
+                    maxval(abs(st%ghm(:, v) - ghm(:, v))))
+                big = max(big, abs(wv(v)), maxval(abs(gh(:, v))))
+            end do
+        end do
+        print '(a, es9.2, a, es9.2)', 'iteration loads: largest difference ', err, ' of loads up to ', big
+        call expect(size(lpost) > 0 .and. big > 0.0_dp .and. err <= 1.0e-12_dp*big, &
+            'iteration loads: the elastic joints'' loads as in full')
+    end subroutine test_iteration_loads
 
     !> Analytic Jacobian of every parameter against central differences of
     !> the full nonlinear evaluation, column by column, relative to the
