@@ -1,9 +1,9 @@
 """Kinematic trees read from a URDF: every joint from the base link outwards,
 ``<mimic>`` couplings, fixed joints and the links' inertials.
 
-The URDF is read with xml.etree in one pass (:func:`read_urdf`: linear in
-the file's size; a URDF library building its own objects took 2 ms per
-link, minutes for a 100,000-link file); this module checks what a library
+The URDF is read with expat in one pass (:func:`read_urdf`: linear in the
+file's size, no element tree built; a URDF library building its own objects
+took 2 ms per link, minutes for a 100,000-link file); this module checks what a library
 would accept silently (duplicate names, a link with two parents, loops,
 broken references, mimic chains that close on themselves, negative or
 non-finite masses, a zero or non-unit axis) and names the file and the
@@ -15,10 +15,13 @@ Motion(axis, q)``; a mimic joint turns by ``multiplier * q_leader + offset``.
 
 from __future__ import annotations
 
+import gc
 import math
-import xml.etree.ElementTree as ET
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from xml.parsers import expat
 
 import numpy as np
 
@@ -196,16 +199,14 @@ def _parse(raw: str, n: int) -> list[float] | None:
 class _Vectors:
     """Numeric attributes of n numbers gathered while reading and converted
     all at once (numpy), the element named when one is malformed; absent
-    attributes take ``default``."""
+    attributes (``attrs`` None or without ``attr``) take ``default``."""
 
-    def __init__(self, n: int, tag: str, attr: str, default: tuple[float, ...], kind: str) -> None:
+    def __init__(
+        self, n: int, tag: str, attr: str, default: tuple[float, ...], kind: str, attrs: list, names: list[str]
+    ) -> None:
         self.n, self.tag, self.attr, self.default, self.kind = n, tag, attr, default, kind
-        self.raw: list[str | None] = []
-        self.names: list[str] = []
-
-    def add(self, el: ET.Element | None, name: str) -> None:
-        self.raw.append(el.get(self.attr) if el is not None else None)
-        self.names.append(name)
+        self.raw: list[str | None] = [None if a is None else a.get(attr) for a in attrs]
+        self.names = names
 
     def values(self, path: Path | str) -> np.ndarray:
         m = len(self.raw)
@@ -232,42 +233,118 @@ class _Vectors:
         return out
 
 
-def _first_children(el: ET.Element) -> dict[str, ET.Element]:
-    """The first child of each tag (as ``find`` gives, without its path machinery)."""
-    out: dict[str, ET.Element] = {}
-    for c in el:
-        out.setdefault(c.tag, c)
+@contextmanager
+def _gc_paused() -> Iterator[None]:
+    """The cyclic garbage collector held while a URDF is read: the objects
+    made hold no cycles, and with 100,000 links its passes over them cost
+    more than the reading itself."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+@dataclass
+class _Scan:
+    """What one expat pass gathers of a URDF: the root's tag, and the
+    attributes (dicts) of the elements stiffkit reads, in file order."""
+
+    root: str = ""
+    #: per <link> of <robot>: [its attributes, has an <inertial>, <mass> and <origin> of the first <inertial>]
+    links: list[list] = field(default_factory=list)
+    #: per <joint> of <robot>: (its attributes, {tag: attributes of its first child of that tag})
+    joints: list[tuple[dict, dict]] = field(default_factory=list)
+    #: per <origin> of a link's <visual> or <collision>: (visual|collision, the link's attributes, origin's)
+    shapes: list[tuple[str, dict, dict]] = field(default_factory=list)
+
+
+def _scan(text: str, path: Path | str) -> _Scan:
+    """One pass of expat over ``text`` (no element tree is built: the
+    handlers keep the attribute dicts that expat gives). Tags as xml.etree
+    names them ({namespace}tag)."""
+    out = _Scan()
+    links, joints, shapes = out.links, out.joints, out.shapes
+    depth, kind, sub = 0, 0, ""  # kind: 1 in a <link>, 2 in a <joint>; sub: the link's child being read
+    cur: list | dict = []
+
+    def start(tag: str, attrs: dict) -> None:
+        nonlocal depth, kind, sub, cur
+        d = depth
+        depth = d + 1
+        if d == 2:
+            if kind == 2:
+                cur.setdefault(tag, attrs)
+            elif kind == 1:
+                if tag == "inertial":
+                    sub = "" if cur[1] else tag
+                    cur[1] = True
+                else:
+                    sub = tag if tag in ("visual", "collision") else ""
+        elif d == 3:
+            if sub == "inertial":
+                if tag == "mass":
+                    if cur[2] is None:
+                        cur[2] = attrs
+                elif tag == "origin" and cur[3] is None:
+                    cur[3] = attrs
+            elif sub and tag == "origin":
+                shapes.append((sub, cur[0], attrs))
+        elif d == 1:
+            sub = ""
+            if tag == "link":
+                cur = [attrs, False, None, None]
+                links.append(cur)
+                kind = 1
+            elif tag == "joint":
+                cur = {}
+                joints.append((attrs, cur))
+                kind = 2
+            else:
+                kind = 0
+        elif d == 0:
+            out.root = "{" + tag if "}" in tag else tag
+
+    def end(tag: str) -> None:
+        nonlocal depth
+        depth -= 1
+
+    parser = expat.ParserCreate(namespace_separator="}")  # as xml.etree's parser: namespaces resolved
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    try:
+        parser.Parse(text, True)
+    except expat.ExpatError as exc:
+        raise InputError(
+            f"{path}, line {exc.lineno}: cannot parse the URDF: not well-formed XML ({str(exc).split(':')[0]}, "
+            f"column {exc.offset}); is the file complete?"
+        ) from None
     return out
 
 
-def _check_numbers(root: ET.Element, path: Path | str) -> None:
+def _check_numbers(shapes: list[tuple[str, dict, dict]], path: Path | str) -> None:
     """The origins of visuals and collisions hold finite numbers of the
     right count (those of joints and inertials are read); the link is named."""
     for part in ("visual", "collision"):
-        for el in root.iterfind(f"link/{part}/origin"):
+        for p, link, el in shapes:
+            if p != part:
+                continue
             for attr in ("xyz", "rpy"):
                 raw = el.get(attr)
                 if raw is not None and _parse(raw, 3) is None:
-                    parents = {c: p for p in root.iter() for c in p}  # only on the error path
-                    raise _bad_numbers(path, _owner(el, parents), "origin", attr, raw, 3)
+                    raise _bad_numbers(path, f"link {link.get('name')!r}", "origin", attr, raw, 3)
 
 
-def _owner(el: ET.Element, parents: dict[ET.Element, ET.Element]) -> str:
-    """'joint NAME' or 'link NAME' of an element, for messages."""
-    p = parents.get(el)
-    while p is not None and p.tag not in ("joint", "link"):
-        p = parents.get(p)
-    return f"{p.tag} {p.get('name')!r}" if p is not None else "the robot"
-
-
-def _scalar(el: ET.Element, attr: str, owner: str, path: Path | str, default: float | None) -> float | None:
-    raw = el.get(attr)
+def _scalar(attrs: dict, tag: str, attr: str, owner: str, path: Path | str, default: float | None) -> float | None:
+    raw = attrs.get(attr)
     if raw is None:
         return default
     try:
         v = float(raw)
     except ValueError:
-        raise InputError(f'{path}: {owner}: <{el.tag} {attr}="{raw}"> must be a number') from None
+        raise InputError(f'{path}: {owner}: <{tag} {attr}="{raw}"> must be a number') from None
     return v
 
 
@@ -299,70 +376,59 @@ def _transforms(xyz: np.ndarray, rpy: np.ndarray) -> np.ndarray:
 
 
 def read_urdf(text: str, path: Path | str) -> UrdfDoc:
-    """The links and joints of a URDF document (xml.etree, one pass: linear
-    in the size of the file). Raises InputError naming the file and the
-    element for XML that is not well formed (a truncated file), a root other
-    than <robot>, joints or links without a name, a joint without a type,
-    parent or child, numbers that are not finite numbers of the right count;
-    a joint origin implausibly far for metres (a URDF in mm) gives a warning."""
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        line, col = exc.position
-        raise InputError(
-            f"{path}, line {line}: cannot parse the URDF: not well-formed XML ({str(exc).split(':')[0]}, "
-            f"column {col}); is the file complete?"
-        ) from None
-    if root.tag != "robot":
-        raise InputError(f"{path}: the root element is <{root.tag}>, a URDF's is <robot>")
-    _check_numbers(root, path)
-    links: list[UrdfLink] = []
-    com = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "link")
-    com_rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "link")
-    has_inertial = []
-    link_els = [el for el in root if el.tag == "link"]
-    joint_els = [el for el in root if el.tag == "joint"]
-    for el in link_els:
-        name = (el.get("name") or "").strip()
+    """The links and joints of a URDF document (expat, one pass: linear in
+    the size of the file). Raises InputError naming the file and the element
+    for XML that is not well formed (a truncated file: and the line), a root
+    other than <robot>, joints or links without a name, a joint without a
+    type, parent or child, numbers that are not finite numbers of the right
+    count; a joint origin implausibly far for metres (a URDF in mm), a link
+    mass in grams or a centre of mass in mm give a warning."""
+    with _gc_paused():
+        return _read_urdf(text, path)
+
+
+def _read_urdf(text: str, path: Path | str) -> UrdfDoc:
+    scan = _scan(text, path)
+    if scan.root != "robot":
+        raise InputError(f"{path}: the root element is <{scan.root}>, a URDF's is <robot>")
+    _check_numbers(scan.shapes, path)
+    names, masses, origins, inertial_of = [], [], [], []  # inertial_of: link -> index among inertials, or -1
+    for attrs, has_inertial, me, oe in scan.links:
+        name = (attrs.get("name") or "").strip()
         if not name:
             raise InputError(f"{path}: a <link> without a name")
-        ie = el.find("inertial")
-        if ie is None:
-            links.append(UrdfLink(name, None))
+        names.append(name)
+        if not has_inertial:
+            inertial_of.append(-1)
             continue
-        parts = _first_children(ie)
-        me = parts.get("mass")
-        mass = None if me is None else _scalar(me, "value", f"link {name!r}", path, None)
-        oe = parts.get("origin")
-        com.add(oe, name)
-        com_rpy.add(oe, name)
-        has_inertial.append(len(links))
-        links.append(UrdfLink(name, (mass, None)))
-    coms = com.values(path)
-    com_rpy.values(path)
-    for k, i in enumerate(has_inertial):
-        links[i].inertial = (links[i].inertial[0], coms[k])
-    raw = []
-    xyz = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "joint")
-    rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "joint")
-    axis = _Vectors(3, "axis", "xyz", (math.nan, math.nan, math.nan), "joint")
-    for el in joint_els:
-        name = (el.get("name") or "").strip()
+        raw = None if me is None else me.get("value")
+        try:
+            mass = None if raw is None else float(raw)
+        except ValueError:
+            mass = _scalar(me, "mass", "value", f"link {name!r}", path, None)  # raises, naming the link
+        inertial_of.append(len(masses))
+        masses.append(mass)
+        origins.append(oe)
+    inertial_names = [n for n, k in zip(names, inertial_of) if k >= 0]
+    coms = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "link", origins, inertial_names).values(path)
+    _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "link", origins, inertial_names).values(path)
+    com_rows = list(coms)  # iterating an array yields its rows' views in C
+    links = [UrdfLink(n, None if k < 0 else (masses[k], com_rows[k])) for n, k in zip(names, inertial_of)]
+    raw_joints, jnames, jparts = [], [], []
+    for attrs, parts in scan.joints:
+        name = (attrs.get("name") or "").strip()
         if not name:
             raise InputError(f"{path}: a <joint> without a name")
-        jtype = el.get("type")
+        jtype = attrs.get("type")
         if not jtype:
             raise InputError(f"{path}: joint {name!r} has no type")
-        parts = _first_children(el)
         pe, ce = parts.get("parent"), parts.get("child")
         parent = (pe.get("link") or "").strip() if pe is not None else ""
         child = (ce.get("link") or "").strip() if ce is not None else ""
         if not parent or not child:
             raise InputError(f'{path}: joint {name!r} has no <{"parent" if not parent else "child"} link="..."/>')
-        oe = parts.get("origin")
-        xyz.add(oe, name)
-        rpy.add(oe, name)
-        axis.add(parts.get("axis"), name)
+        jnames.append(name)
+        jparts.append(parts)
         mimic = None
         me = parts.get("mimic")
         if me is not None:
@@ -370,18 +436,28 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
             lead = (me.get("joint") or "").strip()
             if not lead:
                 raise InputError(f'{path}: {owner}: <mimic> without joint="..."')
-            mimic = (lead, _scalar(me, "multiplier", owner, path, 1.0), _scalar(me, "offset", owner, path, 0.0))
+            mimic = (
+                lead,
+                _scalar(me, "mimic", "multiplier", owner, path, 1.0),
+                _scalar(me, "mimic", "offset", owner, path, 0.0),
+            )
         le = parts.get("limit")
         lim = None
         if le is not None:
             who = f"joint {name!r}"
-            lim = joint_limit(jtype, _scalar(le, "lower", who, path, None), _scalar(le, "upper", who, path, None))
-        raw.append((name, jtype, parent, child, mimic, lim))
-    X, A = xyz.values(path), axis.values(path)
-    T = _transforms(X, rpy.values(path))
+            lo, hi = _scalar(le, "limit", "lower", who, path, None), _scalar(le, "limit", "upper", who, path, None)
+            lim = joint_limit(jtype, lo, hi)
+        raw_joints.append((name, jtype, parent, child, mimic, lim))
+    oes = [p.get("origin") for p in jparts]
+    X = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "joint", oes, jnames).values(path)
+    R = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "joint", oes, jnames).values(path)
+    A = _Vectors(3, "axis", "xyz", (math.nan, math.nan, math.nan), "joint", [p.get("axis") for p in jparts], jnames)
+    A = A.values(path)
+    T = _transforms(X, R)
     # iterating the arrays yields the rows' views in C (indexing one by one costs more than the rest)
     joints = [
-        UrdfJoint(n, t, p, c, Tk, None if a[0] != a[0] else a, m, lim) for (n, t, p, c, m, lim), Tk, a in zip(raw, T, A)
+        UrdfJoint(n, t, p, c, Tk, None if a[0] != a[0] else a, m, lim)
+        for (n, t, p, c, m, lim), Tk, a in zip(raw_joints, T, A)
     ]
     far = float(np.abs(X).max()) if len(X) else 0.0
     if far > V.QUANTITIES["position"].plausible[1]:
@@ -390,7 +466,7 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
             "a URDF is in m (is it in mm? multiply by 0.001)",
             key=("urdf", str(path)),
         )
-    check_inertials(root, path)
+    check_inertials(inertial_names, masses, coms, path)
     return UrdfDoc(str(path), links, joints)
 
 
@@ -469,7 +545,11 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
     its fixed joint) and trees with other roots are left out. Linear in the
     number of links.
     """
-    path = Path(urdf_path)
+    with _gc_paused():
+        return _load_tree(Path(urdf_path), root, urdf)
+
+
+def _load_tree(path: Path, root: str, urdf: UrdfDoc | None) -> Tree:
     doc = urdf if urdf is not None else parse_urdf(path)
     names = [ln.name for ln in doc.links]
     dup = _duplicates(names)
