@@ -234,10 +234,11 @@ class _Vectors:
 
 
 @contextmanager
-def _gc_paused() -> Iterator[None]:
-    """The cyclic garbage collector held while a URDF is read: the objects
-    made hold no cycles, and with 100,000 links its passes over them cost
-    more than the reading itself."""
+def gc_paused() -> Iterator[None]:
+    """The cyclic garbage collector held (a context or a decorator: ``@gc_paused()``)
+    while a URDF is read or a model built from it: the objects made hold no
+    cycles (reference counts free them), and with 100,000 links the
+    collector's passes over them cost more than the reading itself."""
     was = gc.isenabled()
     gc.disable()
     try:
@@ -375,6 +376,7 @@ def _transforms(xyz: np.ndarray, rpy: np.ndarray) -> np.ndarray:
     return T
 
 
+@gc_paused()
 def read_urdf(text: str, path: Path | str) -> UrdfDoc:
     """The links and joints of a URDF document (expat, one pass: linear in
     the size of the file). Raises InputError naming the file and the element
@@ -383,11 +385,6 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
     type, parent or child, numbers that are not finite numbers of the right
     count; a joint origin implausibly far for metres (a URDF in mm), a link
     mass in grams or a centre of mass in mm give a warning."""
-    with _gc_paused():
-        return _read_urdf(text, path)
-
-
-def _read_urdf(text: str, path: Path | str) -> UrdfDoc:
     scan = _scan(text, path)
     if scan.root != "robot":
         raise InputError(f"{path}: the root element is <{scan.root}>, a URDF's is <robot>")
@@ -450,9 +447,9 @@ def _read_urdf(text: str, path: Path | str) -> UrdfDoc:
         raw_joints.append((name, jtype, parent, child, mimic, lim))
     oes = [p.get("origin") for p in jparts]
     X = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "joint", oes, jnames).values(path)
-    R = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "joint", oes, jnames).values(path)
     A = _Vectors(3, "axis", "xyz", (math.nan, math.nan, math.nan), "joint", [p.get("axis") for p in jparts], jnames)
     A = A.values(path)
+    R = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "joint", oes, jnames).values(path)
     T = _transforms(X, R)
     # iterating the arrays yields the rows' views in C (indexing one by one costs more than the rest)
     joints = [
@@ -532,6 +529,7 @@ _NO_AXIS = np.zeros(3)
 _NO_AXIS.flags.writeable = False
 
 
+@gc_paused()
 def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | None = None) -> Tree:
     """Read the URDF at ``urdf_path`` and return the tree below ``root``.
 
@@ -545,11 +543,7 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
     its fixed joint) and trees with other roots are left out. Linear in the
     number of links.
     """
-    with _gc_paused():
-        return _load_tree(Path(urdf_path), root, urdf)
-
-
-def _load_tree(path: Path, root: str, urdf: UrdfDoc | None) -> Tree:
+    path = Path(urdf_path)
     doc = urdf if urdf is not None else parse_urdf(path)
     names = [ln.name for ln in doc.links]
     dup = _duplicates(names)
