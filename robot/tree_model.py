@@ -58,7 +58,8 @@ from ..io import validate as V
 from ..io.tables import read_toml
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
-from .tree import Tree, gc_paused, load_tree
+from .tree import Tree, load_tree
+from .urdf_read import gc_paused
 
 __all__ = [
     "ABS_KINDS",
