@@ -74,11 +74,12 @@ def model_text(
     iterations: int | None = None,
     robot: dict | None = None,
     header: str = "",
+    plan: dict | None = None,
 ) -> str:
     """A model TOML for absolute data (section 6.2): [robot],
     [measurements] kind = "absolute" (and sigma_position when given),
-    [gravity] when given, and the [[effect]] tables; ``header``: comment
-    lines at the top."""
+    [gravity] when given, the [plan] table (``stiffkit plan``) when given,
+    and the [[effect]] tables; ``header``: comment lines at the top."""
     rob = {k: v for k, v in (robot or {}).items() if k not in ("urdf", "base_link")}
     doc: dict = {"robot": {"urdf": str(urdf), "base_link": base_link, **rob}}
     doc["measurements"] = {"kind": "absolute"}
@@ -91,6 +92,8 @@ def model_text(
         if iterations is not None:
             g["iterations"] = int(iterations)
         doc["gravity"] = g
+    if plan:
+        doc["plan"] = plan
     return tomlw.dumps(doc, header) + tomlw.effect_tables(effects)
 
 
@@ -245,6 +248,7 @@ def write_model(fit: AbsoluteFit, path: str | Path, folded_urdf: str | Path | No
         iterations=model.iterations if model.iterations != EQ_ITERATIONS else None,
         robot=robot,
         header=header,
+        plan=model.plan,
     )
     atomic_write_text(path, text)
     return notes

@@ -319,6 +319,8 @@ def write_model(res: FitResult, path: Path | str) -> list[str]:
         meas["sigma_rotation"] = model.sigma_rotation
     if meas:
         doc["measurements"] = meas
+    if model.plan:
+        doc["plan"] = model.plan  # the [plan] table as read (stiffkit plan)
     tables, notes = written_tables(res)
     head = (
         f"# identified by stiffkit fit from {res.problem.meas.path}: positional RMS "

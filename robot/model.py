@@ -23,6 +23,7 @@ from ..io import validate as V
 from ..io.linkjson import check_spring_matrix, read_link_compliance
 from ..io.tables import read_toml
 from .indices import Indices, stiffness_indices_where
+from .plan_settings import plan_table
 from .urdf import Chain, load_chain
 
 KINDS = (
@@ -124,6 +125,8 @@ class Model:
     sigma_position: float | None = None
     sigma_rotation: float | None = None
     robot_table: dict = field(default_factory=dict)
+    #: the file's optional [plan] table as written (robot/plan_settings.py reads it; the writers keep it)
+    plan: dict = field(default_factory=dict)
 
     # -- springs --------------------------------------------------------
     def springs(self, extra_terms: Iterable[Term] = ()) -> list[tuple[int, int]]:
@@ -631,11 +634,12 @@ def load_model(path: Path | str) -> Model:
         sigma_position=None if sig_p is None else float(sig_p),
         sigma_rotation=None if sig_r is None else float(sig_r),
         robot_table=robot,
+        plan=plan_table(doc, path),
     )
 
 
 #: the sections and keys a deflection model file may carry (a typo is an error, not a silent default)
-TOP_KEYS = ("robot", "measurements", "effect")
+TOP_KEYS = ("robot", "measurements", "effect", "plan")
 ROBOT_KEYS = ("urdf", "base_link", "tool_frame")
 MEAS_KEYS = ("sigma_position", "sigma_rotation", "kind")
 

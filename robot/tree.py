@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io import validate as V
+from .capsules import Capsule
 from .urdf_read import UrdfDoc, UrdfJoint, check_urdf_text, gc_paused, parse_urdf, read_urdf
 
 MOVING = ("revolute", "continuous", "prismatic")
@@ -82,6 +83,8 @@ class Tree:
     joints: list[TreeJoint]
     links: list[str]
     inertials: dict[str, Inertial] = field(default_factory=dict)
+    #: link -> bounding capsules of its primitive <collision> shapes (robot/capsules.py)
+    collisions: dict[str, list[Capsule]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self._by_name = {j.name: j for j in self.joints}
@@ -297,7 +300,8 @@ def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | No
             raise InputError(f"{path}: link {ln.name!r} has mass {mass}; a mass must be finite and >= 0 kg")
         if mass > 0:
             inertials[ln.name] = Inertial(mass, com)
-    tree = Tree(str(path), root, joints, out_links, inertials)
+    shapes = {ln: c for ln, c in doc.collisions.items() if ln in below}
+    tree = Tree(str(path), root, joints, out_links, inertials, shapes)
     for j in joints:
         if j.mimic is None:
             continue

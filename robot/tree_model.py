@@ -58,6 +58,7 @@ from ..io import validate as V
 from ..io.tables import read_toml
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
+from .plan_settings import plan_table
 from .tree import Tree, load_tree
 from .urdf_read import gc_paused
 
@@ -200,6 +201,8 @@ class TreeModel:
     blocks: list[tuple[str, str]] = field(default_factory=list)
     #: parameter name -> sigma of its prior toward the URDF (model_bodies)
     priors: dict[str, float] = field(default_factory=dict)
+    #: the file's optional [plan] table as written (robot/plan_settings.py reads it; the writers keep it)
+    plan: dict = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
@@ -737,6 +740,7 @@ def load_tree_model(path: str | Path) -> TreeModel:
     m = tree_model_from_tables(tree, effects, g, its, str(path), sigma, path.parent)
     m.path = path
     m.robot_table = robot
+    m.plan = plan_table(doc, path)
     return m
 
 

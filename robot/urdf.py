@@ -52,6 +52,7 @@ class Chain:
     trot: np.ndarray = field(default_factory=lambda: np.eye(3))
     tpos: np.ndarray = field(default_factory=lambda: np.zeros(3))
     limits: list = field(default_factory=list)  # (lower, upper) or None per actuated joint (q order)
+    collisions: dict = field(default_factory=dict)  # link -> capsules of its primitive <collision> shapes
 
     @property
     def dof(self) -> int:
@@ -216,6 +217,7 @@ def load_chain(urdf_path: str | Path, base_link: str = "base_link", tool_frame: 
         tool_frame=tool_frame,
         urdf=str(path),
         limits=[j.limit for j in joints if j.type in ACTUATED],
+        collisions={ln: c for ln, c in tree.collisions.items() if ln == base_link or ln in {j.child for j in joints}},
     )
 
 

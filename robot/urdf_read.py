@@ -18,6 +18,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from xml.etree import ElementTree as ET
 from xml.parsers import expat
 
 import numpy as np
@@ -25,6 +26,7 @@ import numpy as np
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_text
+from .capsules import Capsule, collision_capsules
 from .urdf_checks import check_inertials, joint_limit
 
 __all__ = ["UrdfJoint", "UrdfLink", "UrdfDoc", "read_urdf", "check_urdf_text", "parse_urdf", "gc_paused"]
@@ -60,6 +62,7 @@ class UrdfDoc:
     path: str
     links: list[UrdfLink]
     joints: list[UrdfJoint]
+    collisions: dict[str, list[Capsule]] = field(default_factory=dict)
 
     @property
     def link_map(self) -> dict[str, UrdfLink]:
@@ -142,7 +145,8 @@ class _Scan:
     attributes (dicts) of the elements stiffkit reads, in file order."""
 
     root: str = ""
-    #: per <link> of <robot>: [its attributes, has an <inertial>, <mass> and <origin> of the first <inertial>]
+    #: per <link> of <robot>: [its attributes, has an <inertial>, <mass> and <origin> of the first
+    #: <inertial>, its <collision> elements (xml.etree, for robot/capsules.py)]
     links: list[list] = field(default_factory=list)
     #: per <joint> of <robot>: (its attributes, {tag: attributes of its first child of that tag})
     joints: list[tuple[dict, dict]] = field(default_factory=list)
@@ -150,19 +154,28 @@ class _Scan:
     shapes: list[tuple[str, dict, dict]] = field(default_factory=list)
 
 
+def _et_name(name: str) -> str:
+    """A name as xml.etree writes it: {namespace}local (expat: namespace}local)."""
+    return "{" + name if "}" in name else name
+
+
 def _scan(text: str, path: Path | str) -> _Scan:
     """One pass of expat over ``text`` (no element tree is built: the
-    handlers keep the attribute dicts that expat gives). Tags as xml.etree
-    names them ({namespace}tag)."""
+    handlers keep the attribute dicts that expat gives; the few <collision>
+    elements are built as xml.etree elements). Tags as xml.etree names them
+    ({namespace}tag)."""
     out = _Scan()
     links, joints, shapes = out.links, out.joints, out.shapes
     depth, kind, sub = 0, 0, ""  # kind: 1 in a <link>, 2 in a <joint>; sub: the link's child being read
     cur: list | dict = []
+    tb: ET.TreeBuilder | None = None  # building a <collision> of a link
 
     def start(tag: str, attrs: dict) -> None:
-        nonlocal depth, kind, sub, cur
+        nonlocal depth, kind, sub, cur, tb
         d = depth
         depth = d + 1
+        if tb is not None:
+            tb.start(_et_name(tag), {_et_name(k): v for k, v in attrs.items()})
         if d == 2:
             if kind == 2:
                 cur.setdefault(tag, attrs)
@@ -172,6 +185,9 @@ def _scan(text: str, path: Path | str) -> _Scan:
                     cur[1] = True
                 else:
                     sub = tag if tag in ("visual", "collision") else ""
+                    if sub == "collision":
+                        tb = ET.TreeBuilder()
+                        tb.start(tag, {_et_name(k): v for k, v in attrs.items()})
         elif d == 3:
             if sub == "inertial":
                 if tag == "mass":
@@ -184,7 +200,7 @@ def _scan(text: str, path: Path | str) -> _Scan:
         elif d == 1:
             sub = ""
             if tag == "link":
-                cur = [attrs, False, None, None]
+                cur = [attrs, False, None, None, []]
                 links.append(cur)
                 kind = 1
             elif tag == "joint":
@@ -194,11 +210,16 @@ def _scan(text: str, path: Path | str) -> _Scan:
             else:
                 kind = 0
         elif d == 0:
-            out.root = "{" + tag if "}" in tag else tag
+            out.root = _et_name(tag)
 
     def end(tag: str) -> None:
-        nonlocal depth
+        nonlocal depth, tb
         depth -= 1
+        if tb is not None:
+            tb.end(_et_name(tag))
+            if depth == 2:
+                cur[4].append(tb.close())
+                tb = None
 
     parser = expat.ParserCreate(namespace_separator="}")  # as xml.etree's parser: namespaces resolved
     parser.StartElementHandler = start
@@ -278,7 +299,7 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
         raise InputError(f"{path}: the root element is <{scan.root}>, a URDF's is <robot>")
     _check_numbers(scan.shapes, path)
     names, masses, origins, inertial_of = [], [], [], []  # inertial_of: link -> index among inertials, or -1
-    for attrs, has_inertial, me, oe in scan.links:
+    for attrs, has_inertial, me, oe, _cols in scan.links:
         name = (attrs.get("name") or "").strip()
         if not name:
             raise InputError(f"{path}: a <link> without a name")
@@ -352,7 +373,18 @@ def read_urdf(text: str, path: Path | str) -> UrdfDoc:
             key=("urdf", str(path)),
         )
     check_inertials(inertial_names, masses, coms, path)
-    return UrdfDoc(str(path), links, joints)
+    return UrdfDoc(str(path), links, joints, collision_capsules(_collision_links(scan.links), path))
+
+
+def _collision_links(links: list[list]) -> list[ET.Element]:
+    """The links that have a <collision>, as xml.etree elements holding only those."""
+    out = []
+    for attrs, _has_inertial, _me, _oe, cols in links:
+        if cols:
+            el = ET.Element("link", attrs)
+            el.extend(cols)
+            out.append(el)
+    return out
 
 
 def check_urdf_text(text: str, path: Path | str) -> None:
