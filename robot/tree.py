@@ -1,9 +1,9 @@
 """Kinematic trees read from a URDF: every joint from the base link outwards,
 ``<mimic>`` couplings, fixed joints and the links' inertials.
 
-The URDF is read with xml.etree in one pass (:func:`read_urdf`: linear in
-the file's size; a URDF library building its own objects took 2 ms per
-link, minutes for a 100,000-link file); this module checks what a library
+The URDF is read with expat in one pass (robot/urdf_read.py, :func:`read_urdf`:
+linear in the file's size, no element tree built; a URDF library building
+its own objects took 2 ms per link, minutes for a 100,000-link file); this module checks what a library
 would accept silently (duplicate names, a link with two parents, loops,
 broken references, mimic chains that close on themselves, negative or
 non-finite masses, a zero or non-unit axis) and names the file and the
@@ -16,7 +16,6 @@ Motion(axis, q)``; a mimic joint turns by ``multiplier * q_leader + offset``.
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,14 +23,24 @@ import numpy as np
 
 from ..errors import InputError
 from ..io import validate as V
-from ..io.tables import read_text
-from .capsules import Capsule, collision_capsules
-from .urdf_checks import check_inertials, joint_limit
+from .capsules import Capsule
+from .urdf_read import UrdfDoc, UrdfJoint, check_urdf_text, gc_paused, parse_urdf, read_urdf
 
 MOVING = ("revolute", "continuous", "prismatic")
 SUPPORTED = MOVING + ("fixed",)
 
-__all__ = ["TreeJoint", "Inertial", "Tree", "UrdfDoc", "load_tree", "parse_urdf", "read_urdf", "AXIS_TOL"]
+__all__ = [
+    "TreeJoint",
+    "Inertial",
+    "Tree",
+    "UrdfDoc",
+    "load_tree",
+    "parse_urdf",
+    "read_urdf",
+    "check_urdf_text",
+    "gc_paused",
+    "AXIS_TOL",
+]
 
 
 @dataclass
@@ -142,276 +151,6 @@ class Tree:
 AXIS_TOL = 1e-6
 
 
-@dataclass
-class UrdfJoint:
-    """A <joint> as written: origin (4, 4), axis as written (not normalised;
-    None when absent), mimic (leader, multiplier, offset) or None."""
-
-    name: str
-    type: str
-    parent: str
-    child: str
-    origin: np.ndarray
-    axis: np.ndarray | None
-    mimic: tuple[str, float, float] | None
-    limit: tuple[float, float] | None = None  # (lower, upper) of a revolute or prismatic joint
-
-
-@dataclass
-class UrdfLink:
-    """A <link>: its inertial as (mass or None, centre of mass (3,)), or None."""
-
-    name: str
-    inertial: tuple[float | None, np.ndarray] | None
-
-
-@dataclass
-class UrdfDoc:
-    """What stiffkit reads of a URDF: links and joints in file order."""
-
-    path: str
-    links: list[UrdfLink]
-    joints: list[UrdfJoint]
-    collisions: dict[str, list[Capsule]] = field(default_factory=dict)
-
-    @property
-    def link_map(self) -> dict[str, UrdfLink]:
-        return {ln.name: ln for ln in self.links}
-
-    @property
-    def roots(self) -> list[str]:
-        """Links that are no joint's child, in file order."""
-        children = {j.child for j in self.joints}
-        return [ln.name for ln in self.links if ln.name not in children]
-
-
-def _bad_numbers(path: Path | str, owner: str, tag: str, attr: str, raw: str, n: int) -> InputError:
-    return InputError(f'{path}: {owner}: <{tag} {attr}="{raw}"> must be {n} finite number(s)')
-
-
-def _parse(raw: str, n: int) -> list[float] | None:
-    try:
-        vals = [float(x) for x in raw.split()]
-    except ValueError:
-        return None
-    return vals if len(vals) == n and all(math.isfinite(v) for v in vals) else None
-
-
-class _Vectors:
-    """Numeric attributes of n numbers gathered while reading and converted
-    all at once (numpy), the element named when one is malformed; absent
-    attributes take ``default``."""
-
-    def __init__(self, n: int, tag: str, attr: str, default: tuple[float, ...], kind: str) -> None:
-        self.n, self.tag, self.attr, self.default, self.kind = n, tag, attr, default, kind
-        self.raw: list[str | None] = []
-        self.names: list[str] = []
-
-    def add(self, el: ET.Element | None, name: str) -> None:
-        self.raw.append(el.get(self.attr) if el is not None else None)
-        self.names.append(name)
-
-    def values(self, path: Path | str) -> np.ndarray:
-        m = len(self.raw)
-        out = np.empty((m, self.n))
-        given = [k for k, r in enumerate(self.raw) if r is not None]
-        absent = np.ones(m, bool)
-        absent[given] = False
-        out[absent] = self.default
-        if given:
-            tokens = [self.raw[k].split() for k in given]
-            try:
-                if any(len(t) != self.n for t in tokens):
-                    raise ValueError
-                vals = np.array(tokens, dtype=float).reshape(len(given), self.n)
-                if not np.all(np.isfinite(vals)):
-                    raise ValueError
-            except ValueError:  # name the first malformed one
-                for k in given:
-                    if _parse(self.raw[k], self.n) is None:
-                        owner = f"{self.kind} {self.names[k]!r}"
-                        raise _bad_numbers(path, owner, self.tag, self.attr, self.raw[k], self.n) from None
-                vals = np.array([_parse(self.raw[k], self.n) for k in given], float)  # numpy and Python differ
-            out[given] = vals
-        return out
-
-
-def _first_children(el: ET.Element) -> dict[str, ET.Element]:
-    """The first child of each tag (as ``find`` gives, without its path machinery)."""
-    out: dict[str, ET.Element] = {}
-    for c in el:
-        out.setdefault(c.tag, c)
-    return out
-
-
-def _check_numbers(root: ET.Element, path: Path | str) -> None:
-    """The origins of visuals and collisions hold finite numbers of the
-    right count (those of joints and inertials are read); the link is named."""
-    for part in ("visual", "collision"):
-        for el in root.iterfind(f"link/{part}/origin"):
-            for attr in ("xyz", "rpy"):
-                raw = el.get(attr)
-                if raw is not None and _parse(raw, 3) is None:
-                    parents = {c: p for p in root.iter() for c in p}  # only on the error path
-                    raise _bad_numbers(path, _owner(el, parents), "origin", attr, raw, 3)
-
-
-def _owner(el: ET.Element, parents: dict[ET.Element, ET.Element]) -> str:
-    """'joint NAME' or 'link NAME' of an element, for messages."""
-    p = parents.get(el)
-    while p is not None and p.tag not in ("joint", "link"):
-        p = parents.get(p)
-    return f"{p.tag} {p.get('name')!r}" if p is not None else "the robot"
-
-
-def _scalar(el: ET.Element, attr: str, owner: str, path: Path | str, default: float | None) -> float | None:
-    raw = el.get(attr)
-    if raw is None:
-        return default
-    try:
-        v = float(raw)
-    except ValueError:
-        raise InputError(f'{path}: {owner}: <{el.tag} {attr}="{raw}"> must be a number') from None
-    return v
-
-
-def _rpy_matrices(rpy: np.ndarray) -> np.ndarray:
-    """URDF rotations R = Rz(y) Ry(p) Rx(r) of rpy (n, 3), all at once (n, 3, 3)."""
-    cr, cp, cy = np.cos(rpy).T
-    sr, sp, sy = np.sin(rpy).T
-    R = np.empty((rpy.shape[0], 3, 3))
-    R[:, 0, 0] = cy * cp
-    R[:, 0, 1] = cy * sp * sr - sy * cr
-    R[:, 0, 2] = cy * sp * cr + sy * sr
-    R[:, 1, 0] = sy * cp
-    R[:, 1, 1] = sy * sp * sr + cy * cr
-    R[:, 1, 2] = sy * sp * cr - cy * sr
-    R[:, 2, 0] = -sp
-    R[:, 2, 1] = cp * sr
-    R[:, 2, 2] = cp * cr
-    return R
-
-
-def _transforms(xyz: np.ndarray, rpy: np.ndarray) -> np.ndarray:
-    n = len(xyz)
-    T = np.zeros((n, 4, 4))
-    T[:, 3, 3] = 1.0
-    if n:
-        T[:, :3, :3] = _rpy_matrices(rpy)
-        T[:, :3, 3] = xyz
-    return T
-
-
-def read_urdf(text: str, path: Path | str) -> UrdfDoc:
-    """The links and joints of a URDF document (xml.etree, one pass: linear
-    in the size of the file). Raises InputError naming the file and the
-    element for XML that is not well formed (a truncated file), a root other
-    than <robot>, joints or links without a name, a joint without a type,
-    parent or child, numbers that are not finite numbers of the right count;
-    a joint origin implausibly far for metres (a URDF in mm) gives a warning."""
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        line, col = exc.position
-        raise InputError(
-            f"{path}, line {line}: cannot parse the URDF: not well-formed XML ({str(exc).split(':')[0]}, "
-            f"column {col}); is the file complete?"
-        ) from None
-    if root.tag != "robot":
-        raise InputError(f"{path}: the root element is <{root.tag}>, a URDF's is <robot>")
-    _check_numbers(root, path)
-    links: list[UrdfLink] = []
-    com = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "link")
-    com_rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "link")
-    has_inertial = []
-    link_els = [el for el in root if el.tag == "link"]
-    joint_els = [el for el in root if el.tag == "joint"]
-    for el in link_els:
-        name = (el.get("name") or "").strip()
-        if not name:
-            raise InputError(f"{path}: a <link> without a name")
-        ie = el.find("inertial")
-        if ie is None:
-            links.append(UrdfLink(name, None))
-            continue
-        parts = _first_children(ie)
-        me = parts.get("mass")
-        mass = None if me is None else _scalar(me, "value", f"link {name!r}", path, None)
-        oe = parts.get("origin")
-        com.add(oe, name)
-        com_rpy.add(oe, name)
-        has_inertial.append(len(links))
-        links.append(UrdfLink(name, (mass, None)))
-    coms = com.values(path)
-    com_rpy.values(path)
-    for k, i in enumerate(has_inertial):
-        links[i].inertial = (links[i].inertial[0], coms[k])
-    raw = []
-    xyz = _Vectors(3, "origin", "xyz", (0.0, 0.0, 0.0), "joint")
-    rpy = _Vectors(3, "origin", "rpy", (0.0, 0.0, 0.0), "joint")
-    axis = _Vectors(3, "axis", "xyz", (math.nan, math.nan, math.nan), "joint")
-    for el in joint_els:
-        name = (el.get("name") or "").strip()
-        if not name:
-            raise InputError(f"{path}: a <joint> without a name")
-        jtype = el.get("type")
-        if not jtype:
-            raise InputError(f"{path}: joint {name!r} has no type")
-        parts = _first_children(el)
-        pe, ce = parts.get("parent"), parts.get("child")
-        parent = (pe.get("link") or "").strip() if pe is not None else ""
-        child = (ce.get("link") or "").strip() if ce is not None else ""
-        if not parent or not child:
-            raise InputError(f'{path}: joint {name!r} has no <{"parent" if not parent else "child"} link="..."/>')
-        oe = parts.get("origin")
-        xyz.add(oe, name)
-        rpy.add(oe, name)
-        axis.add(parts.get("axis"), name)
-        mimic = None
-        me = parts.get("mimic")
-        if me is not None:
-            owner = f"joint {name!r}"
-            lead = (me.get("joint") or "").strip()
-            if not lead:
-                raise InputError(f'{path}: {owner}: <mimic> without joint="..."')
-            mimic = (lead, _scalar(me, "multiplier", owner, path, 1.0), _scalar(me, "offset", owner, path, 0.0))
-        le = parts.get("limit")
-        lim = None
-        if le is not None:
-            who = f"joint {name!r}"
-            lim = joint_limit(jtype, _scalar(le, "lower", who, path, None), _scalar(le, "upper", who, path, None))
-        raw.append((name, jtype, parent, child, mimic, lim))
-    X, A = xyz.values(path), axis.values(path)
-    T = _transforms(X, rpy.values(path))
-    # iterating the arrays yields the rows' views in C (indexing one by one costs more than the rest)
-    joints = [
-        UrdfJoint(n, t, p, c, Tk, None if a[0] != a[0] else a, m, lim) for (n, t, p, c, m, lim), Tk, a in zip(raw, T, A)
-    ]
-    far = float(np.abs(X).max()) if len(X) else 0.0
-    if far > V.QUANTITIES["position"].plausible[1]:
-        V.warn(
-            f"{path}: a joint origin {far:g} m from its parent frame is implausible for a robot in metres; "
-            "a URDF is in m (is it in mm? multiply by 0.001)",
-            key=("urdf", str(path)),
-        )
-    check_inertials(root, path)
-    return UrdfDoc(str(path), links, joints, collision_capsules(link_els, path))
-
-
-def check_urdf_text(text: str, path: Path | str) -> None:
-    """The checks of :func:`read_urdf` alone (what a URDF library would
-    accept silently or explain badly)."""
-    read_urdf(text, path)
-
-
-def parse_urdf(path: str | Path) -> UrdfDoc:
-    """The links and joints of the URDF file ``path`` (:func:`read_urdf`)."""
-    if not isinstance(path, (str, Path)):
-        raise InputError(f"a URDF is given by its file name, got {type(path).__name__}")
-    path = Path(path)
-    return read_urdf(read_text(path, "URDF"), path)
-
-
 def _axis(j: UrdfJoint, path: Path) -> np.ndarray:
     """The unit axis of a moving joint: (1, 0, 0) when not written (the URDF
     default); normalised with a warning when its norm is within AXIS_TOL of
@@ -460,6 +199,7 @@ _NO_AXIS = np.zeros(3)
 _NO_AXIS.flags.writeable = False
 
 
+@gc_paused()
 def load_tree(urdf_path: str | Path, root: str = "base_link", urdf: UrdfDoc | None = None) -> Tree:
     """Read the URDF at ``urdf_path`` and return the tree below ``root``.
 

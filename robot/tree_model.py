@@ -60,6 +60,7 @@ from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
 from .plan_settings import plan_table
 from .tree import Tree, load_tree
+from .urdf_read import gc_paused
 
 __all__ = [
     "ABS_KINDS",
@@ -287,7 +288,8 @@ class _Builder:
     def __init__(self, tree: Tree, where: str) -> None:
         self.tree = tree
         self.where = where
-        self.v = []  # virtual joints: dict(parent, type, axis, rot, pos, qcol, qcoef, qconst)
+        self.v = []  # virtual joints: (parent, type, axis, rot or None (identity), pos)
+        self.q: dict[int, tuple[int, float, float]] = {}  # virtual joint -> (qcol, qcoef, qconst) of a motion
         self.g = []  # geometric entries: (vj, param, coef)
         self.k = []  # blocks: (type, [vj..], [param..] (21), w0)
         self.params: list[Param] = []
@@ -305,18 +307,7 @@ class _Builder:
         label: str = "",
     ) -> int:
         self.labels.append(label)
-        self.v.append(
-            dict(
-                parent=parent,
-                type=vtype,
-                axis=np.asarray(axis, float),
-                rot=np.eye(3) if rot is None else np.asarray(rot, float),
-                pos=np.asarray(pos, float),
-                qcol=0,
-                qcoef=0.0,
-                qconst=0.0,
-            )
-        )
+        self.v.append((parent, vtype, axis, rot, pos))  # to arrays once, in _vj_arrays
         return len(self.v)
 
     def add_param(self, name: str, kind: str, target: str, effect: int, start: float = 0.0, free: bool = True) -> int:
@@ -383,6 +374,29 @@ class _Cursor:
         return self.vj
 
 
+def _vj_arrays(b: _Builder) -> dict[str, np.ndarray]:
+    """The core's arrays of the virtual joints, built at once from the builder's lists."""
+    nv = len(b.v)
+    parent, vtype, axis, rot, pos = zip(*b.v)
+    vrot = np.tile(np.eye(3), (nv, 1, 1))
+    turned = [k for k, r in enumerate(rot) if r is not None]
+    if turned:
+        vrot[turned] = np.array([rot[k] for k in turned], float)
+    q = np.zeros((nv, 3))
+    if b.q:
+        q[np.array(list(b.q), int) - 1] = np.array(list(b.q.values()), float)
+    return {
+        "vparent": np.array(parent, np.int32),
+        "vtype": np.array(vtype, np.int32),
+        "vaxis": np.asfortranarray(np.array(axis, float).reshape(nv, 3).T),
+        "vrot": np.asfortranarray(np.transpose(vrot, (1, 2, 0))),
+        "vpos": np.asfortranarray(np.array(pos, float).reshape(nv, 3).T),
+        "qcol": q[:, 0].astype(np.int32),
+        "qcoef": q[:, 1].copy(),
+        "qconst": q[:, 2].copy(),
+    }
+
+
 def _joint_law(b: _Builder, jn: str, slot: dict, vj: int) -> tuple:
     """The elastic block of a joint: linear, cubic or dead zone."""
     i, table, w = slot["joint"]
@@ -422,6 +436,7 @@ def _targets(tree: Tree, table: dict, where: str, kind: str, moving_only: bool) 
     return [target]
 
 
+@gc_paused()
 def tree_model_from_tables(
     tree: Tree,
     effects: list[dict],
@@ -575,7 +590,7 @@ def tree_model_from_tables(
         if j.moving:
             vj = cur.add(1 if j.type != "prismatic" else 2, j.axis)
             lead, mult, off = tree.leader(j.name)
-            b.v[vj - 1].update(qcol=qcols[lead], qcoef=mult, qconst=off)
+            b.q[vj] = (qcols[lead], mult, off)
             # the offsets of this joint and of every joint up its mimic chain
             name, coef = j.name, 1.0
             while True:
@@ -628,18 +643,7 @@ def tree_model_from_tables(
             "marker": [f"marker on {f!r}" for f in frames],
         }
     )
-    arrays.update(
-        {
-            "vparent": np.array([v["parent"] for v in b.v], np.int32),
-            "vtype": np.array([v["type"] for v in b.v], np.int32),
-            "vaxis": np.asfortranarray(np.array([v["axis"] for v in b.v]).T),
-            "vrot": np.asfortranarray(np.transpose(np.array([v["rot"] for v in b.v]), (1, 2, 0))),
-            "vpos": np.asfortranarray(np.array([v["pos"] for v in b.v]).T),
-            "qcol": np.array([v["qcol"] for v in b.v], np.int32),
-            "qcoef": np.array([v["qcoef"] for v in b.v], float),
-            "qconst": np.array([v["qconst"] for v in b.v], float),
-        }
-    )
+    arrays.update(_vj_arrays(b))
     arrays["gvj"] = np.array([e[0] for e in b.g], np.int32)
     arrays["gpar"] = np.array([e[1] for e in b.g], np.int32)
     arrays["gcoef"] = np.array([e[2] for e in b.g], float)

@@ -12,7 +12,6 @@ the first row, the value and the limit (and how many rows are beyond).
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -42,46 +41,40 @@ def joint_limit(jtype: str, lo: float | None, hi: float | None) -> tuple[float, 
     return lo, hi
 
 
-def check_inertials(root: ET.Element, path: Path | str) -> None:
+def check_inertials(
+    names: Sequence[str], masses: Sequence[float | None], coms: npt.ArrayLike, path: Path | str
+) -> None:
     """Warn (once per file) about a link mass in grams or a centre of mass
-    in mm; the numbers were checked as numbers already."""
-    heavy, far = [], []
-    for link in root.iter("link"):
-        inertial = link.find("inertial")
-        if inertial is None:
+    in mm: ``masses`` (kg, None when not given) and ``coms`` (m, (n, 3)) of
+    the links ``names`` that have an <inertial>, checked as numbers already."""
+    m = np.array([math.nan if v is None else v for v in masses], float)
+    d = np.sqrt(np.sum(np.asarray(coms, float).reshape(len(m), 3) ** 2, axis=1))
+    for value, limit, key, text in (
+        (m, MAX_LINK_MASS, "urdf-mass", _mass_text),
+        (d, MAX_COM, "urdf-com", _com_text),
+    ):
+        over = np.flatnonzero(value > limit)
+        if not over.size:
             continue
-        name = link.get("name")
-        mass = inertial.find("mass")
-        try:
-            m = float(mass.get("value")) if mass is not None else math.nan
-        except (TypeError, ValueError):
-            m = math.nan
-        if m > MAX_LINK_MASS:
-            heavy.append((m, name))
-        org = inertial.find("origin")
-        try:
-            xyz = [float(v) for v in org.get("xyz", "").split()] if org is not None else []
-        except ValueError:
-            xyz = []
-        d = math.sqrt(sum(v * v for v in xyz)) if len(xyz) == 3 else 0.0
-        if d > MAX_COM:
-            far.append((d, name))
-    if heavy:
-        m, name = max(heavy)
-        more = f" ({len(heavy)} links above {MAX_LINK_MASS:g} kg)" if len(heavy) > 1 else ""
-        V.warn(
-            f"{path}: link {name!r} has mass {m:.6g} kg{more}, implausible for one link of a robot: is the mass "
-            "in grams? (a URDF mass is in kg: divide by 1000)",
-            key=("urdf-mass", str(path)),
-        )
-    if far:
-        d, name = max(far)
-        more = f" ({len(far)} links)" if len(far) > 1 else ""
-        V.warn(
-            f"{path}: the centre of mass of link {name!r} is {d:.4g} m from the link frame{more}, implausible "
-            "for a robot in metres: is the <inertial> origin in mm? (a URDF is in m: multiply by 0.001)",
-            key=("urdf-com", str(path)),
-        )
+        top = value[over].max()
+        name = max(names[k] for k in over if value[k] == top)
+        V.warn(f"{path}: " + text(name, float(top), over.size), key=(key, str(path)))
+
+
+def _mass_text(name: str, m: float, count: int) -> str:
+    more = f" ({count} links above {MAX_LINK_MASS:g} kg)" if count > 1 else ""
+    return (
+        f"link {name!r} has mass {m:.6g} kg{more}, implausible for one link of a robot: is the mass "
+        "in grams? (a URDF mass is in kg: divide by 1000)"
+    )
+
+
+def _com_text(name: str, d: float, count: int) -> str:
+    more = f" ({count} links)" if count > 1 else ""
+    return (
+        f"the centre of mass of link {name!r} is {d:.4g} m from the link frame{more}, implausible "
+        "for a robot in metres: is the <inertial> origin in mm? (a URDF is in m: multiply by 0.001)"
+    )
 
 
 def limit_warnings(
