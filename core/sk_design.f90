@@ -1,0 +1,630 @@
+!> Optimal design of calibration experiments (stiffkit plan): choose k of
+!> ncand candidate postures, each owning nobs whitened observation rows
+!> J_c (nobs x npar), so that the information matrix
+!>   M = m0 + sum over the chosen c of J_c^T J_c
+!> minimises one of three lower-is-better criteria:
+!>   D: -log det M,   A: trace M^-1,   task: trace(Jt M^-1 Jt^T).
+!> Everything is computed on column-scaled parameters: column j is scaled by
+!> s_j = 1/sqrt(diag(m0 + sum over ALL candidates J_c^T J_c)_j) (1 when that
+!> diagonal is 0); task is invariant under the scaling, D and A are in the
+!> scaled units.
+!>
+!> Selection: greedy (from m0, plus a tiny ridge when m0 is singular) then a
+!> modified Fedorov exchange (for each chosen candidate, the best swap with
+!> an unchosen one, made when the criterion strictly improves; passes until
+!> none does). No refits: the state keeps M^-1 and, per candidate, the
+!> nobs x nobs blocks B_c = J_c M^-1 J_c^T and C_c = J_c M^-1 Q M^-1 J_c^T
+!> (Q = I for A, Jt^T Jt for task), updated by the Woodbury identity on the
+!> nobs x nobs blocks after every added or removed candidate, in
+!> O(ncand nobs^2 npar) (one skinny matrix product over all candidates).
+!> Indices are 1-based. Argument errors return loc = [argument code, index].
+module sk_design
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_linalg, only: all_finite, inverse, eye
+    implicit none
+    private
+    public :: design_state, design_scales, design_check, state_init, state_update, add_delta, swap_pass
+    public :: criterion_direct, small_chol, lower_solve, chol_checked, design_select, design_covariance
+
+    integer(ip), parameter, public :: crit_d = 1, crit_a = 2, crit_task = 3
+    !> argument codes of loc(1) (named in bindings/design.py, DESIGN_ARGUMENTS)
+    integer(ip), parameter, public :: darg_jc = 1, darg_k = 2, darg_criterion = 3, darg_m0 = 4, &
+        darg_jt = 5, darg_chosen = 6, darg_max_passes = 7, darg_f = 8, darg_jh = 9, darg_n0 = 10, &
+        darg_nobs = 11
+    !> ridge (scaled units) added to a singular m0 for the greedy start
+    real(dp), parameter, public :: design_ridge = 1.0e-8_dp
+    !> a Cholesky pivot^2 at or below this (scaled units) is a singular direction
+    real(dp), parameter, public :: design_singular = 1.0e-12_dp
+    !> an exchange is made when it improves the criterion by more than this (relative)
+    real(dp), parameter, public :: design_improve = 1.0e-10_dp
+
+    !> Incremental state: the scaled M^-1 and the per-candidate blocks.
+    type design_state
+        integer :: npar = 0, nobs = 0, ncand = 0
+        integer(ip) :: crit = crit_d
+        real(dp), allocatable :: s(:), minv(:, :), q(:, :), b(:, :, :), c(:, :, :)
+        logical, allocatable :: chosen(:)
+        real(dp) :: value = 0.0_dp
+    end type design_state
+
+    interface
+        subroutine dpotrf(uplo, n, a, lda, info)
+            import :: dp
+            character(len=1), intent(in) :: uplo
+            integer, intent(in) :: n, lda
+            real(dp), intent(inout) :: a(lda, *)
+            integer, intent(out) :: info
+        end subroutine dpotrf
+        subroutine dpotri(uplo, n, a, lda, info)
+            import :: dp
+            character(len=1), intent(in) :: uplo
+            integer, intent(in) :: n, lda
+            real(dp), intent(inout) :: a(lda, *)
+            integer, intent(out) :: info
+        end subroutine dpotri
+        subroutine dgemm(transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc)
+            import :: dp
+            character(len=1), intent(in) :: transa, transb
+            integer, intent(in) :: m, n, k, lda, ldb, ldc
+            real(dp), intent(in) :: alpha, beta, a(lda, *), b(ldb, *)
+            real(dp), intent(inout) :: c(ldc, *)
+        end subroutine dgemm
+    end interface
+
+contains
+
+    !> Record the first failure only.
+    pure subroutine fail(code, arg, idx, info, loc)
+        integer(ip), intent(in) :: code, arg
+        integer, intent(in) :: idx
+        integer(ip), intent(inout) :: info, loc(2)
+        if (info /= sk_ok) return
+        info = code
+        loc = [arg, int(idx, ip)]
+    end subroutine fail
+
+    !> Checks shared by every entry point: jc finite (index: candidate),
+    !> m0 finite and symmetric, jt finite (index: task row), the criterion
+    !> code, task with at least one jt row, chosen[nch] in 1..ncand without
+    !> repeats (index: position).
+    subroutine design_check(jc, m0, jt, crit, chosen, info, loc)
+        real(dp), intent(in) :: jc(:, :, :), m0(:, :), jt(:, :)
+        integer(ip), intent(in) :: crit, chosen(:)
+        integer(ip), intent(out) :: info, loc(2)
+        integer :: c, i, npar, ncand
+        logical, allocatable :: seen(:)
+        info = sk_ok
+        loc = 0
+        npar = size(jc, 1)
+        ncand = size(jc, 3)
+        if (npar < 1 .or. size(jc, 2) < 1) call fail(sk_err_size, darg_jc, 0, info, loc)
+        do c = 1, ncand
+            if (.not. all_finite(jc(:, :, c))) then
+                call fail(sk_err_nonfinite, darg_jc, c, info, loc)
+                exit
+            end if
+        end do
+        if (any(shape(m0) /= [npar, npar])) call fail(sk_err_size, darg_m0, 0, info, loc)
+        if (info /= sk_ok) return
+        if (.not. all_finite(m0)) call fail(sk_err_nonfinite, darg_m0, 0, info, loc)
+        if (info == sk_ok) then
+            if (maxval(abs(m0 - transpose(m0))) > 1.0e-12_dp * max(maxval(abs(m0)), tiny(1.0_dp))) &
+                call fail(sk_err_argument, darg_m0, 0, info, loc)
+        end if
+        if (crit < crit_d .or. crit > crit_task) call fail(sk_err_argument, darg_criterion, 0, info, loc)
+        if (size(jt, 1) /= npar) call fail(sk_err_size, darg_jt, 0, info, loc)
+        if (crit == crit_task .and. size(jt, 2) < 1) call fail(sk_err_argument, darg_jt, 0, info, loc)
+        do i = 1, size(jt, 2)
+            if (.not. all_finite(jt(:, i))) then
+                call fail(sk_err_nonfinite, darg_jt, i, info, loc)
+                exit
+            end if
+        end do
+        allocate(seen(ncand))
+        seen = .false.
+        do i = 1, size(chosen)
+            if (chosen(i) < 1 .or. chosen(i) > ncand) then
+                call fail(sk_err_argument, darg_chosen, i, info, loc)
+            else if (seen(chosen(i))) then
+                call fail(sk_err_argument, darg_chosen, i, info, loc)
+            else
+                seen(chosen(i)) = .true.
+            end if
+        end do
+    end subroutine design_check
+
+    !> Column scales s[npar] from m0 and all candidates.
+    subroutine design_scales(jc, m0, s)
+        real(dp), intent(in) :: jc(:, :, :), m0(:, :)
+        real(dp), intent(out) :: s(:)
+        integer :: j
+        real(dp) :: d
+        do j = 1, size(jc, 1)
+            d = m0(j, j) + sum(jc(j, :, :)**2)
+            s(j) = 1.0_dp
+            if (d > 0.0_dp) s(j) = 1.0_dp / sqrt(d)
+        end do
+    end subroutine design_scales
+
+    !> Cholesky a = l l^T of a small SPD matrix (l lower, upper part zero);
+    !> ok false when a pivot^2 is <= tol.
+    pure subroutine small_chol(a, l, tol, ok)
+        real(dp), intent(in) :: a(:, :), tol
+        real(dp), intent(out) :: l(:, :)
+        logical, intent(out) :: ok
+        integer :: i, j, n
+        real(dp) :: d
+        n = size(a, 1)
+        l = 0.0_dp
+        ok = .false.
+        do j = 1, n
+            d = a(j, j) - sum(l(j, 1:j - 1)**2)
+            if (.not. (d > tol)) return
+            l(j, j) = sqrt(d)
+            do i = j + 1, n
+                l(i, j) = (a(i, j) - sum(l(i, 1:j - 1) * l(j, 1:j - 1))) / l(j, j)
+            end do
+        end do
+        ok = .true.
+    end subroutine small_chol
+
+    !> x = l^-1 b for lower-triangular l[n,n], b[n,m].
+    pure subroutine lower_solve(l, b, x)
+        real(dp), intent(in) :: l(:, :), b(:, :)
+        real(dp), intent(out) :: x(:, :)
+        integer :: i
+        do i = 1, size(l, 1)
+            x(i, :) = (b(i, :) - matmul(l(i, 1:i - 1), x(1:i - 1, :))) / l(i, i)
+        end do
+    end subroutine lower_solve
+
+    !> In-place Cholesky (lower) of the SPD a[n,n]; bad = first column whose
+    !> pivot^2 is <= design_singular (0 when all pass).
+    subroutine chol_checked(a, bad)
+        real(dp), intent(inout) :: a(:, :)
+        integer, intent(out) :: bad
+        integer :: n, linfo, j
+        n = size(a, 1)
+        bad = 0
+        if (n == 0) return
+        call dpotrf('L', n, a, n, linfo)
+        do j = 1, merge(linfo - 1, n, linfo > 0)
+            if (a(j, j)**2 <= design_singular) then
+                bad = j
+                return
+            end if
+        end do
+        if (linfo > 0) bad = linfo
+    end subroutine chol_checked
+
+    !> Scaled information matrix m = S m0 S + ridge I + sum over chosen of
+    !> U_c U_c^T (U_c = S J_c^T).
+    subroutine build_m(jc, s, m0, chosen, ridge, m)
+        real(dp), intent(in) :: jc(:, :, :), s(:), m0(:, :), ridge
+        integer(ip), intent(in) :: chosen(:)
+        real(dp), intent(out) :: m(:, :)
+        real(dp), allocatable :: u(:, :)
+        integer :: i, j, n, nobs
+        n = size(s)
+        nobs = size(jc, 2)
+        do j = 1, n
+            m(:, j) = s * m0(:, j) * s(j)
+            m(j, j) = m(j, j) + ridge
+        end do
+        allocate(u(n, nobs))
+        do i = 1, size(chosen)
+            do j = 1, nobs
+                u(:, j) = s * jc(:, j, chosen(i))
+            end do
+            m = m + matmul(u, transpose(u))
+        end do
+    end subroutine build_m
+
+    !> Scaled task matrix q = S jt jt^T S (zero-size jt: q = 0).
+    subroutine task_matrix(jt, s, q)
+        real(dp), intent(in) :: jt(:, :), s(:)
+        real(dp), intent(out) :: q(:, :)
+        real(dp), allocatable :: js(:, :)
+        integer :: i
+        allocate(js(size(s), size(jt, 2)))
+        do i = 1, size(jt, 2)
+            js(:, i) = s * jt(:, i)
+        end do
+        q = matmul(js, transpose(js))
+    end subroutine task_matrix
+
+    !> The criterion of the scaled m (destroyed) from scratch (Cholesky):
+    !> f (+huge when singular: bad = first non-identifiable column) and, on
+    !> request, minv = m^-1.
+    subroutine value_of(m, crit, q, f, bad, minv)
+        real(dp), intent(inout) :: m(:, :)
+        integer(ip), intent(in) :: crit
+        real(dp), intent(in) :: q(:, :)
+        real(dp), intent(out) :: f
+        integer, intent(out) :: bad
+        real(dp), intent(out), optional :: minv(:, :)
+        integer :: j, n, linfo
+        n = size(m, 1)
+        call chol_checked(m, bad)
+        f = huge(1.0_dp)
+        if (bad > 0) return
+        if (crit == crit_d) then
+            f = 0.0_dp
+            do j = 1, n
+                f = f - 2.0_dp * log(m(j, j))
+            end do
+            if (.not. present(minv)) return
+        end if
+        call dpotri('L', n, m, n, linfo)
+        do j = 1, n
+            m(1:j - 1, j) = m(j, 1:j - 1)
+        end do
+        if (crit == crit_a) f = sum([(m(j, j), j = 1, n)])
+        if (crit == crit_task) f = sum(q * m)
+        if (present(minv)) minv = m
+    end subroutine value_of
+
+    !> Direct criterion of the chosen set (Cholesky from scratch, no ridge):
+    !> f = +huge and bad = the first non-identifiable column when M is
+    !> singular; s[npar] the scales used.
+    subroutine criterion_direct(jc, m0, jt, chosen, crit, f, bad, s)
+        real(dp), intent(in) :: jc(:, :, :), m0(:, :), jt(:, :)
+        integer(ip), intent(in) :: chosen(:), crit
+        real(dp), intent(out) :: f, s(:)
+        integer, intent(out) :: bad
+        real(dp), allocatable :: m(:, :), q(:, :)
+        integer :: n
+        n = size(jc, 1)
+        allocate(m(n, n), q(n, n))
+        call design_scales(jc, m0, s)
+        q = 0.0_dp
+        if (crit == crit_task) call task_matrix(jt, s, q)
+        call build_m(jc, s, m0, chosen, 0.0_dp, m)
+        call value_of(m, crit, q, f, bad)
+    end subroutine criterion_direct
+
+    !> Fill st from scratch for the chosen flags st%chosen: minv, the blocks
+    !> B_c, C_c of every candidate and st%value (+huge, bad > 0 when the
+    !> ridged M is singular).
+    subroutine state_init(st, jc, m0, ridge, bad)
+        type(design_state), intent(inout) :: st
+        real(dp), intent(in) :: jc(:, :, :), m0(:, :), ridge
+        integer, intent(out) :: bad
+        real(dp), allocatable :: m(:, :), x(:, :), h(:, :)
+        integer(ip), allocatable :: idx(:)
+        integer :: n, nobs, nc, c
+        n = st%npar
+        nobs = st%nobs
+        nc = st%ncand
+        idx = pack([(int(c, ip), c = 1, nc)], st%chosen)
+        allocate(m(n, n), x(n, nobs * nc))
+        call build_m(jc, st%s, m0, idx, ridge, m)
+        call value_of(m, st%crit, st%q, st%value, bad, st%minv)
+        if (bad > 0) return
+        call blocks(st%minv, st%b)
+        if (st%crit == crit_d) return
+        h = matmul(st%minv, matmul(st%q, st%minv))
+        if (st%crit == crit_a) h = matmul(st%minv, st%minv)
+        call blocks(h, st%c)
+    contains
+        !> out_c = U_c^T a U_c for every candidate.
+        subroutine blocks(a, out)
+            real(dp), intent(in) :: a(:, :)
+            real(dp), intent(out) :: out(:, :, :)
+            real(dp), allocatable :: as(:, :)
+            integer :: j, cc
+            allocate(as(n, n))
+            do j = 1, n
+                as(:, j) = a(:, j) * st%s * st%s(j)
+            end do
+            call dgemm('N', 'N', n, nobs * nc, n, 1.0_dp, as, n, jc, n, 0.0_dp, x, n)
+            do cc = 1, nc
+                out(:, :, cc) = matmul(transpose(jc(:, :, cc)), x(:, (cc - 1) * nobs + 1:cc * nobs))
+            end do
+        end subroutine blocks
+    end subroutine state_init
+
+    !> Allocate st for the problem and set its scales and task matrix.
+    subroutine state_alloc(st, jc, m0, jt, crit)
+        type(design_state), intent(out) :: st
+        real(dp), intent(in) :: jc(:, :, :), m0(:, :), jt(:, :)
+        integer(ip), intent(in) :: crit
+        st%npar = size(jc, 1)
+        st%nobs = size(jc, 2)
+        st%ncand = size(jc, 3)
+        st%crit = crit
+        allocate(st%s(st%npar), st%minv(st%npar, st%npar), st%q(st%npar, st%npar))
+        allocate(st%b(st%nobs, st%nobs, st%ncand), st%c(st%nobs, st%nobs, st%ncand), st%chosen(st%ncand))
+        call design_scales(jc, m0, st%s)
+        st%q = 0.0_dp
+        if (crit == crit_task) call task_matrix(jt, st%s, st%q)
+        if (crit == crit_a) st%q = eye(st%npar)
+        st%chosen = .false.
+    end subroutine state_alloc
+
+    !> Criterion change of adding candidate c (+huge if I + B_c is not SPD).
+    pure real(dp) function add_delta(st, c) result(d)
+        type(design_state), intent(in) :: st
+        integer, intent(in) :: c
+        real(dp) :: l(st%nobs, st%nobs), t(st%nobs, st%nobs), ct(st%nobs, st%nobs)
+        logical :: ok
+        integer :: i
+        call small_chol(eye(st%nobs) + st%b(:, :, c), l, 0.0_dp, ok)
+        d = huge(1.0_dp)
+        if (.not. ok) return
+        if (st%crit == crit_d) then
+            d = -2.0_dp * sum([(log(l(i, i)), i = 1, st%nobs)])
+        else
+            call lower_solve(l, st%c(:, :, c), t)
+            call lower_solve(l, transpose(t), ct)
+            d = -sum([(ct(i, i), i = 1, st%nobs)])
+        end if
+    end function add_delta
+
+    !> Woodbury update of st after adding (sgn = +1) or removing (sgn = -1)
+    !> candidate a: M' = M + sgn U U^T, U = S J_a^T, V = M^-1 U,
+    !> E = (sgn I + U^T V)^-1, M'^-1 = M^-1 - V E V^T; per candidate with
+    !> P = J_c S V, R = J_c S Z (Z = M^-1 Q V) and W = V^T Q V:
+    !>   B_c -= P E P^T,  C_c += -P E R^T - R E P^T + P E W E P^T.
+    subroutine state_update(st, jc, a, sgn, info)
+        type(design_state), intent(inout) :: st
+        real(dp), intent(in) :: jc(:, :, :)
+        integer, intent(in) :: a
+        real(dp), intent(in) :: sgn
+        integer(ip), intent(out) :: info
+        integer :: n, nobs, nc, j, c, nv
+        real(dp), allocatable :: u(:, :), vz(:, :), pr(:, :), e(:, :), w(:, :), pe(:, :), per(:, :)
+        n = st%npar
+        nobs = st%nobs
+        nc = st%ncand
+        nv = merge(nobs, 2 * nobs, st%crit == crit_d)
+        allocate(u(n, nobs), vz(n, nv), pr(nobs * nc, nv), e(nobs, nobs), pe(nobs, nobs), per(nobs, nobs))
+        do j = 1, nobs
+            u(:, j) = st%s * jc(:, j, a)
+        end do
+        vz(:, 1:nobs) = matmul(st%minv, u)
+        call inverse(sgn * eye(nobs) + st%b(:, :, a), e, info)
+        if (info /= sk_ok) return
+        if (st%crit /= crit_d) then
+            w = matmul(st%q, vz(:, 1:nobs))
+            vz(:, nobs + 1:) = matmul(st%minv, w)
+            w = matmul(transpose(vz(:, 1:nobs)), w)
+            w = matmul(e, matmul(w, e))
+        end if
+        st%minv = st%minv - matmul(vz(:, 1:nobs), matmul(e, transpose(vz(:, 1:nobs))))
+        do j = 1, nv
+            vz(:, j) = vz(:, j) * st%s
+        end do
+        call dgemm('T', 'N', nobs * nc, nv, n, 1.0_dp, jc, n, vz, n, 0.0_dp, pr, nobs * nc)
+        do c = 1, nc
+            associate (p => pr((c - 1) * nobs + 1:c * nobs, 1:nobs))
+                pe = matmul(p, e)
+                st%b(:, :, c) = st%b(:, :, c) - matmul(pe, transpose(p))
+                if (st%crit /= crit_d) then
+                    per = matmul(pe, transpose(pr((c - 1) * nobs + 1:c * nobs, nobs + 1:)))
+                    st%c(:, :, c) = st%c(:, :, c) - per - transpose(per) + matmul(p, matmul(w, transpose(p)))
+                end if
+            end associate
+        end do
+    end subroutine state_update
+
+    !> One exchange pass over the positions of sel[k]: for the chosen r at
+    !> each position the best unchosen c (criterion change of the swap from
+    !> the blocks and the products P = J_c S M^-1 U_r, R = J_c S M^-1 Q M^-1 U_r,
+    !> with L = chol(I + B_c), T = L^-1 P, S2 = I - B_r + T^T T:
+    !>   D: -2 log det L - log det S2;
+    !>   A/task: -tr(L^-1 C_c L^-T) + tr(S2^-1 C_r1),
+    !>   C_r1 = C_r - T^T Rt - Rt^T T + T^T Ct T, Rt = L^-1 R, Ct = L^-1 C_c L^-T);
+    !> the swap is made when it lowers the criterion by more than
+    !> design_improve (relative). nswap counts the swaps.
+    subroutine swap_pass(st, jc, sel, nswap, info)
+        type(design_state), intent(inout) :: st
+        real(dp), intent(in) :: jc(:, :, :)
+        integer(ip), intent(inout) :: sel(:)
+        integer, intent(out) :: nswap
+        integer(ip), intent(out) :: info
+        integer :: n, nobs, nc, nv, i, j, r, c, best
+        real(dp), allocatable :: u(:, :), vz(:, :), pr(:, :)
+        real(dp) :: d, dbest, tol
+        n = st%npar
+        nobs = st%nobs
+        nc = st%ncand
+        nv = merge(nobs, 2 * nobs, st%crit == crit_d)
+        allocate(u(n, nobs), vz(n, nv), pr(nobs * nc, nv))
+        nswap = 0
+        info = sk_ok
+        do i = 1, size(sel)
+            r = sel(i)
+            do j = 1, nobs
+                u(:, j) = st%s * jc(:, j, r)
+            end do
+            vz(:, 1:nobs) = matmul(st%minv, u)
+            if (st%crit /= crit_d) vz(:, nobs + 1:) = matmul(st%minv, matmul(st%q, vz(:, 1:nobs)))
+            do j = 1, nv
+                vz(:, j) = vz(:, j) * st%s
+            end do
+            call dgemm('T', 'N', nobs * nc, nv, n, 1.0_dp, jc, n, vz, n, 0.0_dp, pr, nobs * nc)
+            best = 0
+            dbest = huge(1.0_dp)
+            do c = 1, nc
+                if (st%chosen(c)) cycle
+                d = swap_delta(c)
+                if (d < dbest) then
+                    dbest = d
+                    best = c
+                end if
+            end do
+            tol = design_improve * abs(st%value)
+            if (st%crit == crit_d) tol = design_improve * max(abs(st%value), 1.0_dp)
+            if (best == 0 .or. .not. (dbest < -tol)) cycle
+            call state_update(st, jc, best, 1.0_dp, info)
+            if (info /= sk_ok) return
+            call state_update(st, jc, r, -1.0_dp, info)
+            if (info /= sk_ok) return
+            st%value = st%value + dbest
+            st%chosen(r) = .false.
+            st%chosen(best) = .true.
+            sel(i) = int(best, ip)
+            nswap = nswap + 1
+        end do
+    contains
+        real(dp) function swap_delta(cc) result(dd)
+            integer, intent(in) :: cc
+            real(dp), dimension(nobs, nobs) :: l, l2, t, rt, ct, tmp, s2, cr1
+            logical :: ok
+            integer :: ii
+            dd = huge(1.0_dp)
+            call small_chol(eye(nobs) + st%b(:, :, cc), l, 0.0_dp, ok)
+            if (.not. ok) return
+            call lower_solve(l, pr((cc - 1) * nobs + 1:cc * nobs, 1:nobs), t)
+            s2 = eye(nobs) - st%b(:, :, r) + matmul(transpose(t), t)
+            call small_chol(s2, l2, design_singular, ok)
+            if (.not. ok) return
+            if (st%crit == crit_d) then
+                dd = -2.0_dp * sum([(log(l(ii, ii)) + log(l2(ii, ii)), ii = 1, nobs)])
+                return
+            end if
+            call lower_solve(l, pr((cc - 1) * nobs + 1:cc * nobs, nobs + 1:), rt)
+            call lower_solve(l, st%c(:, :, cc), tmp)
+            call lower_solve(l, transpose(tmp), ct)
+            tmp = matmul(transpose(t), rt)
+            cr1 = st%c(:, :, r) - tmp - transpose(tmp) + matmul(transpose(t), matmul(ct, t))
+            ! tr(S2^-1 C_r1) = ||L2^-1 C_r1 L2^-T|| trace
+            call lower_solve(l2, cr1, tmp)
+            call lower_solve(l2, transpose(tmp), rt)
+            dd = -sum([(ct(ii, ii), ii = 1, nobs)]) + sum([(rt(ii, ii), ii = 1, nobs)])
+        end function swap_delta
+    end subroutine swap_pass
+
+    !> Greedy selection then exchange (see the module header): sel[k] in
+    !> order, value (+huge when M stays singular, singular = 1), the greedy
+    !> selection's value gvalue, path[k] the criterion after each greedy step
+    !> (with the ridge when m0 is singular: ridged = 1), passes, swaps, scales s[npar].
+    subroutine design_select(jc, k, crit, m0, jt, max_passes, sel, value, gvalue, path, passes, swaps, &
+            s, singular, ridged, info)
+        real(dp), intent(in) :: jc(:, :, :), m0(:, :), jt(:, :)
+        integer(ip), intent(in) :: k, crit, max_passes
+        integer(ip), intent(out) :: sel(:), passes, swaps, singular, ridged
+        real(dp), intent(out) :: value, gvalue, path(:), s(:)
+        integer(ip), intent(out) :: info
+        type(design_state) :: st
+        real(dp) :: ridge, d, dbest
+        real(dp), allocatable :: mu(:, :), mt(:, :)
+        integer :: bad, step, c, best, nswap
+        call state_alloc(st, jc, m0, jt, crit)
+        s = st%s
+        sel = 0
+        path = huge(1.0_dp)
+        passes = 0
+        swaps = 0
+        singular = 0
+        value = huge(1.0_dp)
+        gvalue = huge(1.0_dp)
+        ridge = 0.0_dp
+        call state_init(st, jc, m0, ridge, bad)
+        ridged = 0
+        if (bad > 0) then
+            ridged = 1
+            ridge = design_ridge
+            call state_init(st, jc, m0, ridge, bad)
+        end if
+        info = sk_err_singular
+        if (bad > 0) return
+        if (ridge > 0.0_dp) then
+            allocate(mu(st%npar, st%npar), mt(st%npar, st%npar))
+            call build_m(jc, st%s, m0, sel(1:0), 0.0_dp, mu)
+        end if
+        do step = 1, k
+            best = 0
+            dbest = huge(1.0_dp)
+            do c = 1, st%ncand
+                if (st%chosen(c)) cycle
+                d = add_delta(st, c)
+                if (d < dbest) then
+                    dbest = d
+                    best = c
+                end if
+            end do
+            if (best == 0) best = findloc(st%chosen, .false., 1)
+            call state_update(st, jc, best, 1.0_dp, info)
+            if (info /= sk_ok) return
+            st%value = st%value + dbest
+            st%chosen(best) = .true.
+            sel(step) = int(best, ip)
+            if (ridge > 0.0_dp) call unridge()
+            path(step) = st%value
+        end do
+        if (ridge > 0.0_dp) then
+            ! M stayed singular: the exchange runs with the ridge
+            call state_init(st, jc, m0, ridge, bad)
+            if (bad > 0) return
+        end if
+        if (ridge == 0.0_dp) gvalue = st%value
+        do while (passes < max_passes)
+            passes = passes + 1
+            ! fresh blocks (bounded round-off); the value stays incremental
+            d = st%value
+            call state_init(st, jc, m0, ridge, bad)
+            st%value = d
+            call swap_pass(st, jc, sel, nswap, info)
+            if (info /= sk_ok) return
+            swaps = swaps + int(nswap, ip)
+            if (nswap == 0) exit
+        end do
+        info = sk_ok
+        if (ridge > 0.0_dp) then
+            ! the ridge stayed: the final criterion without it
+            call criterion_direct(jc, m0, jt, sel, crit, st%value, bad, s)
+        end if
+        value = st%value
+        if (value >= huge(1.0_dp)) singular = 1
+    contains
+        !> While the ridge is on: the ridged criterion from scratch (cheap:
+        !> npar^3, keeps the huge ridged values from drifting) and, as soon as
+        !> M is regular without the ridge, the state rebuilt without it.
+        subroutine unridge()
+            real(dp) :: u(st%npar, st%nobs)
+            integer :: j, b2
+            do j = 1, st%nobs
+                u(:, j) = st%s * jc(:, j, best)
+            end do
+            mu = mu + matmul(u, transpose(u))
+            mt = mu
+            do j = 1, st%npar
+                mt(j, j) = mt(j, j) + ridge
+            end do
+            call value_of(mt, crit, st%q, st%value, b2)
+            mt = mu
+            call chol_checked(mt, b2)
+            if (b2 > 0) return
+            call state_init(st, jc, m0, 0.0_dp, b2)
+            if (b2 == 0) ridge = 0.0_dp
+            if (b2 > 0) call state_init(st, jc, m0, ridge, b2)
+        end subroutine unridge
+    end subroutine design_select
+
+    !> Covariance cov[npar,npar] = M^-1 of the chosen set in the caller's
+    !> (unscaled) units; bad = the first non-identifiable column (its scaled
+    !> Cholesky pivot^2 <= design_singular), 0 when M is regular.
+    subroutine design_covariance(jc, m0, chosen, cov, bad)
+        real(dp), intent(in) :: jc(:, :, :), m0(:, :)
+        integer(ip), intent(in) :: chosen(:)
+        real(dp), intent(out) :: cov(:, :)
+        integer, intent(out) :: bad
+        real(dp), allocatable :: s(:), m(:, :)
+        real(dp) :: f, q0(0, 0)
+        integer :: n, j
+        n = size(jc, 1)
+        allocate(s(n), m(n, n))
+        call design_scales(jc, m0, s)
+        call build_m(jc, s, m0, chosen, 0.0_dp, m)
+        cov = 0.0_dp
+        call value_of(m, crit_a, q0, f, bad, cov)
+        if (bad > 0) return
+        do j = 1, n
+            cov(:, j) = s * cov(:, j) * s(j)
+        end do
+    end subroutine design_covariance
+
+end module sk_design
