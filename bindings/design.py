@@ -28,7 +28,16 @@ from ..errors import InputError
 from . import _design
 from .errors import INFO, call
 
-__all__ = ["CRITERIA", "DesignError", "DesignResult", "covariance", "criterion", "select"]
+__all__ = [
+    "CRITERIA",
+    "DesignError",
+    "DesignResult",
+    "DiscriminationResult",
+    "covariance",
+    "criterion",
+    "discriminate",
+    "select",
+]
 
 #: criterion name -> the core's code (sk_design: crit_d, crit_a, crit_task)
 CRITERIA: dict[str, int] = {"D": 1, "A": 2, "task": 3}
@@ -83,6 +92,25 @@ class DesignResult:
     path: np.ndarray
     ridge: bool
     scaled: bool
+
+
+@dataclass(frozen=True)
+class DiscriminationResult:
+    """The T-optimal selection of :func:`discriminate`.
+
+    ``selected`` (k,) 0-based candidates; ``value`` the smallest
+    noncentrality T over the ordered pairs of hypotheses (existing rows plus
+    the selection); ``pairs`` (nh, nh): ``pairs[a, b]`` = ||(I - P_b)(f_a -
+    f_b)||^2, the data of hypothesis a fitted by hypothesis b (0 on the
+    diagonal); ``greedy_value`` T of the greedy selection; ``passes``,
+    ``swaps`` of the exchange."""
+
+    selected: np.ndarray
+    value: float
+    pairs: np.ndarray
+    greedy_value: float
+    passes: int
+    swaps: int
 
 
 def _fail(routine: str, what: str) -> DesignError:
@@ -272,3 +300,64 @@ def covariance(jc: np.ndarray, chosen: np.ndarray, m0: np.ndarray | None = None)
         raise exc
     _check(routine, info, errloc)
     return np.array(cov)
+
+
+def _rows_finite(routine: str, name: str, a: np.ndarray) -> None:
+    bad = ~np.isfinite(a)
+    if bad.any():
+        raise _fail(routine, f"{name}: row {int(np.argwhere(bad)[0][0])} is not finite")
+
+
+def discriminate(
+    f: np.ndarray,
+    jh: list[np.ndarray],
+    n0: int,
+    nobs: int,
+    k: int,
+    max_passes: int = 100,
+) -> DiscriminationResult:
+    """T-optimal design: choose ``k`` candidates maximising the smallest
+    noncentrality between ``nh >= 2`` hypotheses. ``f`` (nrow, nh): whitened
+    predictions of each hypothesis (fitted to the data so far) at all rows,
+    the first ``n0`` the existing data, then ncand blocks of ``nobs`` rows,
+    one per candidate; ``jh``: nh arrays (nrow, p_h >= 1), the whitened
+    Jacobian of each hypothesis' parameters at all rows."""
+    routine = "design.discriminate"
+    fa = _float_array(routine, "f", f)
+    if fa.ndim != 2:
+        raise _fail(routine, f"f must be (nrow, nh), not shape {fa.shape}")
+    nrow, nh = fa.shape
+    if nh < 2:
+        raise _fail(routine, f"nh = {nh}: discrimination needs at least 2 hypotheses (columns of f)")
+    _rows_finite(routine, "f", fa)
+    if isinstance(jh, np.ndarray) or not isinstance(jh, (list, tuple)) or len(jh) != nh:
+        raise _fail(routine, f"jh must be a list of {nh} Jacobians (one per column of f)")
+    blocks = []
+    for h, j in enumerate(jh):
+        a = _float_array(routine, f"jh[{h}]", j)
+        if a.ndim != 2 or a.shape[0] != nrow or a.shape[1] < 1:
+            raise _fail(routine, f"jh[{h}] must be ({nrow}, p >= 1) like f's rows, not shape {a.shape}")
+        _rows_finite(routine, f"jh[{h}]", a)
+        blocks.append(a)
+    n0v = _count(routine, "n0", n0, 0)
+    if n0v > nrow:
+        raise _fail(routine, f"n0 = {n0v} exceeds the {nrow} rows of f")
+    nobsv = _count(routine, "nobs", nobs, 1)
+    if (nrow - n0v) % nobs or nrow == n0v:
+        raise _fail(routine, f"the {nrow - n0v} candidate rows (nrow - n0) are not blocks of nobs = {nobsv}")
+    kk = _count(routine, "k", k, 1, (nrow - n0v) // nobsv)
+    passes_max = _count(routine, "max_passes", max_passes, 0)
+    hoff = np.concatenate([[0], np.cumsum([b.shape[1] for b in blocks])]).astype(np.int32)
+    jall = np.asfortranarray(np.hstack(blocks))
+    sel, value, gvalue, pairs, passes, swaps, info, errloc = call(
+        _design.sk_design_discriminate, routine, fa, jall, hoff, n0v, nobsv, kk, passes_max
+    )
+    _check(routine, info, errloc)
+    return DiscriminationResult(
+        selected=np.asarray(sel, dtype=int) - 1,
+        value=float(value),
+        pairs=np.array(pairs),
+        greedy_value=float(gvalue),
+        passes=int(passes),
+        swaps=int(swaps),
+    )

@@ -93,3 +93,31 @@ subroutine sk_design_covariance(npar, nobs, ncand, nch, jc, chosen, m0, cov, bad
     bad = int(b, c_int)
     if (b > 0) info = sk_err_singular
 end subroutine sk_design_covariance
+
+!> T-optimal selection of k candidates (sk_design_disc%disc_select):
+!> f[nrow,nh] whitened predictions, jall[nrow,ptot] the hypotheses'
+!> whitened Jacobians side by side (hypothesis h: columns hoff(h)+1 ..
+!> hoff(h+1), hoff[nh+1]), the first n0 rows existing data, then ncand
+!> blocks of nobs rows. sel[k], value (the smallest noncentrality), gvalue
+!> (the greedy selection's), pairs[nh,nh] (data of a fitted by b), passes,
+!> swaps.
+subroutine sk_design_discriminate(nrow, nh, ptot, nh1, f, jall, hoff, n0, nobs, k, max_passes, sel, value, gvalue, &
+        pairs, passes, swaps, info, errloc)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_design_disc, only: disc_check, disc_select
+    implicit none
+    integer(c_int), intent(in) :: nrow, nh, ptot, nh1, hoff(nh1), n0, nobs, k, max_passes
+    real(c_double), intent(in) :: f(nrow, nh), jall(nrow, ptot)
+    integer(c_int), intent(out) :: sel(k), passes, swaps, info, errloc(2)
+    real(c_double), intent(out) :: value, gvalue, pairs(nh, nh)
+    sel = 0
+    value = 0
+    gvalue = 0
+    pairs = 0
+    passes = 0
+    swaps = 0
+    call disc_check(f, jall, hoff, n0, nobs, k, max_passes, info, errloc)
+    if (info /= sk_ok) return
+    call disc_select(f, jall, hoff, n0, nobs, k, max_passes, sel, value, gvalue, pairs, passes, swaps, info)
+end subroutine sk_design_discriminate

@@ -24,8 +24,8 @@ module sk_design
     use sk_linalg, only: all_finite, inverse, eye
     implicit none
     private
-    public :: design_state, design_scales, design_check, state_init, state_update, add_delta, swap_pass
-    public :: criterion_direct, small_chol, lower_solve, chol_checked, design_select, design_covariance
+    public :: design_state, design_scales, design_check, state_init, state_update, add_cache, swap_pass
+    public :: criterion_direct, small_chol, lower_solve, chol_checked, design_select, design_covariance, state_alloc
 
     integer(ip), parameter, public :: crit_d = 1, crit_a = 2, crit_task = 3
     !> argument codes of loc(1) (named in bindings/design.py, DESIGN_ARGUMENTS)
@@ -44,6 +44,8 @@ module sk_design
         integer :: npar = 0, nobs = 0, ncand = 0
         integer(ip) :: crit = crit_d
         real(dp), allocatable :: s(:), minv(:, :), q(:, :), b(:, :, :), c(:, :, :)
+        !> add_cache: chol(I + B_c), its C_c sandwich and the change of adding c
+        real(dp), allocatable :: l(:, :, :), ct(:, :, :), dadd(:)
         logical, allocatable :: chosen(:)
         real(dp) :: value = 0.0_dp
     end type design_state
@@ -147,37 +149,79 @@ contains
         end do
     end subroutine design_scales
 
-    !> Cholesky a = l l^T of a small SPD matrix (l lower, upper part zero);
+    !> Cholesky a = l l^T of a small SPD a[n,n] (l lower, upper part zero);
     !> ok false when a pivot^2 is <= tol.
-    pure subroutine small_chol(a, l, tol, ok)
-        real(dp), intent(in) :: a(:, :), tol
-        real(dp), intent(out) :: l(:, :)
+    pure subroutine small_chol(n, a, l, tol, ok)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n), tol
+        real(dp), intent(out) :: l(n, n)
         logical, intent(out) :: ok
-        integer :: i, j, n
+        integer :: i, j, p
         real(dp) :: d
-        n = size(a, 1)
         l = 0.0_dp
         ok = .false.
         do j = 1, n
-            d = a(j, j) - sum(l(j, 1:j - 1)**2)
+            d = a(j, j)
+            do p = 1, j - 1
+                d = d - l(j, p)**2
+            end do
             if (.not. (d > tol)) return
             l(j, j) = sqrt(d)
             do i = j + 1, n
-                l(i, j) = (a(i, j) - sum(l(i, 1:j - 1) * l(j, 1:j - 1))) / l(j, j)
+                d = a(i, j)
+                do p = 1, j - 1
+                    d = d - l(i, p) * l(j, p)
+                end do
+                l(i, j) = d / l(j, j)
             end do
         end do
         ok = .true.
     end subroutine small_chol
 
-    !> x = l^-1 b for lower-triangular l[n,n], b[n,m].
-    pure subroutine lower_solve(l, b, x)
-        real(dp), intent(in) :: l(:, :), b(:, :)
-        real(dp), intent(out) :: x(:, :)
-        integer :: i
-        do i = 1, size(l, 1)
-            x(i, :) = (b(i, :) - matmul(l(i, 1:i - 1), x(1:i - 1, :))) / l(i, i)
+    !> x = l^-1 b for lower-triangular l[n,n] and b[n,n].
+    pure subroutine lower_solve(n, l, b, x)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: l(n, n), b(n, n)
+        real(dp), intent(out) :: x(n, n)
+        integer :: i, j, p
+        real(dp) :: d
+        do j = 1, n
+            do i = 1, n
+                d = b(i, j)
+                do p = 1, i - 1
+                    d = d - l(i, p) * x(p, j)
+                end do
+                x(i, j) = d / l(i, i)
+            end do
         end do
     end subroutine lower_solve
+
+    !> c = a^T b for a[n,n], b[n,n].
+    pure subroutine mul_tn(n, a, b, c)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n), b(n, n)
+        real(dp), intent(out) :: c(n, n)
+        integer :: i, j
+        do j = 1, n
+            do i = 1, n
+                c(i, j) = sum(a(:, i) * b(:, j))
+            end do
+        end do
+    end subroutine mul_tn
+
+    !> tr(l^-1 a l^-T) for lower-triangular l[n,n] and symmetric a[n,n].
+    pure real(dp) function sandwich_trace(n, l, a) result(tr)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: l(n, n), a(n, n)
+        real(dp) :: x(n, n), y(n, n)
+        integer :: i
+        call lower_solve(n, l, a, x)
+        call lower_solve(n, l, transpose(x), y)
+        tr = 0.0_dp
+        do i = 1, n
+            tr = tr + y(i, i)
+        end do
+    end function sandwich_trace
 
     !> In-place Cholesky (lower) of the SPD a[n,n]; bad = first column whose
     !> pivot^2 is <= design_singular (0 when all pass).
@@ -336,6 +380,9 @@ contains
         st%crit = crit
         allocate(st%s(st%npar), st%minv(st%npar, st%npar), st%q(st%npar, st%npar))
         allocate(st%b(st%nobs, st%nobs, st%ncand), st%c(st%nobs, st%nobs, st%ncand), st%chosen(st%ncand))
+        allocate(st%l(st%nobs, st%nobs, st%ncand), st%ct(st%nobs, st%nobs, st%ncand), st%dadd(st%ncand))
+        st%c = 0.0_dp
+        st%ct = 0.0_dp
         call design_scales(jc, m0, st%s)
         st%q = 0.0_dp
         if (crit == crit_task) call task_matrix(jt, st%s, st%q)
@@ -343,24 +390,123 @@ contains
         st%chosen = .false.
     end subroutine state_alloc
 
-    !> Criterion change of adding candidate c (+huge if I + B_c is not SPD).
-    pure real(dp) function add_delta(st, c) result(d)
-        type(design_state), intent(in) :: st
-        integer, intent(in) :: c
-        real(dp) :: l(st%nobs, st%nobs), t(st%nobs, st%nobs), ct(st%nobs, st%nobs)
+    !> c = a b (trans = 'n') or a b^T (trans = 't') for a, b [n,n].
+    pure subroutine mul(n, trans, a, b, c)
+        integer, intent(in) :: n
+        character, intent(in) :: trans
+        real(dp), intent(in) :: a(n, n), b(n, n)
+        real(dp), intent(out) :: c(n, n)
+        integer :: j, p
+        c = 0.0_dp
+        do j = 1, n
+            do p = 1, n
+                if (trans == 't') then
+                    c(:, j) = c(:, j) + a(:, p) * b(j, p)
+                else
+                    c(:, j) = c(:, j) + a(:, p) * b(p, j)
+                end if
+            end do
+        end do
+    end subroutine mul
+
+    !> Per candidate, what adding it alone would do: l_c = chol(I + B_c),
+    !> ct_c = l_c^-1 C_c l_c^-T and the criterion change dadd_c
+    !> (D: -2 log det l_c; A, task: -tr ct_c; +huge if I + B_c is not SPD).
+    subroutine add_cache(st)
+        type(design_state), intent(inout) :: st
+        integer :: c, i, n
+        real(dp) :: x(st%nobs, st%nobs), a(st%nobs, st%nobs)
         logical :: ok
-        integer :: i
-        call small_chol(eye(st%nobs) + st%b(:, :, c), l, 0.0_dp, ok)
-        d = huge(1.0_dp)
-        if (.not. ok) return
-        if (st%crit == crit_d) then
-            d = -2.0_dp * sum([(log(l(i, i)), i = 1, st%nobs)])
-        else
-            call lower_solve(l, st%c(:, :, c), t)
-            call lower_solve(l, transpose(t), ct)
-            d = -sum([(ct(i, i), i = 1, st%nobs)])
-        end if
-    end function add_delta
+        n = st%nobs
+        do c = 1, st%ncand
+            a = st%b(:, :, c)
+            do i = 1, n
+                a(i, i) = a(i, i) + 1.0_dp
+            end do
+            call small_chol(n, a, st%l(:, :, c), 0.0_dp, ok)
+            st%dadd(c) = huge(1.0_dp)
+            if (.not. ok) cycle
+            if (st%crit == crit_d) then
+                st%dadd(c) = -2.0_dp * sum([(log(st%l(i, i, c)), i = 1, n)])
+            else
+                call lower_solve(n, st%l(:, :, c), st%c(:, :, c), x)
+                call lower_solve(n, st%l(:, :, c), transpose(x), st%ct(:, :, c))
+                st%dadd(c) = -sum([(st%ct(i, i, c), i = 1, n)])
+            end if
+        end do
+    end subroutine add_cache
+
+    !> pr[nv, nobs*ncand] = vz^T J (vz[npar,nv] already scaled by s): the
+    !> products of every candidate's rows with nv vectors (four partial sums
+    !> per dot product: the loop is bound by memory, not by the add latency).
+    subroutine cross(jc, vz, pr)
+        real(dp), intent(in) :: jc(:, :, :), vz(:, :)
+        real(dp), intent(out) :: pr(:, :)
+        call cross_rows(size(jc, 1), size(pr, 2), size(vz, 2), jc, vz, pr)
+    end subroutine cross
+
+    subroutine cross_rows(n, ncol, nv, rows, vz, pr)
+        integer, intent(in) :: n, ncol, nv
+        real(dp), intent(in) :: rows(n, ncol), vz(n, nv)
+        real(dp), intent(out) :: pr(nv, ncol)
+        integer :: col, j, p, n4
+        real(dp) :: s1, s2, s3, s4
+        n4 = n - mod(n, 4)
+        do col = 1, ncol
+            do j = 1, nv
+                s1 = 0.0_dp
+                s2 = 0.0_dp
+                s3 = 0.0_dp
+                s4 = 0.0_dp
+                do p = 1, n4, 4
+                    s1 = s1 + vz(p, j) * rows(p, col)
+                    s2 = s2 + vz(p + 1, j) * rows(p + 1, col)
+                    s3 = s3 + vz(p + 2, j) * rows(p + 2, col)
+                    s4 = s4 + vz(p + 3, j) * rows(p + 3, col)
+                end do
+                do p = n4 + 1, n
+                    s1 = s1 + vz(p, j) * rows(p, col)
+                end do
+                pr(j, col) = (s1 + s2) + (s3 + s4)
+            end do
+        end do
+    end subroutine cross_rows
+
+    !> vz[npar,nv] = s * [M^-1 U_a, M^-1 Q M^-1 U_a] (the second half for A
+    !> and task only), U_a = S J_a^T.
+    subroutine products(st, jc, a, vz)
+        type(design_state), intent(in) :: st
+        real(dp), intent(in) :: jc(:, :, :)
+        integer, intent(in) :: a
+        real(dp), intent(out) :: vz(:, :)
+        real(dp) :: u(st%npar, st%nobs)
+        integer :: j, n
+        n = st%nobs
+        do j = 1, n
+            u(:, j) = st%s * jc(:, j, a)
+        end do
+        vz(:, 1:n) = matmul(st%minv, u)
+        if (st%crit /= crit_d) vz(:, n + 1:) = matmul(st%minv, matmul(st%q, vz(:, 1:n)))
+    end subroutine products
+
+    !> Candidate c's blocks P = J_c S V (p) and R = J_c S Z (r) from pr.
+    pure subroutine blocks_of(pr, c, n, p, r)
+        real(dp), intent(in) :: pr(:, :)
+        integer, intent(in) :: c, n
+        real(dp), intent(out) :: p(n, n), r(n, n)
+        integer :: i, j
+        do j = 1, n
+            do i = 1, n
+                p(i, j) = pr(j, (c - 1) * n + i)
+            end do
+        end do
+        if (size(pr, 1) <= n) return
+        do j = 1, n
+            do i = 1, n
+                r(i, j) = pr(n + j, (c - 1) * n + i)
+            end do
+        end do
+    end subroutine blocks_of
 
     !> Woodbury update of st after adding (sgn = +1) or removing (sgn = -1)
     !> candidate a: M' = M + sgn U U^T, U = S J_a^T, V = M^-1 U,
@@ -373,39 +519,35 @@ contains
         integer, intent(in) :: a
         real(dp), intent(in) :: sgn
         integer(ip), intent(out) :: info
-        integer :: n, nobs, nc, j, c, nv
-        real(dp), allocatable :: u(:, :), vz(:, :), pr(:, :), e(:, :), w(:, :), pe(:, :), per(:, :)
-        n = st%npar
-        nobs = st%nobs
-        nc = st%ncand
-        nv = merge(nobs, 2 * nobs, st%crit == crit_d)
-        allocate(u(n, nobs), vz(n, nv), pr(nobs * nc, nv), e(nobs, nobs), pe(nobs, nobs), per(nobs, nobs))
-        do j = 1, nobs
-            u(:, j) = st%s * jc(:, j, a)
-        end do
-        vz(:, 1:nobs) = matmul(st%minv, u)
-        call inverse(sgn * eye(nobs) + st%b(:, :, a), e, info)
+        integer :: n, j, c, nv
+        real(dp), allocatable :: vz(:, :), pr(:, :), e(:, :), w(:, :)
+        real(dp), dimension(st%nobs, st%nobs) :: p, r, pe, x, y
+        n = st%nobs
+        nv = merge(n, 2 * n, st%crit == crit_d)
+        allocate(vz(st%npar, nv), pr(nv, n * st%ncand), e(n, n))
+        call products(st, jc, a, vz)
+        call inverse(sgn * eye(n) + st%b(:, :, a), e, info)
         if (info /= sk_ok) return
         if (st%crit /= crit_d) then
-            w = matmul(st%q, vz(:, 1:nobs))
-            vz(:, nobs + 1:) = matmul(st%minv, w)
-            w = matmul(transpose(vz(:, 1:nobs)), w)
+            w = matmul(transpose(vz(:, 1:n)), matmul(st%q, vz(:, 1:n)))
             w = matmul(e, matmul(w, e))
         end if
-        st%minv = st%minv - matmul(vz(:, 1:nobs), matmul(e, transpose(vz(:, 1:nobs))))
+        st%minv = st%minv - matmul(vz(:, 1:n), matmul(e, transpose(vz(:, 1:n))))
         do j = 1, nv
             vz(:, j) = vz(:, j) * st%s
         end do
-        call dgemm('T', 'N', nobs * nc, nv, n, 1.0_dp, jc, n, vz, n, 0.0_dp, pr, nobs * nc)
-        do c = 1, nc
-            associate (p => pr((c - 1) * nobs + 1:c * nobs, 1:nobs))
-                pe = matmul(p, e)
-                st%b(:, :, c) = st%b(:, :, c) - matmul(pe, transpose(p))
-                if (st%crit /= crit_d) then
-                    per = matmul(pe, transpose(pr((c - 1) * nobs + 1:c * nobs, nobs + 1:)))
-                    st%c(:, :, c) = st%c(:, :, c) - per - transpose(per) + matmul(p, matmul(w, transpose(p)))
-                end if
-            end associate
+        call cross(jc, vz, pr)
+        do c = 1, st%ncand
+            call blocks_of(pr, c, n, p, r)
+            call mul(n, 'n', p, e, pe)
+            call mul(n, 't', pe, p, x)
+            st%b(:, :, c) = st%b(:, :, c) - x
+            if (st%crit /= crit_d) then
+                call mul(n, 't', pe, r, x)
+                call mul(n, 'n', p, w, y)
+                call mul(n, 't', y, p, pe)
+                st%c(:, :, c) = st%c(:, :, c) - x - transpose(x) + pe
+            end if
         end do
     end subroutine state_update
 
@@ -424,31 +566,27 @@ contains
         integer(ip), intent(inout) :: sel(:)
         integer, intent(out) :: nswap
         integer(ip), intent(out) :: info
-        integer :: n, nobs, nc, nv, i, j, r, c, best
-        real(dp), allocatable :: u(:, :), vz(:, :), pr(:, :)
+        integer :: n, nv, i, r, c, best
+        real(dp), allocatable :: vz(:, :), pr(:, :)
         real(dp) :: d, dbest, tol
-        n = st%npar
-        nobs = st%nobs
-        nc = st%ncand
-        nv = merge(nobs, 2 * nobs, st%crit == crit_d)
-        allocate(u(n, nobs), vz(n, nv), pr(nobs * nc, nv))
+        n = st%nobs
+        nv = merge(n, 2 * n, st%crit == crit_d)
+        allocate(vz(st%npar, nv), pr(nv, n * st%ncand))
         nswap = 0
         info = sk_ok
+        call add_cache(st)
         do i = 1, size(sel)
             r = sel(i)
-            do j = 1, nobs
-                u(:, j) = st%s * jc(:, j, r)
+            call products(st, jc, r, vz)
+            do c = 1, nv
+                vz(:, c) = vz(:, c) * st%s
             end do
-            vz(:, 1:nobs) = matmul(st%minv, u)
-            if (st%crit /= crit_d) vz(:, nobs + 1:) = matmul(st%minv, matmul(st%q, vz(:, 1:nobs)))
-            do j = 1, nv
-                vz(:, j) = vz(:, j) * st%s
-            end do
-            call dgemm('T', 'N', nobs * nc, nv, n, 1.0_dp, jc, n, vz, n, 0.0_dp, pr, nobs * nc)
+            call cross(jc, vz, pr)
             best = 0
             dbest = huge(1.0_dp)
-            do c = 1, nc
+            do c = 1, st%ncand
                 if (st%chosen(c)) cycle
+                if (st%dadd(c) >= huge(1.0_dp)) cycle
                 d = swap_delta(c)
                 if (d < dbest) then
                     dbest = d
@@ -467,33 +605,38 @@ contains
             st%chosen(best) = .true.
             sel(i) = int(best, ip)
             nswap = nswap + 1
+            call add_cache(st)
         end do
     contains
         real(dp) function swap_delta(cc) result(dd)
             integer, intent(in) :: cc
-            real(dp), dimension(nobs, nobs) :: l, l2, t, rt, ct, tmp, s2, cr1
+            real(dp), dimension(n, n) :: p, rr, l2, t, rt, tmp, s2, cr1
             logical :: ok
             integer :: ii
             dd = huge(1.0_dp)
-            call small_chol(eye(nobs) + st%b(:, :, cc), l, 0.0_dp, ok)
-            if (.not. ok) return
-            call lower_solve(l, pr((cc - 1) * nobs + 1:cc * nobs, 1:nobs), t)
-            s2 = eye(nobs) - st%b(:, :, r) + matmul(transpose(t), t)
-            call small_chol(s2, l2, design_singular, ok)
+            call blocks_of(pr, cc, n, p, rr)
+            call lower_solve(n, st%l(:, :, cc), p, t)
+            call mul_tn(n, t, t, s2)
+            s2 = s2 - st%b(:, :, r)
+            do ii = 1, n
+                s2(ii, ii) = s2(ii, ii) + 1.0_dp
+            end do
+            call small_chol(n, s2, l2, design_singular, ok)
             if (.not. ok) return
             if (st%crit == crit_d) then
-                dd = -2.0_dp * sum([(log(l(ii, ii)) + log(l2(ii, ii)), ii = 1, nobs)])
+                dd = st%dadd(cc)
+                do ii = 1, n
+                    dd = dd - 2.0_dp * log(l2(ii, ii))
+                end do
                 return
             end if
-            call lower_solve(l, pr((cc - 1) * nobs + 1:cc * nobs, nobs + 1:), rt)
-            call lower_solve(l, st%c(:, :, cc), tmp)
-            call lower_solve(l, transpose(tmp), ct)
-            tmp = matmul(transpose(t), rt)
-            cr1 = st%c(:, :, r) - tmp - transpose(tmp) + matmul(transpose(t), matmul(ct, t))
-            ! tr(S2^-1 C_r1) = ||L2^-1 C_r1 L2^-T|| trace
-            call lower_solve(l2, cr1, tmp)
-            call lower_solve(l2, transpose(tmp), rt)
-            dd = -sum([(ct(ii, ii), ii = 1, nobs)]) + sum([(rt(ii, ii), ii = 1, nobs)])
+            call lower_solve(n, st%l(:, :, cc), rr, rt)
+            call mul_tn(n, t, rt, tmp)
+            cr1 = st%c(:, :, r) - tmp - transpose(tmp)
+            call mul(n, 'n', st%ct(:, :, cc), t, rt)
+            call mul_tn(n, t, rt, tmp)
+            cr1 = cr1 + tmp
+            dd = st%dadd(cc) + sandwich_trace(n, l2, cr1)
         end function swap_delta
     end subroutine swap_pass
 
@@ -536,13 +679,13 @@ contains
             call build_m(jc, st%s, m0, sel(1:0), 0.0_dp, mu)
         end if
         do step = 1, k
+            call add_cache(st)
             best = 0
             dbest = huge(1.0_dp)
             do c = 1, st%ncand
                 if (st%chosen(c)) cycle
-                d = add_delta(st, c)
-                if (d < dbest) then
-                    dbest = d
+                if (st%dadd(c) < dbest) then
+                    dbest = st%dadd(c)
                     best = c
                 end if
             end do
