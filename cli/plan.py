@@ -15,9 +15,7 @@ expected task error.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from ..errors import InputError
 from ..io import validate as V
 from ..io.files import FIGURE_SUFFIXES, model_inputs
 from . import args as A
@@ -87,14 +85,9 @@ def run(args: argparse.Namespace) -> int:
     from ..calib.plan_report import plan_json, plan_text, write_postures
 
     inputs = [*model_inputs(args.model), *(f for f in (args.postures, args.task, args.measured) if f)]
-    for opt in ("out", "json", "png"):
+    for opt, suffixes in (("out", None), ("json", None), ("png", FIGURE_SUFFIXES)):
         if getattr(args, opt):
-            V.output_path(getattr(args, opt), f"--{opt}", inputs)
-    suffix = Path(args.png).suffix.lower() if args.png else ""
-    if suffix and suffix not in FIGURE_SUFFIXES:
-        raise InputError(
-            f"--png {args.png}: cannot write a figure as {suffix!r}; use one of {', '.join(FIGURE_SUFFIXES)}"
-        )
+            V.output_path(getattr(args, opt), f"--{opt}", inputs, suffixes)
     res = plan(
         args.model,
         args.select,
