@@ -416,7 +416,7 @@ def build_setup(
     elif model.sigma_position:
         sigma, source = float(model.sigma_position), "the model's [measurements] sigma_position"
     else:
-        sigma, source = ASSUMED_SIGMA, "assumed (the model declares no sigma_position; the errors scale with it)"
+        sigma, source = ASSUMED_SIGMA, "assumed: the model declares no sigma_position; the errors scale with it"
     if absolute:
         parts = _abs_setup(model, cands, task, measured, sigma)
     else:

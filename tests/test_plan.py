@@ -27,6 +27,7 @@ from stiffkit.robot.compensate_files import read_targets
 
 RATIO = 0.7
 SIM_FITS = 5
+REAL_FITS = 7
 
 
 def _trace(jc: np.ndarray, chosen: np.ndarray, jt: np.ndarray, m0: np.ndarray | None = None) -> float:
@@ -231,3 +232,40 @@ def test_api_and_cli_json(kr, tmp_path, capsys):
     assert all(p["expected_std"] > 0 for p in doc["parameters"]) and doc["identifiable"] == len(doc["parameters"])
     assert (tmp_path / "p.png").stat().st_size > 1000
     assert len((tmp_path / "p.csv").read_text().splitlines()) == 1 + 12
+
+
+@pytest.mark.slow
+def test_dualarm_real_fits(dualarm):
+    """fit_absolute on data from the dual-arm truth with fresh noise, at the
+    planned and at random designs: the error of the identified model's
+    marker positions at the task postures in the robot's base frame (each
+    model's own tracker pose taken out: the task error of the plan's task
+    rows), median of REAL_FITS fits."""
+    from stiffkit.calib.absolute_fit import fit_absolute, predict
+    from stiffkit.calib.dualarm import GRAVITY, dualarm_truth
+    from stiffkit.robot.tree import load_tree
+    from stiffkit.robot.tree_model import tree_model_from_tables
+
+    s, res, k, model = dualarm["setup"], dualarm["res"], dualarm["k"], dualarm["model"]
+    tree = load_tree(dualarm["root"] / "robot.urdf")
+    truth = tree_model_from_tables(tree, dualarm_truth(dualarm["root"] / "robot.urdf"), GRAVITY, where="truth")
+    task = P._abs_data(model, s.task_q)
+
+    def base(m, theta):
+        R, t = m.tracker_pose(theta)
+        return (predict(m, task, theta)["pred"] - t) @ R
+
+    want = base(truth, truth.theta0)
+    rng = np.random.default_rng(13)
+
+    def task_error(chosen: np.ndarray) -> float:
+        data = P._abs_data(model, s.candidates.q[s.posture[chosen]])
+        data.xyz = predict(truth, data, truth.theta0)["pred"] + s.sigma * rng.normal(size=data.xyz.shape)
+        f = fit_absolute(model.copy(), data)
+        got = base(f.model, f.theta)
+        return float(np.sqrt(np.mean(np.sum((got - want) ** 2, axis=1))))
+
+    planned = np.median([task_error(res.selected) for _ in range(REAL_FITS)])
+    random = np.median([task_error(c) for c in _draws(s, k, 99)[:REAL_FITS]])
+    print(f"dualarm real fits: plan {planned * 1e3:.4f} mm, random {random * 1e3:.4f} mm, ratio {planned / random:.3f}")
+    assert planned <= RATIO * random
