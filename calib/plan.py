@@ -511,7 +511,15 @@ def plan(
         npar = setup.npar
         std = vif = np.full(npar, math.inf)
         corr = np.full((npar, npar), np.nan)
-        notes.append("the plan leaves a parameter non-identifiable (its information matrix is singular)")
+        try:
+            design.covariance(setup.jc, chosen, m0=setup.m0)
+        except design.DesignError as exc:
+            col = getattr(exc, "column", None)
+            which = setup.names[col] if col is not None and 0 <= col < npar else "a parameter"
+            notes.append(
+                f"the plan leaves {which} non-identifiable (its information matrix is singular): "
+                f"plan more than {k} (--select)"
+            )
     else:
         std = np.sqrt(np.diag(cov))
         vif = np.diag(cov) * np.diag(M)
