@@ -77,9 +77,11 @@ class DesignResult:
     that of the greedy selection before the exchange (+inf if singular);
     ``passes`` exchange passes run, ``swaps`` swaps made; ``scale`` (npar,)
     the column scales; ``path`` (k,) the criterion after each greedy step as
-    the low-rank updates computed it (with the internal ridge when m0 is
-    singular: ``ridge``); ``scaled``: the value is in scaled units (D, A),
-    not the caller's (task)."""
+    the low-rank updates carried it (``ridge``: m0 was singular, and until M
+    became regular the steps carry the ridged criterion, evaluated from
+    scratch); ``scaled``: the value is in scaled units (D, A), not the
+    caller's (task). ``value`` is the updates' value too (a direct
+    evaluation only when M stayed singular through the exchange)."""
 
     selected: np.ndarray
     value: float

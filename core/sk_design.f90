@@ -17,27 +17,20 @@
 !> (Q = I for A, Jt^T Jt for task), updated by the Woodbury identity on the
 !> nobs x nobs blocks after every added or removed candidate, in
 !> O(ncand nobs^2 npar) (one skinny matrix product over all candidates).
-!> Indices are 1-based. Argument errors return loc = [argument code, index].
+!> Indices are 1-based. Codes, tolerances, argument checks and the small
+!> dense kernels are in sk_design_base.
 module sk_design
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: all_finite, inverse, eye
+    use sk_linalg, only: inverse, eye
+    use sk_design_base
     implicit none
     private
-    public :: design_state, design_scales, design_check, state_init, state_update, add_cache, swap_pass
-    public :: criterion_direct, small_chol, lower_solve, chol_checked, design_select, design_covariance, state_alloc
+    public :: design_state, design_scales, state_init, state_update, add_cache, swap_pass
+    public :: criterion_direct, design_select, design_covariance, state_alloc
+    ! the codes and tolerances of sk_design_base, for the entry points
+    public :: crit_d, crit_a, crit_task, design_check, darg_k, darg_max_passes
 
-    integer(ip), parameter, public :: crit_d = 1, crit_a = 2, crit_task = 3
-    !> argument codes of loc(1) (named in bindings/design.py, DESIGN_ARGUMENTS)
-    integer(ip), parameter, public :: darg_jc = 1, darg_k = 2, darg_criterion = 3, darg_m0 = 4, &
-        darg_jt = 5, darg_chosen = 6, darg_max_passes = 7, darg_f = 8, darg_jh = 9, darg_n0 = 10, &
-        darg_nobs = 11
-    !> ridge (scaled units) added to a singular m0 for the greedy start
-    real(dp), parameter, public :: design_ridge = 1.0e-8_dp
-    !> a Cholesky pivot^2 at or below this (scaled units) is a singular direction
-    real(dp), parameter, public :: design_singular = 1.0e-12_dp
-    !> an exchange is made when it improves the criterion by more than this (relative)
-    real(dp), parameter, public :: design_improve = 1.0e-10_dp
 
     !> Incremental state: the scaled M^-1 and the per-candidate blocks.
     type design_state
@@ -51,20 +44,6 @@ module sk_design
     end type design_state
 
     interface
-        subroutine dpotrf(uplo, n, a, lda, info)
-            import :: dp
-            character(len=1), intent(in) :: uplo
-            integer, intent(in) :: n, lda
-            real(dp), intent(inout) :: a(lda, *)
-            integer, intent(out) :: info
-        end subroutine dpotrf
-        subroutine dpotri(uplo, n, a, lda, info)
-            import :: dp
-            character(len=1), intent(in) :: uplo
-            integer, intent(in) :: n, lda
-            real(dp), intent(inout) :: a(lda, *)
-            integer, intent(out) :: info
-        end subroutine dpotri
         subroutine dgemm(transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc)
             import :: dp
             character(len=1), intent(in) :: transa, transb
@@ -75,66 +54,6 @@ module sk_design
     end interface
 
 contains
-
-    !> Record the first failure only.
-    pure subroutine fail(code, arg, idx, info, loc)
-        integer(ip), intent(in) :: code, arg
-        integer, intent(in) :: idx
-        integer(ip), intent(inout) :: info, loc(2)
-        if (info /= sk_ok) return
-        info = code
-        loc = [arg, int(idx, ip)]
-    end subroutine fail
-
-    !> Checks shared by every entry point: jc finite (index: candidate),
-    !> m0 finite and symmetric, jt finite (index: task row), the criterion
-    !> code, task with at least one jt row, chosen[nch] in 1..ncand without
-    !> repeats (index: position).
-    subroutine design_check(jc, m0, jt, crit, chosen, info, loc)
-        real(dp), intent(in) :: jc(:, :, :), m0(:, :), jt(:, :)
-        integer(ip), intent(in) :: crit, chosen(:)
-        integer(ip), intent(out) :: info, loc(2)
-        integer :: c, i, npar, ncand
-        logical, allocatable :: seen(:)
-        info = sk_ok
-        loc = 0
-        npar = size(jc, 1)
-        ncand = size(jc, 3)
-        if (npar < 1 .or. size(jc, 2) < 1) call fail(sk_err_size, darg_jc, 0, info, loc)
-        do c = 1, ncand
-            if (.not. all_finite(jc(:, :, c))) then
-                call fail(sk_err_nonfinite, darg_jc, c, info, loc)
-                exit
-            end if
-        end do
-        if (any(shape(m0) /= [npar, npar])) call fail(sk_err_size, darg_m0, 0, info, loc)
-        if (info /= sk_ok) return
-        if (.not. all_finite(m0)) call fail(sk_err_nonfinite, darg_m0, 0, info, loc)
-        if (info == sk_ok) then
-            if (maxval(abs(m0 - transpose(m0))) > 1.0e-12_dp * max(maxval(abs(m0)), tiny(1.0_dp))) &
-                call fail(sk_err_argument, darg_m0, 0, info, loc)
-        end if
-        if (crit < crit_d .or. crit > crit_task) call fail(sk_err_argument, darg_criterion, 0, info, loc)
-        if (size(jt, 1) /= npar) call fail(sk_err_size, darg_jt, 0, info, loc)
-        if (crit == crit_task .and. size(jt, 2) < 1) call fail(sk_err_argument, darg_jt, 0, info, loc)
-        do i = 1, size(jt, 2)
-            if (.not. all_finite(jt(:, i))) then
-                call fail(sk_err_nonfinite, darg_jt, i, info, loc)
-                exit
-            end if
-        end do
-        allocate(seen(ncand))
-        seen = .false.
-        do i = 1, size(chosen)
-            if (chosen(i) < 1 .or. chosen(i) > ncand) then
-                call fail(sk_err_argument, darg_chosen, i, info, loc)
-            else if (seen(chosen(i))) then
-                call fail(sk_err_argument, darg_chosen, i, info, loc)
-            else
-                seen(chosen(i)) = .true.
-            end if
-        end do
-    end subroutine design_check
 
     !> Column scales s[npar] from m0 and all candidates.
     subroutine design_scales(jc, m0, s)
@@ -148,99 +67,6 @@ contains
             if (d > 0.0_dp) s(j) = 1.0_dp / sqrt(d)
         end do
     end subroutine design_scales
-
-    !> Cholesky a = l l^T of a small SPD a[n,n] (l lower, upper part zero);
-    !> ok false when a pivot^2 is <= tol.
-    pure subroutine small_chol(n, a, l, tol, ok)
-        integer, intent(in) :: n
-        real(dp), intent(in) :: a(n, n), tol
-        real(dp), intent(out) :: l(n, n)
-        logical, intent(out) :: ok
-        integer :: i, j, p
-        real(dp) :: d
-        l = 0.0_dp
-        ok = .false.
-        do j = 1, n
-            d = a(j, j)
-            do p = 1, j - 1
-                d = d - l(j, p)**2
-            end do
-            if (.not. (d > tol)) return
-            l(j, j) = sqrt(d)
-            do i = j + 1, n
-                d = a(i, j)
-                do p = 1, j - 1
-                    d = d - l(i, p) * l(j, p)
-                end do
-                l(i, j) = d / l(j, j)
-            end do
-        end do
-        ok = .true.
-    end subroutine small_chol
-
-    !> x = l^-1 b for lower-triangular l[n,n] and b[n,n].
-    pure subroutine lower_solve(n, l, b, x)
-        integer, intent(in) :: n
-        real(dp), intent(in) :: l(n, n), b(n, n)
-        real(dp), intent(out) :: x(n, n)
-        integer :: i, j, p
-        real(dp) :: d
-        do j = 1, n
-            do i = 1, n
-                d = b(i, j)
-                do p = 1, i - 1
-                    d = d - l(i, p) * x(p, j)
-                end do
-                x(i, j) = d / l(i, i)
-            end do
-        end do
-    end subroutine lower_solve
-
-    !> c = a^T b for a[n,n], b[n,n].
-    pure subroutine mul_tn(n, a, b, c)
-        integer, intent(in) :: n
-        real(dp), intent(in) :: a(n, n), b(n, n)
-        real(dp), intent(out) :: c(n, n)
-        integer :: i, j
-        do j = 1, n
-            do i = 1, n
-                c(i, j) = sum(a(:, i) * b(:, j))
-            end do
-        end do
-    end subroutine mul_tn
-
-    !> tr(l^-1 a l^-T) for lower-triangular l[n,n] and symmetric a[n,n].
-    pure real(dp) function sandwich_trace(n, l, a) result(tr)
-        integer, intent(in) :: n
-        real(dp), intent(in) :: l(n, n), a(n, n)
-        real(dp) :: x(n, n), y(n, n)
-        integer :: i
-        call lower_solve(n, l, a, x)
-        call lower_solve(n, l, transpose(x), y)
-        tr = 0.0_dp
-        do i = 1, n
-            tr = tr + y(i, i)
-        end do
-    end function sandwich_trace
-
-    !> In-place Cholesky (lower) of the SPD a[n,n]; bad = first column whose
-    !> pivot^2 is <= design_singular (0 when all pass).
-    subroutine chol_checked(a, bad)
-        real(dp), intent(inout) :: a(:, :)
-        integer, intent(out) :: bad
-        integer :: n, linfo, j
-        n = size(a, 1)
-        bad = 0
-        if (n == 0) return
-        call dpotrf('L', n, a, n, linfo)
-        do j = 1, merge(linfo - 1, n, linfo > 0)
-            if (a(j, j)**2 <= design_singular) then
-                bad = j
-                return
-            end if
-        end do
-        if (linfo > 0) bad = linfo
-    end subroutine chol_checked
 
     !> Scaled information matrix m = S m0 S + ridge I + sum over chosen of
     !> U_c U_c^T (U_c = S J_c^T).
@@ -390,25 +216,6 @@ contains
         st%chosen = .false.
     end subroutine state_alloc
 
-    !> c = a b (trans = 'n') or a b^T (trans = 't') for a, b [n,n].
-    pure subroutine mul(n, trans, a, b, c)
-        integer, intent(in) :: n
-        character, intent(in) :: trans
-        real(dp), intent(in) :: a(n, n), b(n, n)
-        real(dp), intent(out) :: c(n, n)
-        integer :: j, p
-        c = 0.0_dp
-        do j = 1, n
-            do p = 1, n
-                if (trans == 't') then
-                    c(:, j) = c(:, j) + a(:, p) * b(j, p)
-                else
-                    c(:, j) = c(:, j) + a(:, p) * b(p, j)
-                end if
-            end do
-        end do
-    end subroutine mul
-
     !> Per candidate, what adding it alone would do: l_c = chol(I + B_c),
     !> ct_c = l_c^-1 C_c l_c^-T and the criterion change dadd_c
     !> (D: -2 log det l_c; A, task: -tr ct_c; +huge if I + B_c is not SPD).
@@ -423,7 +230,7 @@ contains
             do i = 1, n
                 a(i, i) = a(i, i) + 1.0_dp
             end do
-            call small_chol(n, a, st%l(:, :, c), 0.0_dp, ok)
+            call chol_small(n, a, st%l(:, :, c), 0.0_dp, ok)
             st%dadd(c) = huge(1.0_dp)
             if (.not. ok) cycle
             if (st%crit == crit_d) then
@@ -559,7 +366,9 @@ contains
     !>   A/task: -tr(L^-1 C_c L^-T) + tr(S2^-1 C_r1),
     !>   C_r1 = C_r - T^T Rt - Rt^T T + T^T Ct T, Rt = L^-1 R, Ct = L^-1 C_c L^-T);
     !> the swap is made when it lowers the criterion by more than
-    !> design_improve (relative). nswap counts the swaps.
+    !> design_improve (relative) and S2 stays regular (pivots^2 >
+    !> design_removal: r does not carry all the information of a direction).
+    !> nswap counts the swaps.
     subroutine swap_pass(st, jc, sel, nswap, info)
         type(design_state), intent(inout) :: st
         real(dp), intent(in) :: jc(:, :, :)
@@ -621,7 +430,7 @@ contains
             do ii = 1, n
                 s2(ii, ii) = s2(ii, ii) + 1.0_dp
             end do
-            call small_chol(n, s2, l2, design_singular, ok)
+            call chol_small(n, s2, l2, design_removal, ok)
             if (.not. ok) return
             if (st%crit == crit_d) then
                 dd = st%dadd(cc)
@@ -709,6 +518,7 @@ contains
             ! fresh blocks (bounded round-off); the value stays incremental
             d = st%value
             call state_init(st, jc, m0, ridge, bad)
+            if (bad > 0) exit
             st%value = d
             call swap_pass(st, jc, sel, nswap, info)
             if (info /= sk_ok) return
@@ -716,10 +526,10 @@ contains
             if (nswap == 0) exit
         end do
         info = sk_ok
-        if (ridge > 0.0_dp) then
-            ! the ridge stayed: the final criterion without it
-            call criterion_direct(jc, m0, jt, sel, crit, st%value, bad, s)
-        end if
+        ! the final M without the ridge: singular -> +huge; when the ridge
+        ! stayed, the final criterion is this direct one
+        call criterion_direct(jc, m0, jt, sel, crit, d, bad, s)
+        if (ridge > 0.0_dp .or. bad > 0) st%value = d
         value = st%value
         if (value >= huge(1.0_dp)) singular = 1
     contains

@@ -25,21 +25,11 @@ module sk_design_disc
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: all_finite, svd
-    use sk_design, only: small_chol, lower_solve, chol_checked, design_singular, design_ridge, design_improve, &
+    use sk_design_base, only: chol_small, chol_checked, dpotri, fail, design_singular, design_ridge, design_improve, &
         darg_f, darg_jh, darg_k, darg_n0, darg_nobs, darg_max_passes
     implicit none
     private
-    public :: disc_select, disc_pairs, disc_check
-
-    interface
-        subroutine dpotri(uplo, n, a, lda, info)
-            import :: dp
-            character(len=1), intent(in) :: uplo
-            integer, intent(in) :: n, lda
-            real(dp), intent(inout) :: a(lda, *)
-            integer, intent(out) :: info
-        end subroutine dpotri
-    end interface
+    public :: disc_select, disc_pairs, disc_check, disc_evaluate, rows_of, tmin
 
     !> Per hypothesis: the inverse of its (ridged) scaled G over the rows.
     type hyp_state
@@ -62,48 +52,40 @@ contains
         nrow = size(f, 1)
         nh = size(f, 2)
         if (nh < 2) then
-            call fail(sk_err_size, darg_f, 0)
+            call fail(sk_err_size, darg_f, 0, info, loc)
             return
         end if
         do i = 1, nrow
             if (.not. all_finite(f(i, :))) then
-                call fail(sk_err_nonfinite, darg_f, i)
+                call fail(sk_err_nonfinite, darg_f, i, info, loc)
                 return
             end if
         end do
         if (size(hoff) /= nh + 1 .or. size(jall, 1) /= nrow) then
-            call fail(sk_err_size, darg_jh, 0)
+            call fail(sk_err_size, darg_jh, 0, info, loc)
             return
         end if
-        if (hoff(1) /= 0 .or. hoff(nh + 1) /= size(jall, 2)) call fail(sk_err_size, darg_jh, 0)
+        if (hoff(1) /= 0 .or. hoff(nh + 1) /= size(jall, 2)) call fail(sk_err_size, darg_jh, 0, info, loc)
         do i = 1, nh
-            if (hoff(i + 1) <= hoff(i)) call fail(sk_err_size, darg_jh, i)
+            if (hoff(i + 1) <= hoff(i)) call fail(sk_err_size, darg_jh, i, info, loc)
         end do
         if (info /= sk_ok) return
         do i = 1, nrow
             if (.not. all_finite(jall(i, :))) then
-                call fail(sk_err_nonfinite, darg_jh, i)
+                call fail(sk_err_nonfinite, darg_jh, i, info, loc)
                 return
             end if
         end do
-        if (n0 < 0 .or. n0 > nrow) call fail(sk_err_argument, darg_n0, 0)
+        if (n0 < 0 .or. n0 > nrow) call fail(sk_err_argument, darg_n0, 0, info, loc)
         if (info /= sk_ok) return
         if (nobs < 1) then
-            call fail(sk_err_argument, darg_nobs, 0)
+            call fail(sk_err_argument, darg_nobs, 0, info, loc)
         else if (mod(nrow - n0, nobs) /= 0 .or. nrow - n0 < nobs) then
-            call fail(sk_err_size, darg_nobs, 0)
+            call fail(sk_err_size, darg_nobs, 0, info, loc)
         else if (k < 1 .or. k > (nrow - n0) / nobs) then
-            call fail(sk_err_argument, darg_k, 0)
+            call fail(sk_err_argument, darg_k, 0, info, loc)
         end if
-        if (max_passes < 0) call fail(sk_err_argument, darg_max_passes, 0)
-    contains
-        subroutine fail(code, arg, idx)
-            integer(ip), intent(in) :: code, arg
-            integer, intent(in) :: idx
-            if (info /= sk_ok) return
-            info = code
-            loc = [arg, int(idx, ip)]
-        end subroutine fail
+        if (max_passes < 0) call fail(sk_err_argument, darg_max_passes, 0, info, loc)
     end subroutine disc_check
 
     !> Row indices of R: 1..n0 and the rows of the candidates in sel.
@@ -169,7 +151,7 @@ contains
     !> For the rows R: tc[ncand] = T after adding each candidate alone (the
     !> Woodbury formula of the module header; -huge for the candidates in
     !> skip), and tnow = T of R itself, both from the (ridged) normal equations.
-    subroutine evaluate(f, js, hoff, n0, nobs, rows, skip, tc, tnow, info)
+    subroutine disc_evaluate(f, js, hoff, n0, nobs, rows, skip, tc, tnow, info)
         real(dp), intent(in) :: f(:, :), js(:, :)
         integer(ip), intent(in) :: hoff(:), n0, nobs
         integer, intent(in) :: rows(:)
@@ -212,7 +194,7 @@ contains
                     do j = 1, nobs
                         bc(j, j) = bc(j, j) + 1.0_dp
                     end do
-                    call small_chol(nobs, bc, ls(:, :, c), 0.0_dp, ok)
+                    call chol_small(nobs, bc, ls(:, :, c), 0.0_dp, ok)
                 end do
                 do a = 1, size(f, 2)
                     if (a == b) cycle
@@ -261,7 +243,7 @@ contains
                 aa(1:jj - 1, jj) = aa(jj, 1:jj - 1)
             end do
         end subroutine invert
-    end subroutine evaluate
+    end subroutine disc_evaluate
 
     !> Greedy + exchange T-optimal selection: sel[k] (in order, exchanged
     !> positions replaced in place), value = T of the selection and pairs[nh,nh]
@@ -291,7 +273,7 @@ contains
         gvalue = 0.0_dp
         pairs = 0.0_dp
         do step = 1, k
-            call evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, sel(1:step - 1)), chosen, tc, tnow, info)
+            call disc_evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, sel(1:step - 1)), chosen, tc, tnow, info)
             if (info /= sk_ok) return
             best = maxloc(tc, 1)
             chosen(best) = .true.
@@ -307,7 +289,7 @@ contains
                 r = sel(i)
                 skip = chosen
                 skip(r) = .false.
-                call evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, pack(sel, [(j /= i, j = 1, k)])), skip, &
+                call disc_evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, pack(sel, [(j /= i, j = 1, k)])), skip, &
                     tc, tnow, info)
                 if (info /= sk_ok) return
                 skip(r) = .true.

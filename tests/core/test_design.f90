@@ -2,14 +2,19 @@
 !> updates of M^-1 and of the per-candidate blocks B_c = J_c M^-1 J_c^T,
 !> C_c = J_c M^-1 Q M^-1 J_c^T after adding and removing a candidate equal
 !> the blocks rebuilt from scratch; the criterion change of adding a
-!> candidate (add_cache) and of a swap (swap_pass) equal the difference of
-!> direct evaluations; the greedy + exchange selection returns a value equal
-!> to the direct evaluation of its selection and never worse than greedy.
+!> candidate (add_cache) equals the difference of direct evaluations; the
+!> criterion after every greedy step, and after the exchange passes (the
+!> swap formulas of swap_pass), equals the direct evaluation of the
+!> selection, and the exchange is never worse than greedy. Discrimination:
+!> the noncentrality after adding each candidate by the Woodbury formula
+!> (disc_evaluate) equals the direct projection (disc_pairs) of the rows
+!> plus that candidate.
 program test_design
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_design
+    use sk_design_disc, only: disc_evaluate, disc_pairs, rows_of, tmin
     implicit none (type, external)
 
     integer, parameter :: npar = 7, nobs = 3, ncand = 25, nt = 4
@@ -28,6 +33,7 @@ program test_design
         call check_updates(crit)
         call check_select(crit)
     end do
+    call check_discrimination()
     call finish('design')
 
 contains
@@ -117,5 +123,30 @@ contains
         call expect(rel(value, direct(sel, c)) < 1e-11_dp, 'selected value = direct')
         call expect(passes >= 1 .and. passes < 50, 'exchange stopped')
     end subroutine check_select
+
+    !> Woodbury noncentralities of disc_evaluate against disc_pairs.
+    subroutine check_discrimination()
+        integer(ip), parameter :: n0 = 5, nob = 2, nc = 9, nh = 3
+        integer(ip) :: hoff(nh + 1), sel(2)
+        real(dp) :: f(n0 + nob * nc, nh), js(n0 + nob * nc, 7), tc(nc), tnow, pairs(nh, nh)
+        logical :: skip(nc)
+        integer(ip) :: info
+        integer :: c
+        call fill(f, size(f))
+        call fill(js, size(js))
+        hoff = [0_ip, 3_ip, 5_ip, 7_ip]
+        sel = [4_ip, 7_ip]
+        skip = .false.
+        skip(sel) = .true.
+        call disc_evaluate(f, js, hoff, n0, nob, rows_of(n0, nob, sel), skip, tc, tnow, info)
+        call expect(info == sk_ok, 'disc_evaluate')
+        call disc_pairs(f, js, hoff, rows_of(n0, nob, sel), pairs, info)
+        call expect(rel(tnow, tmin(pairs)) < 1e-10_dp, 'T of the rows = direct')
+        do c = 1, nc
+            if (skip(c)) cycle
+            call disc_pairs(f, js, hoff, rows_of(n0, nob, [sel, int(c, ip)]), pairs, info)
+            call expect(rel(tc(c), tmin(pairs)) < 1e-10_dp, 'T after adding a candidate = direct')
+        end do
+    end subroutine check_discrimination
 
 end program test_design
