@@ -273,3 +273,26 @@ def test_planned_postures_tell_the_springs_apart_10_seeds(robot):
     the arm lead the list)."""
     out = planned_vs_random(robot, 10)
     assert sum(out["planned"]) >= 8
+
+
+def test_diagnose_names_the_plan_command_on_a_tie(robot):
+    """A tie of the absolute diagnosis (text and JSON) names `stiffkit plan --discriminate`
+    with K = the postures measured (within 5..30); the tie as reported goes to plan_discriminate."""
+    from stiffkit.calib.absolute_diagnose_report import format_absolute_diagnosis, plan_command
+
+    rng = np.random.default_rng(136)  # a data seed whose 18 rows tie two arm compliances
+    data = measure(robot, postures(robot, 9, rng), rng)
+    dg = diagnose_absolute(robot.model, data)
+    assert len(dg.ties) == 1
+    want = "stiffkit plan MODEL.toml --discriminate --measured synthetic --select 9"
+    tie = dg.to_json()["ties"][0]
+    assert tie["plan_command"] == want and tie["plan_select"] == 9
+    assert f"  postures that would tell them apart: {want}" in format_absolute_diagnosis(dg).splitlines()
+    plan = plan_discriminate(robot.model, data, dg.ties[0], postures(robot, 20, rng), 4)
+    assert plan["hypotheses"] == tie["candidates"] and len(set(plan["selected"].tolist())) == 4
+    assert plan["value"] > 0
+    assert plan_command("my cell/m.toml", "runs/a.csv", 2) == (
+        "stiffkit plan 'my cell/m.toml' --discriminate --measured runs/a.csv --select 5",
+        5,
+    )
+    assert plan_command(None, None, 80)[1] == 30
