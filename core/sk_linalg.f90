@@ -14,7 +14,7 @@ module sk_linalg
     real(dp), parameter, public :: psd_tol = 1.0e-6_dp
     public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
-    public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small, matmul_tn, psd_defect
+    public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small, chol_small, matmul_tn, psd_defect
     public :: solve_inplace, lu_factor, lu_solve, qr_triangle, lstsq, group_by
 
     interface all_finite
@@ -580,6 +580,36 @@ contains
         info = sk_ok
     end subroutine spd_inverse
 
+    !> Cholesky a = l l^T of a small SPD a[n,n] by plain loops (no LAPACK
+    !> call: for blocks of a few rows, called in hot loops); l lower, upper
+    !> part zero; ok = .false. when a pivot^2 is <= tol.
+    pure subroutine chol_small(n, a, l, tol, ok)
+        integer, intent(in) :: n
+        real(dp), intent(in) :: a(n, n), tol
+        real(dp), intent(out) :: l(n, n)
+        logical, intent(out) :: ok
+        integer :: i, j, p
+        real(dp) :: d
+        l = 0.0_dp
+        ok = .false.
+        do j = 1, n
+            d = a(j, j)
+            do p = 1, j - 1
+                d = d - l(j, p)**2
+            end do
+            if (.not. (d > tol)) return
+            l(j, j) = sqrt(d)
+            do i = j + 1, n
+                d = a(i, j)
+                do p = 1, j - 1
+                    d = d - l(i, p) * l(j, p)
+                end do
+                l(i, j) = d / l(j, j)
+            end do
+        end do
+        ok = .true.
+    end subroutine chol_small
+
     !> Inverse of a small symmetric positive definite a[n,n] by an unrolled
     !> Cholesky (no LAPACK call: for the 6x6 blocks of the spring algebra) and
     !> the lower bound 1/(tr(a) tr(a^-1)) of its smallest/largest eigenvalue
@@ -594,22 +624,9 @@ contains
         ok = .false.
         bound = 0.0_dp
         ainv = 0.0_dp
-        l = 0.0_dp
-        do j = 1, n
-            s = a(j, j)
-            do k = 1, j - 1
-                s = s - l(j, k)**2
-            end do
-            if (.not. (s > 0.0_dp)) return
-            l(j, j) = sqrt(s)
-            do i = j + 1, n
-                s = a(i, j)
-                do k = 1, j - 1
-                    s = s - l(i, k)*l(j, k)
-                end do
-                l(i, j) = s/l(j, j)
-            end do
-        end do
+        call chol_small(n, a, l, 0.0_dp, ok)
+        if (.not. ok) return
+        ok = .false.
         ! li = l^-1 (lower triangular)
         li = 0.0_dp
         do j = 1, n

@@ -19,6 +19,8 @@ module sk_tree_check
     implicit none
     private
     public :: model_check, inputs_check, observations_check, rows_check, params_check, is_rotation
+    !> record the first argument error (shared with the design core's checks)
+    public :: fail
 
     integer, parameter, public :: vj_fixed = 0, vj_revolute = 1, vj_prismatic = 2
     integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4

@@ -1,0 +1,123 @@
+!> Entry points of the experiment-design core that f2py wraps
+!> (bindings/_design.pyf): plain external subroutines with explicit-shape
+!> arrays of iso_c_binding kinds, an integer `info` (sk_errors) and
+!> errloc[2] = [argument code, index] of an argument error (the codes of
+!> sk_design, darg_*); the numerics live in sk_design, whose header defines
+!> the criteria and the scaling.
+!>
+!> Shared arguments: jc[npar,nobs,ncand] (candidate c's whitened rows
+!> J_c^T, i.e. the Python array (ncand, nobs, npar) in C order), m0[npar,npar]
+!> (prior information, symmetric PSD; zeros for none), jt[npar,nt] (the
+!> task rows Jt^T; nt = 0 unless crit = 3), crit (1 D, 2 A, 3 task).
+!> Candidate indices are 1-based.
+
+!> Greedy + exchange selection of k candidates (sk_design%design_select):
+!> sel[k], value (huge when M stays singular: singular = 1), gvalue (the
+!> greedy selection's), path[k] (with the ridge when ridged = 1), passes, swaps,
+!> scale[npar].
+subroutine sk_design_select(npar, nobs, ncand, nt, jc, k, crit, m0, jt, max_passes, sel, value, gvalue, path, &
+        passes, swaps, scale, singular, ridged, info, errloc)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok, sk_err_argument
+    use sk_design, only: design_check, design_select, darg_k, darg_max_passes
+    implicit none
+    integer(c_int), intent(in) :: npar, nobs, ncand, nt, k, crit, max_passes
+    real(c_double), intent(in) :: jc(npar, nobs, ncand), m0(npar, npar), jt(npar, nt)
+    integer(c_int), intent(out) :: sel(k), passes, swaps, singular, ridged, info, errloc(2)
+    real(c_double), intent(out) :: value, gvalue, path(k), scale(npar)
+    integer(c_int) :: none(0)
+    sel = 0
+    path = 0
+    scale = 0
+    value = 0
+    gvalue = 0
+    passes = 0
+    swaps = 0
+    singular = 0
+    ridged = 0
+    call design_check(jc, m0, jt, crit, none, info, errloc)
+    if (info /= sk_ok) return
+    if (k < 1 .or. k > ncand) then
+        info = sk_err_argument
+        errloc = [darg_k, 0_c_int]
+        return
+    end if
+    if (max_passes < 0) then
+        info = sk_err_argument
+        errloc = [darg_max_passes, 0_c_int]
+        return
+    end if
+    call design_select(jc, k, crit, m0, jt, max_passes, sel, value, gvalue, path, passes, swaps, scale, singular, ridged, info)
+end subroutine sk_design_select
+
+!> Direct criterion of chosen[nch] (Cholesky from scratch): value (huge and
+!> bad = the first non-identifiable column when M is singular), scale[npar].
+subroutine sk_design_criterion(npar, nobs, ncand, nt, nch, jc, chosen, crit, m0, jt, value, bad, scale, info, errloc)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_design, only: design_check, criterion_direct
+    implicit none
+    integer(c_int), intent(in) :: npar, nobs, ncand, nt, nch, chosen(nch), crit
+    real(c_double), intent(in) :: jc(npar, nobs, ncand), m0(npar, npar), jt(npar, nt)
+    real(c_double), intent(out) :: value, scale(npar)
+    integer(c_int), intent(out) :: bad, info, errloc(2)
+    integer :: b
+    value = 0
+    scale = 0
+    bad = 0
+    call design_check(jc, m0, jt, crit, chosen, info, errloc)
+    if (info /= sk_ok) return
+    call criterion_direct(jc, m0, jt, chosen, crit, value, b, scale)
+    bad = int(b, c_int)
+end subroutine sk_design_criterion
+
+!> Covariance cov[npar,npar] = M^-1 of chosen[nch] in the caller's units;
+!> info = sk_err_singular and bad = the first non-identifiable column when
+!> M is singular.
+subroutine sk_design_covariance(npar, nobs, ncand, nch, jc, chosen, m0, cov, bad, info, errloc)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok, sk_err_singular
+    use sk_design, only: design_check, design_covariance, crit_d
+    implicit none
+    integer(c_int), intent(in) :: npar, nobs, ncand, nch, chosen(nch)
+    real(c_double), intent(in) :: jc(npar, nobs, ncand), m0(npar, npar)
+    real(c_double), intent(out) :: cov(npar, npar)
+    integer(c_int), intent(out) :: bad, info, errloc(2)
+    real(c_double) :: jt0(npar, 0)
+    integer :: b
+    cov = 0
+    bad = 0
+    call design_check(jc, m0, jt0, crit_d, chosen, info, errloc)
+    if (info /= sk_ok) return
+    call design_covariance(jc, m0, chosen, cov, b)
+    bad = int(b, c_int)
+    if (b > 0) info = sk_err_singular
+end subroutine sk_design_covariance
+
+!> T-optimal selection of k candidates (sk_design_disc%disc_select):
+!> f[nrow,nh] whitened predictions, jall[nrow,ptot] the hypotheses'
+!> whitened Jacobians side by side (hypothesis h: columns hoff(h)+1 ..
+!> hoff(h+1), hoff[nh+1]), the first n0 rows existing data, then ncand
+!> blocks of nobs rows. sel[k], value (the smallest noncentrality), gvalue
+!> (the greedy selection's), pairs[nh,nh] (data of a fitted by b), passes,
+!> swaps.
+subroutine sk_design_discriminate(nrow, nh, ptot, nh1, f, jall, hoff, n0, nobs, k, max_passes, sel, value, gvalue, &
+        pairs, passes, swaps, info, errloc)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_design_disc, only: disc_check, disc_select
+    implicit none
+    integer(c_int), intent(in) :: nrow, nh, ptot, nh1, hoff(nh1), n0, nobs, k, max_passes
+    real(c_double), intent(in) :: f(nrow, nh), jall(nrow, ptot)
+    integer(c_int), intent(out) :: sel(k), passes, swaps, info, errloc(2)
+    real(c_double), intent(out) :: value, gvalue, pairs(nh, nh)
+    sel = 0
+    value = 0
+    gvalue = 0
+    pairs = 0
+    passes = 0
+    swaps = 0
+    call disc_check(f, jall, hoff, n0, nobs, k, max_passes, info, errloc)
+    if (info /= sk_ok) return
+    call disc_select(f, jall, hoff, n0, nobs, k, max_passes, sel, value, gvalue, pairs, passes, swaps, info)
+end subroutine sk_design_discriminate
