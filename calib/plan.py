@@ -546,3 +546,49 @@ def plan(
         seed=seed,
         notes=notes,
     )
+
+
+def discriminate(
+    model: TreeModel | str | Path,
+    k: int,
+    measured: str | Path,
+    tied: list[str] | None = None,
+    candidates: int | None = None,
+    postures: object = None,
+    seed: int = 0,
+) -> tuple[dict, Candidates, TreeModel]:
+    """``stiffkit plan --discriminate``: the ``k`` feasible postures that best
+    tell apart the tied candidate effects ``tied`` (labels kind:target; by
+    default the first tie the diagnosis of ``measured`` reports), each fitted
+    to the rows measured so far (calib.plan_discriminate). Returns (the
+    result of plan_discriminate, the candidates, the model)."""
+    from .absolute_report import load_absolute
+    from .plan_discriminate import plan_discriminate
+
+    if measured is None:
+        raise InputError("--discriminate needs --measured MEAS.csv: the data the tied candidates are fitted to")
+    path = model if isinstance(model, (str, Path)) else model.path
+    if model_kind(path) != "absolute":
+        raise InputError(f"--discriminate: {path}: implemented for absolute (tracker) data")
+    model, data = load_absolute(path, measured)
+    if not tied:
+        from .absolute_diagnose import diagnose_absolute
+
+        dg = diagnose_absolute(model.copy(), data)
+        if not dg.ties:
+            raise InputError(
+                f"--discriminate: the diagnosis of {measured} finds no tie to tell apart; name the candidates: "
+                "--discriminate kind:target,kind:target"
+            )
+        tied = dg.ties[0]
+    settings = plan_settings(model)
+    if postures is not None:
+        Q, _t = read_postures(postures, model.actuated, "postures", _mimics(model))
+        cands = feasible(model, Q[_distinct(Q)], settings, str(postures))
+    else:
+        n = DEFAULT_CANDIDATES if candidates is None else V.count(candidates, "candidates", 1, 10**6)
+        cands = sample_postures(model, n, seed, settings)
+    k = V.count(k, "--select", 1)
+    if k > len(cands):
+        raise InputError(f"--select {k}: only {len(cands)} feasible candidates ({cands.summary()})")
+    return plan_discriminate(model, data, tied, cands, k, settings), cands, model

@@ -13,7 +13,15 @@ from ..io.files import atomic_write_text
 from .measure import DEFL, POINT, WRENCH
 from .plan import CORRELATED, WEAK_VIF, PlanResult
 
-__all__ = ["weak_parameters", "correlated_pairs", "postures_text", "write_postures", "plan_json", "plan_text"]
+__all__ = [
+    "absolute_postures_text",
+    "weak_parameters",
+    "correlated_pairs",
+    "postures_text",
+    "write_postures",
+    "plan_json",
+    "plan_text",
+]
 
 #: at most this many weak parameters and correlated pairs are reported
 SHOWN = 10
@@ -53,9 +61,18 @@ def weak_parameters(res: PlanResult) -> list[dict]:
     return out
 
 
-def _labels(res: PlanResult) -> list[str]:
-    width = max(2, len(str(res.k)))
-    return [f"plan{i + 1:0{width}d}" for i in range(res.k)]
+def _labels(res: PlanResult | int) -> list[str]:
+    k = res if isinstance(res, int) else res.k
+    width = max(2, len(str(k)))
+    return [f"plan{i + 1:0{width}d}" for i in range(k)]
+
+
+def absolute_postures_text(Q: np.ndarray, joint_names: list[str], frames: list[str]) -> str:
+    """POSTURES.csv of tracker data: a row per posture and marker, x y z empty."""
+    rows = [",".join(["config", *joint_names, "frame", "x", "y", "z"])]
+    for label, q in zip(_labels(len(Q)), Q):
+        rows += [",".join([label, *map(_num, q), f, "", "", ""]) for f in frames]
+    return "\n".join(rows) + "\n"
 
 
 def _num(v: float) -> str:
@@ -70,11 +87,7 @@ def postures_text(res: PlanResult) -> str:
     s = res.setup
     rows = []
     if s.kind == "absolute":
-        rows.append(",".join(["config", *s.joint_names, "frame", "x", "y", "z"]))
-        for label, c in zip(_labels(res), res.selected):
-            q = s.candidates.q[s.posture[c]]
-            for f in s.model.frames:
-                rows.append(",".join([label, *map(_num, q), f, "", "", ""]))
+        return absolute_postures_text(s.candidates.q[s.posture[res.selected]], s.joint_names, s.model.frames)
     else:
         dof = len(s.joint_names)
         rows.append(",".join(["config", *[f"q{i + 1}" for i in range(dof)], *WRENCH, *POINT, *DEFL]))

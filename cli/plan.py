@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..errors import InputError
 from ..io import validate as V
 from ..io.files import FIGURE_SUFFIXES, model_inputs
 from . import args as A
@@ -42,6 +43,7 @@ examples:
   stiffkit plan da/model.toml --select 40 --task da/targets.csv --out postures.csv --png plan.png
   stiffkit plan kr/model.toml --select 12 --candidates 5000 --criterion D --json plan.json
   stiffkit plan da/model.toml --select 10 --measured da/measurements.csv --from my_postures.csv
+  stiffkit plan da/model.toml --select 10 --measured da/measurements.csv --discriminate link:l_link1,link:trunk_1
   task.csv:  joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6
              0.1,-0.6,0.4,0.0,1.1,0.0
 """
@@ -73,6 +75,14 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--sigma", type=A.number("--sigma", "sigma_position", lo=0.0, lo_open=True), help="override sigma_position (m)"
     )
+    p.add_argument(
+        "--discriminate",
+        nargs="?",
+        const="",
+        metavar="A,B",
+        help="tracker data: the postures that best tell tied candidate effects apart (labels kind:target; "
+        "default: the first tie the diagnosis of --measured reports); needs --measured",
+    )
     p.add_argument("--out", metavar="POSTURES.csv", help="write the chosen postures here")
     p.add_argument("--json", metavar="OUT", help="write the report to this JSON file")
     p.add_argument("--png", metavar="OUT", help="write the figure here")
@@ -88,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
     for opt, suffixes in (("out", None), ("json", None), ("png", FIGURE_SUFFIXES)):
         if getattr(args, opt):
             V.output_path(getattr(args, opt), f"--{opt}", inputs, suffixes)
+    if args.discriminate is not None:
+        return run_discriminate(args)
     res = plan(
         args.model,
         args.select,
@@ -110,4 +122,43 @@ def run(args: argparse.Namespace) -> int:
         from ..calib.plan_plots import plan_figure
 
         print(f"wrote {plan_figure(res, args.png)}")
+    return 0
+
+
+def run_discriminate(args: argparse.Namespace) -> int:
+    """``--discriminate``: T-optimal postures between tied candidates (calib/plan_discriminate.py)."""
+    from ..calib.plan import discriminate
+    from ..calib.plan_report import absolute_postures_text
+    from ..io.files import atomic_write_text, write_json
+
+    if args.png or args.task or args.criterion:
+        raise InputError("--discriminate: --task, --criterion and --png belong to the parameter plans, not here")
+    tied = [t.strip() for t in args.discriminate.split(",") if t.strip()] or None
+    res, cands, model = discriminate(
+        args.model, args.select, args.measured, tied, args.candidates, args.postures, args.seed
+    )
+    Q = cands.q[res["selected"]]
+    names = res["hypotheses"]
+    print(
+        f"stiffkit plan --discriminate: {args.select} of {len(cands)} candidates ({cands.summary()}) to tell apart "
+        f"{', '.join(names)}"
+    )
+    print(f"smallest noncentrality between the hypotheses: {res['value']:.4g} (sigma^2 units; > ~10: told apart)")
+    w = max(len(n) for n in names)
+    for a, row in zip(names, res["pairs"]):
+        print(f"  {a:{w}s} " + " ".join(f"{v:10.4g}" for v in row))
+    if args.out:
+        print(f"wrote {atomic_write_text(args.out, absolute_postures_text(Q, cands.joint_names, model.frames))}")
+    if args.json:
+        doc = {
+            "command": "plan",
+            "discriminate": True,
+            "select": args.select,
+            "hypotheses": names,
+            "value": res["value"],
+            "pairs": res["pairs"],
+            "sigma_position_m": res["sigma_position_m"],
+            "selected": [dict(zip(cands.joint_names, map(float, q))) for q in Q],
+        }
+        print(f"wrote {write_json(args.json, doc)}")
     return 0

@@ -269,3 +269,42 @@ def test_dualarm_real_fits(dualarm):
     random = np.median([task_error(c) for c in _draws(s, k, 99)[:REAL_FITS]])
     print(f"dualarm real fits: plan {planned * 1e3:.4f} mm, random {random * 1e3:.4f} mm, ratio {planned / random:.3f}")
     assert planned <= RATIO * random
+
+
+def test_cli_discriminate(tmp_path, capsys):
+    """--discriminate wired to calib.plan_discriminate: the postures that tell
+    two link springs apart on 9 postures of a small tree (its candidates
+    named), written as POSTURES.csv that --from reads back."""
+    from stiffkit.calib.absolute_data import write_absolute
+    from stiffkit.calib.absolute_fit import predict
+    from stiffkit.calib.absolute_write import model_text
+    from stiffkit.calib.synth_trees import MARKER_XYZ, TRACKER, random_tree_urdf
+    from stiffkit.robot.tree import load_tree
+    from stiffkit.robot.tree_model import GRAVITY, tree_model_from_tables
+
+    (tmp_path / "robot.urdf").write_text(random_tree_urdf(np.random.default_rng(1), trunk=1, arm=2))
+    tree = load_tree(tmp_path / "robot.urdf")
+    frames = [{"kind": "tracker", "xyz": list(TRACKER["xyz"]), "rpy": list(TRACKER["rpy"])}]
+    frames += [{"kind": "marker", "target": ln, "xyz": list(v)} for ln, v in MARKER_XYZ.items()]
+    spring = np.diag([0.0, 0.0, 0.0, 3e-3, 1.5e-3, 1.5e-3]).tolist()
+    truth = tree_model_from_tables(tree, [*frames, {"kind": "link", "target": "l_link1", "value": spring}], GRAVITY)
+    # the fingers (finger_b = -finger_a, both limited to [0, 0.04]) stay closed
+    plan = "\n[plan]\nlimits = { finger_a = [0.0, 1e-9] }\n"
+    (tmp_path / "model.toml").write_text(model_text(frames, sigma_position=1e-4, gravity=GRAVITY) + plan)
+    rng = np.random.default_rng(100)
+    Q = rng.uniform(-1.4, 1.4, (9, len(tree.actuated)))
+    Q[:, tree.actuated.index("finger_a")] = 0.0
+    data = P._abs_data(truth, Q, path=str(tmp_path / "m.csv"))
+    data.xyz = predict(truth, data, truth.theta0)["pred"] + 1e-4 * rng.normal(size=data.xyz.shape)
+    write_absolute(tmp_path / "m.csv", data)
+    argv = ["plan", tmp_path / "model.toml", "--select", "5", "--candidates", "60", "--measured", tmp_path / "m.csv"]
+    argv += ["--discriminate", "link:l_link1,link:trunk_1", "--out", tmp_path / "p.csv", "--json", tmp_path / "p.json"]
+    assert main([str(a) for a in argv]) == 0, capsys.readouterr().err
+    doc = json.loads((tmp_path / "p.json").read_text())
+    assert doc["hypotheses"][0].startswith("link:l_link1") and len(doc["selected"]) == 5
+    pairs = np.array(doc["pairs"])
+    assert doc["value"] == pytest.approx(min(pairs[0, 1], pairs[1, 0]), rel=1e-9)
+    back = P.build_setup(P.load_plan_model(tmp_path / "model.toml"), postures=tmp_path / "p.csv")
+    assert back.candidates.q.shape[0] == 5
+    assert main([str(a) for a in argv[:6]] + ["--discriminate"]) == 2  # no --measured
+    assert "--discriminate needs --measured" in capsys.readouterr().err
