@@ -6,6 +6,7 @@
 >>> res = stiffkit.calib.fit("model.toml", "measurements.csv")      # same names as the CLI
 >>> dg = stiffkit.calib.diagnose("model.toml", "measurements.csv")
 >>> print(stiffkit.calib.compare("j1.json", "c2.json"))
+>>> pl = stiffkit.plan("model.toml", 12, task="task.csv")       # which postures to measure
 """
 
 from ..robot.model import Model, load_model, model_from_tables
@@ -15,6 +16,7 @@ from .diagnose import Candidate, Diagnosis, diagnose, format_diagnosis
 from .dualarm import synth_dualarm
 from .fit import FitResult, Problem, error_stats, fit, format_parameters, format_table, identified_model, write_model
 from .measure import Measurements, read_measurements, write_measurements
+from .plan import PlanResult, plan
 from .reduce import Reduction, format_reduction, reduce_model
 from .synth import kr270_truth, synth_kr270, synthesize, write_synth
 
@@ -48,4 +50,6 @@ __all__ = [
     "kr270_truth",
     "synth_dualarm",
     "write_model",
+    "plan",
+    "PlanResult",
 ]

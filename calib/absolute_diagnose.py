@@ -56,7 +56,7 @@ from .absolute_candidates import (
     params_of,
 )
 from .absolute_data import AbsoluteData, row_values
-from .absolute_diagnose_report import AbsoluteDiagnosis, format_absolute_diagnosis
+from .absolute_diagnose_report import AbsoluteDiagnosis, format_absolute_diagnosis, plan_command
 from .absolute_fit import (
     AbsoluteFit,
     _loads,
@@ -257,6 +257,8 @@ def diagnose_absolute(
             dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, ext.names, sig_decl, log_p, alpha
         )
     held_for_addition(dg)
+    for t in dg.ties:  # name the command that plans the postures to tell them apart
+        t["plan_command"], t["plan_select"] = plan_command(model.path, data.path, data.n_postures)
     if not sig_decl:
         dg.warnings.append(
             "no sigma_position declared: the residual cannot be called noise by a chi-square test; the verdict "

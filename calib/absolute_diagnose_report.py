@@ -6,6 +6,7 @@ act and why, the backward steps, the proposal as a ready [[effect]] table.
 from __future__ import annotations
 
 import math
+import shlex
 from dataclasses import dataclass, field
 
 from .absolute_fit import AbsoluteFit, position_stats
@@ -13,7 +14,20 @@ from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
 from .diagnose_report import effect_toml
 
-__all__ = ["AbsoluteDiagnosis", "format_absolute_diagnosis"]
+__all__ = ["AbsoluteDiagnosis", "format_absolute_diagnosis", "plan_command"]
+
+#: the postures suggested to tell tied candidates apart: as many again as measured, within these bounds
+PLAN_SELECT = (5, 30)
+
+
+def plan_command(model_path: object, meas_path: object, n_postures: int) -> tuple[str, int]:
+    """The command that plans the postures telling tied candidates apart
+    (``stiffkit plan --discriminate``, calib/plan_discriminate.py) and the
+    K it suggests: as many postures again as measured, within PLAN_SELECT."""
+    k = min(max(int(n_postures), PLAN_SELECT[0]), PLAN_SELECT[1])
+    model = shlex.quote(str(model_path)) if model_path else "MODEL.toml"
+    meas = shlex.quote(str(meas_path)) if meas_path else "MEAS.csv"
+    return f"stiffkit plan {model} --discriminate --measured {meas} --select {k}", k
 
 
 @dataclass
@@ -128,6 +142,8 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
             lines.append(f"  {reason}: {', '.join(labels[:12])}{more}")
     for t in dg.ties:
         lines.append("tied (held-out errors within the margin): " + ", ".join(t["candidates"]))
+        if t.get("plan_command"):
+            lines.append(f"  postures that would tell them apart: {t['plan_command']}")
     st = dg.residual_structure or {}
     for key, what in (("posture", "neighbouring postures"), ("order", "consecutive configurations")):
         if isinstance(st.get(key), dict):

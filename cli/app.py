@@ -51,6 +51,7 @@ COMMANDS = [
     ("stiffkit.cli.diagnose", "diagnose: is the residual noise? rank the missing effects"),
     ("stiffkit.cli.evaluate", "evaluate: the errors of a model with values on (fresh) measurements, nothing fitted"),
     ("stiffkit.cli.compensate", "compensate: joint commands that make the identified robot reach the nominal targets"),
+    ("stiffkit.cli.plan", "plan: which postures to measure (optimal calibration experiment)"),
     ("stiffkit.cli.compare", "compare: two fit results side by side"),
     ("stiffkit.cli.synth", "synth: calibration data with a known truth and hidden effects"),
     ("stiffkit.cli.link", "link: a link's compliance matrix from its CAD (Gmsh + CalculiX + field fit)"),
@@ -70,6 +71,7 @@ examples:
   stiffkit diagnose kr270/model.toml kr270/measurements.csv
   stiffkit evaluate fitted.toml fresh.csv    a fitted model's errors on new postures
   stiffkit compensate identified.toml targets.csv --out commands.csv
+  stiffkit plan kr270/model.toml --select 12 --task task.csv --out postures.csv   what to measure
   stiffkit COMMAND --help             what a command does, its inputs and outputs
 
 All files are SI (m, N, N m, rad). Bad input gives one line naming the file,

@@ -7,10 +7,10 @@ diagnosis against measurements. The numbers are computed in a Fortran core
 pipeline: ``meshing`` -> ``fea`` -> ``field`` -> ``robot`` -> ``springs`` /
 ``calib``, and ``cli`` is the command line. The commands of the calibration
 contract are callable from Python with the same names (``fit``,
-``diagnose``, ``compare``, ``compensate``, ``load_model``).
+``diagnose``, ``compare``, ``compensate``, ``plan``, ``load_model``).
 """
 
-from .calib import compare, diagnose, fit
+from .calib import compare, diagnose, fit, plan
 from .errors import (
     ConvergenceError,
     DegenerateError,
@@ -59,6 +59,7 @@ __all__ = [
     "fit",
     "diagnose",
     "compare",
+    "plan",
     "sweep",
     "__version__",
 ]

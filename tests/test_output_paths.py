@@ -99,6 +99,8 @@ KR_IN = lambda w: [w / "kr" / "model.toml", w / "kr" / "robot.urdf", w / "kr" / 
 DA = lambda w: [w / "da" / "model.toml", w / "da" / "measurements.csv"]  # noqa: E731
 DA_IN = lambda w: [w / "da" / "model.toml", w / "da" / "robot.urdf", w / "da" / "measurements.csv"]  # noqa: E731
 COMP_IN = lambda w: [w / "da" / "truth.toml", w / "da" / "robot.urdf", w / "da" / "targets.csv"]  # noqa: E731
+PLAN = lambda w: [w / "da" / "model.toml", "--select", "6", "--candidates", "20", "--task", w / "da" / "targets.csv"]  # noqa: E731
+PLAN_IN = lambda w: [w / "da" / "model.toml", w / "da" / "robot.urdf", w / "da" / "targets.csv"]  # noqa: E731
 LINK_IN = lambda w: [w / "beam.toml"]  # noqa: E731
 FIELD_IN = lambda w: [w / "field" / "nodes.csv", w / "field" / "d3.csv"]  # noqa: E731
 VALUES_IN = lambda w: [w / "kr" / "truth.toml", w / "kr" / "robot.urdf"]  # noqa: E731
@@ -142,6 +144,9 @@ OUTPUTS = [
         lambda w: ["stiffness", w / "kr" / "truth.toml", "--posture", "0,0.5,-0.5,0,0.7,0"],
         VALUES_IN,
     ),
+    Out("plan-out", "--out", ".csv", lambda w: ["plan", *PLAN(w)], PLAN_IN),
+    Out("plan-json", "--json", ".json", lambda w: ["plan", *PLAN(w)], PLAN_IN),
+    Out("plan-png", "--png", ".png", lambda w: ["plan", *PLAN(w)], PLAN_IN),
     Out("robot-orthoglide-json", "--json", ".json", lambda w: ["robot", "orthoglide"], lambda w: []),
     Out("field-json", "--json", ".json", _field_args, FIELD_IN),
     Out(

@@ -1,0 +1,594 @@
+"""Optimal experiment design: which postures to measure (``stiffkit plan``,
+docs/plan.md).
+
+For every candidate (a feasible posture for tracker data; a posture and a
+load of the ``[plan]`` table for deflection data) the whitened Jacobian of
+the identifiable parameters at the model's current values is computed by
+the fit's own evaluators (calib.absolute_fit.predict, calib.problem.Problem)
+after the fit's own reduction (absolute_fit.reduce_parameters, calib.reduce),
+so that what the fit would not identify is not planned for. The core
+(stiffkit._core.design) chooses K candidates by greedy selection and
+exchange; this module builds its inputs and compares the plan with random
+feasible designs of the same size (plan_report.py writes what it found).
+
+The task rows: the position of every marker (tracker data; the tracker's
+own parameters do not move the robot, their columns are zero) or the
+deflection of the tool point under the task load (deflection data) at the
+task postures; without a task file, at the candidates themselves (the
+sampled workspace).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._core import design
+from ..errors import InputError
+from ..io import validate as V
+from ..io.tables import read_table
+from ..robot.model import Model, load_model
+from ..robot.plan_candidates import Candidates, feasible, plan_settings, sample_postures
+from ..robot.tree_model import TreeModel, load_tree_model, model_kind
+from .absolute_data import AbsoluteData
+from .absolute_fit import predict, reduce_parameters, set_deadzone_scales
+from .measure import DEFL, POINT, ROT, WRENCH, Measurements, read_measurements
+from .problem import Problem
+from .reduce import reduce_model
+
+__all__ = ["PlanSetup", "PlanResult", "plan", "build_setup", "read_postures", "DEFAULT_CANDIDATES", "RANDOM_DESIGNS"]
+
+#: candidates sampled when neither --candidates nor --from is given
+DEFAULT_CANDIDATES = 2000
+#: random feasible designs the plan is compared with (their median)
+RANDOM_DESIGNS = 20
+#: sigma of a tracker coordinate assumed when the model declares none (m)
+ASSUMED_SIGMA = 1.0e-4
+#: a parameter whose variance is inflated by more than this (against an orthogonal design) is weak
+WEAK_VIF = 10.0
+#: |correlation| above which two parameters are reported as a correlated pair
+CORRELATED = 0.9
+#: columns of a posture file that are not joints
+OTHER_COLUMNS = ("config", "frame", "weight", "x", "y", "z", *WRENCH, *POINT, *DEFL, *ROT)
+
+
+@dataclass
+class PlanSetup:
+    """The design problem: ``jc`` (ncand, nobs, npar) whitened rows of the
+    identifiable parameters ``names``; candidate c is posture ``posture[c]``
+    of ``candidates.q`` with load ``loads[c]`` (deflection data); ``jt``
+    (nt, npar) task rows (m per unit parameter), row r at task posture
+    ``task_of[r]`` of ``task_q``; ``m0`` the information of what was already
+    measured (or None); ``not_planned`` (name, why) of the parameters left out."""
+
+    kind: str
+    model: object
+    names: list[str]
+    jc: np.ndarray
+    posture: np.ndarray
+    loads: np.ndarray | None
+    candidates: Candidates
+    jt: np.ndarray
+    task_q: np.ndarray
+    task_of: np.ndarray
+    task_source: str
+    m0: np.ndarray | None
+    measured_rows: int
+    sigma: float
+    sigma_source: str
+    not_planned: list[tuple[str, str]] = field(default_factory=list)
+    points: np.ndarray | None = None
+
+    @property
+    def has_task(self) -> bool:
+        return not self.task_source.startswith("the candidates")
+
+    @property
+    def nobs(self) -> int:
+        return int(self.jc.shape[1])
+
+    @property
+    def npar(self) -> int:
+        return int(self.jc.shape[2])
+
+    @property
+    def joint_names(self) -> list[str]:
+        return self.candidates.joint_names
+
+
+@dataclass
+class PlanResult:
+    """What :func:`plan` found (the report's numbers; plan_report.py shows them)."""
+
+    setup: PlanSetup
+    k: int
+    criterion: str
+    selected: np.ndarray  # (k,) 0-based candidates
+    value: float
+    greedy_value: float
+    passes: int
+    swaps: int
+    random_values: np.ndarray  # (RANDOM_DESIGNS,) the criterion of each random design (+inf: singular)
+    task_trace: float
+    random_task_traces: np.ndarray
+    std: np.ndarray  # (npar,) expected standard deviation of each parameter
+    vif: np.ndarray  # (npar,) variance inflation
+    corr: np.ndarray  # (npar, npar)
+    task_posture_rms: np.ndarray  # (ntp,) expected error per task posture, the plan (m)
+    random_posture_rms: np.ndarray  # (ntp,) the same, median over the random designs (m)
+    seed: int = 0
+    notes: list[str] = field(default_factory=list)
+    discrimination: dict | None = None
+
+    @property
+    def task_rms(self) -> float:
+        """Expected RMS position error over the task points (m): sqrt(trace / points)."""
+        return _rms(self.task_trace, self.setup)
+
+    @property
+    def random_task_rms(self) -> float:
+        return _rms(float(np.median(self.random_task_traces)), self.setup)
+
+    @property
+    def ratio(self) -> float:
+        """Expected task error of the plan over the median of the random designs."""
+        r = self.random_task_rms
+        return self.task_rms / r if math.isfinite(r) and r > 0 else 0.0
+
+
+def _rms(trace: float, setup: PlanSetup) -> float:
+    return math.sqrt(trace / (setup.jt.shape[0] / 3)) if math.isfinite(trace) else math.inf
+
+
+# ---------------------------------------------------------------------------- files
+
+
+def read_postures(
+    path: str | Path, joints: list[str], what: str, mimics: dict | None = None, allowed: tuple = OTHER_COLUMNS
+) -> tuple[np.ndarray, object]:
+    """Joint values (n, nq) of a posture CSV, columns named as ``joints``
+    (or q1..qN); other columns must be among ``allowed`` (a column named
+    neither is an unknown joint: InputError naming the file and the column).
+    Returns (Q, table)."""
+    path = Path(path)
+    t = read_table(path, what)
+    head = t.header
+    mimics = mimics or {}
+    qnames = [f"q{k + 1}" for k in range(len(joints))]
+    for h in head:
+        if h in mimics:
+            raise InputError(
+                f"{path}, line 1: column {h!r} is a mimic joint (it follows {mimics[h]!r}); give only the actuated "
+                f"joints ({', '.join(joints)})"
+            )
+        if h not in joints and h not in qnames and h not in allowed:
+            raise InputError(
+                f"{path}, line 1, column {h!r}: not a joint of the robot (actuated joints: {', '.join(joints)}; "
+                f"other columns read: {', '.join(allowed)})"
+            )
+    if all(j in head for j in joints):
+        cols = list(joints)
+    elif all(q in head for q in qnames) and not any(j in head for j in joints):
+        cols = qnames
+    else:
+        missing = [j for j in joints if j not in head]
+        raise InputError(
+            f"{path}, line 1: missing joint column(s) {', '.join(missing)} (a column per actuated joint, or "
+            f"q1..q{len(joints)}; header has: {', '.join(head)})"
+        )
+    if not len(t):
+        raise InputError(f"{path}: no rows")
+    return t.numbers(cols, "angle"), t
+
+
+def _distinct(Q: np.ndarray) -> np.ndarray:
+    """Indices of the first row of each distinct posture (rows of one posture repeat per marker or load)."""
+    _u, first = np.unique(np.round(Q, 12), axis=0, return_index=True)
+    return np.sort(first)
+
+
+def _mimics(model: object) -> dict:
+    tree = getattr(model, "tree", None)
+    return {} if tree is None else {j.name: tree.leader(j.name)[0] for j in tree.joints if j.mimic is not None}
+
+
+def load_plan_model(path: str | Path) -> TreeModel | Model:
+    """The model of a model file, by its [measurements] kind."""
+    return load_tree_model(path) if model_kind(path) == "absolute" else load_model(path)
+
+
+# ---------------------------------------------------------------------------- absolute data
+
+
+def _abs_data(model: TreeModel, Q: np.ndarray, frames: np.ndarray | None = None, path: str = "plan") -> AbsoluteData:
+    """Rows at the postures Q: every marker of each posture, or ``frames`` (one per posture row)."""
+    n, nf = Q.shape[0], len(model.frames)
+    if frames is None:
+        posture, frame = np.repeat(np.arange(n), nf), np.tile(np.arange(nf), n)
+    else:
+        posture, frame = np.arange(n), np.asarray(frames, int)
+    return AbsoluteData(
+        path=path,
+        joints=list(model.actuated),
+        configs=[f"c{k + 1}" for k in range(n)],
+        Q=np.asarray(Q, float),
+        posture=posture,
+        frame=frame,
+        frames=list(model.frames),
+        xyz=np.zeros((posture.size, 3)),
+        weight=np.ones(posture.size),
+        lines=np.arange(posture.size) + 2,
+    )
+
+
+def _abs_jac(model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray) -> np.ndarray:
+    return np.asarray(predict(model, data, theta, free)["jac"], float)
+
+
+def _abs_setup(model: TreeModel, cands: Candidates, task: object, measured: object, sigma: float) -> dict:
+    from .absolute_data import read_absolute
+
+    model = model.copy()
+    theta = model.theta0
+    free = model.free
+    if free.size == 0:
+        raise InputError(f"{model.path or 'model'}: every parameter is fixed; nothing to plan for")
+    data = _abs_data(model, cands.q)
+    set_deadzone_scales(model, data, theta)
+    J = _abs_jac(model, data, theta, free) / sigma
+    Jm, nmeas = np.zeros((0, free.size)), 0
+    if measured is not None:
+        tree = model.tree
+        needed = {tree.leader(j.name)[0] for f in model.frames for j in tree.path(f) if j.moving}
+        mdata = read_absolute(measured, model.actuated, model.frames, _mimics(model), needed)
+        w = np.repeat(mdata.weight, 3)
+        Jm = _abs_jac(model, mdata, theta, free) * np.sqrt(w)[:, None] / sigma
+        nmeas = int(np.sum(mdata.weight > 0))
+    red = reduce_parameters(model, np.vstack([Jm, J]), free)
+    cols = np.searchsorted(free, red.kept)
+    names = [model.names[i] for i in red.kept]
+    nobs = 3 * len(model.frames)
+    jc = J[:, cols].reshape(len(cands), nobs, cols.size)
+    m0 = None
+    if measured is not None:
+        m0 = Jm[:, cols].T @ Jm[:, cols]
+    prior = [(k, model.priors[n]) for k, n in enumerate(names) if n in model.priors]
+    if prior:  # the fit's weak priors of the gravity parameters toward the URDF
+        m0 = np.zeros((cols.size, cols.size)) if m0 is None else m0
+        for k, s in prior:
+            m0[k, k] += 1.0 / s**2
+    if task is None:
+        tq, tdata, source = cands.q, data, "the candidates (no --task: the sampled workspace)"
+    else:
+        tq, ttab = read_postures(task, model.actuated, "task", _mimics(model), ("config", "frame"))
+        frames = None
+        if ttab.has("frame"):
+            frames = []
+            for name, line in zip(ttab.text("frame"), ttab.lines):
+                if name not in model.frames:
+                    raise InputError(
+                        f"{task}, line {line}, field 'frame': {name!r} has no marker in the model "
+                        f"(markers: {', '.join(model.frames)})"
+                    )
+                frames.append(model.frames.index(name))
+        tdata, source = _abs_data(model, tq, frames, str(task)), str(task)
+    jt = _abs_jac(model, tdata, theta, red.kept)
+    tracker = [k for k, i in enumerate(red.kept) if model.params[i].kind == "tracker"]
+    jt[:, tracker] = 0.0  # the tracker's pose does not move the robot
+    not_planned = red.dropped + red.merged
+    return dict(
+        names=names, jc=jc, posture=np.arange(len(cands)), loads=None, jt=jt, task_q=tq,
+        task_of=np.repeat(tdata.posture, 3), task_source=source, m0=m0, measured_rows=nmeas,
+        not_planned=not_planned,
+    )  # fmt: skip
+
+
+# ---------------------------------------------------------------------------- deflection data
+
+
+def _defl_meas(Q: np.ndarray, W: np.ndarray, points: np.ndarray, path: str) -> Measurements:
+    """Rows: each (posture, load) pair at every point (pairs major)."""
+    npt = points.shape[0]
+    n = Q.shape[0] * npt
+    return Measurements(
+        q=np.repeat(Q, npt, axis=0),
+        w=np.repeat(W, npt, axis=0),
+        p=np.tile(points, (Q.shape[0], 1)),
+        d=np.zeros((n, 3)),
+        r=None,
+        config=[f"c{k // npt + 1}" for k in range(n)],
+        lines=list(range(2, n + 2)),
+        path=path,
+    )
+
+
+def _defl_rows(model: Model, meas: Measurements, names: list[str], sigma: float) -> np.ndarray:
+    """(n, 3, npar) whitened position rows of the parameters ``names``."""
+    pb = Problem(model, meas, sigma_position=sigma)
+    _pred, J = pb.evaluate(np.zeros(pb.npar))
+    cols = [pb.names.index(n) for n in names]
+    return J[:3][:, :, cols].transpose(1, 0, 2) / sigma
+
+
+def _defl_setup(model: Model, cands: Candidates, task: object, measured: object, sigma: float, points: object) -> dict:
+    nonlinear = [t.kind for t in model.terms if t.free and t.nonlinear]
+    if nonlinear:
+        raise InputError(
+            f"{model.path or 'model'}: a free {nonlinear[0]} is nonlinear: its rows depend on values the plan does "
+            "not have; fix its value (or remove it) to plan for the linear parameters"
+        )
+    if cands.loads is None:
+        raise InputError(
+            f"{model.path or 'model'}: [plan] loads missing: deflection data need the loads you can apply, "
+            "e.g. [plan] loads = [[0, 0, -2500, 0, 0, 0], [2500, 0, 0, 0, 0, 0]] (N, N m, at the tool frame)"
+        )
+    pts = np.zeros((1, 3)) if points is None else V.array(points, "points", (None, 3), "position")
+    nl, npt = cands.loads.shape[0], pts.shape[0]
+    posture = np.repeat(np.arange(len(cands)), nl)
+    loads = np.tile(cands.loads, (len(cands), 1))
+    cmeas = _defl_meas(cands.q[posture], loads, pts, "plan candidates")
+    mmeas = read_measurements(measured, model.chain.dof) if measured is not None else None
+    both = cmeas
+    if mmeas is not None:
+        both = _defl_meas(np.vstack([mmeas.q, cmeas.q]), np.vstack([mmeas.w, cmeas.w]), np.zeros((1, 3)), "plan")
+        both.p = np.vstack([mmeas.p, cmeas.p])
+    red = reduce_model(model, both, sigma_position=sigma)
+    names = list(red.selected)
+    if not names:
+        raise InputError(f"{model.path or 'model'}: no parameter is identifiable from these candidates")
+    jc = _defl_rows(model, cmeas, names, sigma).reshape(posture.size, 3 * npt, len(names))
+    m0, nmeas = None, 0
+    if mmeas is not None:
+        pb = Problem(model, mmeas, sigma_position=sigma)
+        _p, J = pb.evaluate(np.zeros(pb.npar))
+        A = pb.weighted(J[:, :, [pb.names.index(n) for n in names]])
+        m0, nmeas = A.T @ A, mmeas.n
+    if task is None:
+        tq, tw, source = cands.q[posture], loads, "the candidates (no --task: the sampled workspace)"
+        t_of = posture
+    else:
+        q, ttab = read_postures(task, model.chain.actuated, "task", None, ("config", *WRENCH))
+        if ttab.has("fx") or any(ttab.has(c) for c in WRENCH):
+            ttab.require(WRENCH, " (a task load: all of fx fy fz mx my mz, or none: every [plan] load)")
+            tq, tw = q, np.hstack([ttab.numbers(WRENCH[:3], "force"), ttab.numbers(WRENCH[3:], "moment")])
+            t_of = np.arange(q.shape[0])
+        else:
+            t_of = np.repeat(np.arange(q.shape[0]), nl)
+            tq, tw = q[t_of], np.tile(cands.loads, (q.shape[0], 1))
+        source = str(task)
+    tmeas = _defl_meas(tq, tw, np.zeros((1, 3)), "task")
+    jt = (_defl_rows(model, tmeas, names, sigma) * sigma).reshape(-1, len(names))
+    task_q = cands.q if task is None else q
+    not_planned = [(n, "no influence on the data (G2)") for n in red.g2]
+    not_planned += [(n, "merged into its link spring (M3)") for n in red.aggregated]
+    not_planned += [(n, "coupled with the selected parameters (M5c: fixed)") for n in red.fixed]
+    return dict(
+        names=names, jc=jc, posture=posture, loads=loads, jt=jt, task_q=task_q, task_of=np.repeat(t_of, 3),
+        task_source=source, m0=m0, measured_rows=nmeas, not_planned=not_planned, points=pts,
+    )  # fmt: skip
+
+
+# ---------------------------------------------------------------------------- the plan
+
+
+def build_setup(
+    model: TreeModel | Model | str | Path,
+    candidates: int | None = None,
+    postures: object = None,
+    task: object = None,
+    measured: object = None,
+    seed: int = 0,
+    sigma_position: float | None = None,
+    points: object = None,
+) -> PlanSetup:
+    """The design problem of ``model`` (module docstring): ``candidates``
+    postures sampled with ``seed``, or ``postures`` (a CSV path or an array
+    (m, nq)) checked by the same rules; ``task`` a TASK.csv; ``measured`` a
+    measurement CSV of rows already measured; ``points`` (deflection data)
+    the point offsets measured in each posture (tool frame, m; default the
+    tool origin)."""
+    if isinstance(model, (str, Path)):
+        model = load_plan_model(model)
+    settings = plan_settings(model)
+    absolute = isinstance(model, TreeModel)
+    joints = model.actuated if absolute else model.chain.actuated
+    if postures is not None:
+        where = "postures"
+        if isinstance(postures, (str, Path)):
+            where = str(postures)
+            Q, _t = read_postures(postures, joints, "postures", _mimics(model))
+            Q = Q[_distinct(Q)]
+        else:
+            Q = np.atleast_2d(np.asarray(postures, float))
+        cands = feasible(model, Q, settings, where)
+        if not len(cands):
+            first = next(iter(cands.failed.items()), None)
+            why = f": row {first[0] + 1}: {first[1]}" if first else ""
+            raise InputError(f"{where}: no feasible candidate among {Q.shape[0]} postures{why}")
+    else:
+        n = DEFAULT_CANDIDATES if candidates is None else V.count(candidates, "candidates", 1, 10**6)
+        cands = sample_postures(model, n, seed, settings)
+    if sigma_position is not None:
+        sigma, source = V.number(sigma_position, "sigma_position", "sigma_position", lo=0.0, lo_open=True), "given"
+    elif model.sigma_position:
+        sigma, source = float(model.sigma_position), "the model's [measurements] sigma_position"
+    else:
+        sigma, source = ASSUMED_SIGMA, "assumed: the model declares no sigma_position; the errors scale with it"
+    if absolute:
+        parts = _abs_setup(model, cands, task, measured, sigma)
+    else:
+        parts = _defl_setup(model, cands, task, measured, sigma, points)
+    return PlanSetup(
+        kind="absolute" if absolute else "deflection",
+        model=model,
+        candidates=cands,
+        sigma=sigma,
+        sigma_source=source,
+        **parts,
+    )
+
+
+def _check_k(setup: PlanSetup, k: int) -> int:
+    k = V.count(k, "--select", 1)
+    ncand = setup.jc.shape[0]
+    what = "(posture, load) candidates" if setup.kind == "deflection" else "feasible candidates"
+    if k > ncand:
+        c = setup.candidates
+        raise InputError(
+            f"--select {k}: only {ncand} {what} ({c.summary()}); sample more (--candidates) or loosen [plan]"
+        )
+    known = 0 if setup.m0 is None else int(np.linalg.matrix_rank(setup.m0))
+    need = max(0, setup.npar - known)
+    if setup.nobs * k < need:
+        kmin = math.ceil(need / setup.nobs)
+        extra = f" (besides the {known} directions already measured)" if known else ""
+        raise InputError(
+            f"--select {k}: {k} x {setup.nobs} observations per candidate = {k * setup.nobs} < {need} identifiable "
+            f"parameters{extra}: the minimum is --select {kmin}"
+        )
+    return k
+
+
+def _posture_rms(setup: PlanSetup, cov: np.ndarray | None) -> np.ndarray:
+    ntp = setup.task_q.shape[0]
+    if cov is None:
+        return np.full(ntp, math.inf)
+    var = np.einsum("ij,jk,ik->i", setup.jt, cov, setup.jt)
+    tot = np.bincount(setup.task_of, var, ntp)
+    pts = np.bincount(setup.task_of, None, ntp) / 3
+    return np.sqrt(np.divide(tot, pts, out=np.zeros(ntp), where=pts > 0))
+
+
+def _cov(setup: PlanSetup, chosen: np.ndarray) -> np.ndarray | None:
+    try:
+        return design.covariance(setup.jc, chosen, m0=setup.m0)
+    except design.DesignError:
+        return None
+
+
+def plan(
+    model: TreeModel | Model | str | Path,
+    k: int,
+    criterion: str | None = None,
+    candidates: int | None = None,
+    postures: object = None,
+    task: object = None,
+    measured: object = None,
+    seed: int = 0,
+    sigma_position: float | None = None,
+    points: object = None,
+    setup: PlanSetup | None = None,
+) -> PlanResult:
+    """Plan ``k`` measurements of ``model`` (a model file or a loaded
+    model): the Python face of ``stiffkit plan`` (docs/plan.md).
+    ``criterion``: "task" (default with a task file), "D" (default
+    without) or "A"; the other arguments as :func:`build_setup` (or a
+    ``setup`` already built). Returns a :class:`PlanResult`; its
+    ``.to_json()`` and ``.text()`` are the command's report."""
+    crit = criterion or ("task" if (task is not None if setup is None else setup.has_task) else "D")
+    if crit not in design.CRITERIA:
+        raise InputError(f"--criterion {crit!r}: choose one of {', '.join(design.CRITERIA)}")
+    seed = V.count(seed, "seed", 0)
+    if setup is None:
+        setup = build_setup(model, candidates, postures, task, measured, seed, sigma_position, points)
+    k = _check_k(setup, k)
+    jt = setup.jt
+    res = design.select(setup.jc, k, crit, m0=setup.m0, jt=jt if crit == "task" else None)
+    chosen = np.asarray(res.selected, int)
+    rng = np.random.default_rng(seed + 1)
+    ncand = setup.jc.shape[0]
+    draws = [np.sort(rng.choice(ncand, k, replace=False)) for _ in range(RANDOM_DESIGNS)]
+    rv = np.array([design.criterion(setup.jc, d, crit, m0=setup.m0, jt=jt if crit == "task" else None) for d in draws])
+    rt = np.array([design.criterion(setup.jc, d, "task", m0=setup.m0, jt=jt) for d in draws])
+    trace = float(res.value) if crit == "task" else design.criterion(setup.jc, chosen, "task", m0=setup.m0, jt=jt)
+    cov = _cov(setup, chosen)
+    M = sum(setup.jc[c].T @ setup.jc[c] for c in chosen) + (0 if setup.m0 is None else setup.m0)
+    notes = []
+    if cov is None:
+        npar = setup.npar
+        std = vif = np.full(npar, math.inf)
+        corr = np.full((npar, npar), np.nan)
+        try:
+            design.covariance(setup.jc, chosen, m0=setup.m0)
+        except design.DesignError as exc:
+            col = getattr(exc, "column", None)
+            which = setup.names[col] if col is not None and 0 <= col < npar else "a parameter"
+            notes.append(
+                f"the plan leaves {which} non-identifiable (its information matrix is singular): "
+                f"plan more than {k} (--select)"
+            )
+    else:
+        std = np.sqrt(np.diag(cov))
+        vif = np.diag(cov) * np.diag(M)
+        d = np.where(std > 0, std, 1.0)
+        corr = cov / np.outer(d, d)
+    per = [_posture_rms(setup, _cov(setup, d)) for d in draws]
+    return PlanResult(
+        setup=setup,
+        k=k,
+        criterion=crit,
+        selected=chosen,
+        value=float(res.value),
+        greedy_value=float(res.greedy_value),
+        passes=int(res.passes),
+        swaps=int(res.swaps),
+        random_values=rv,
+        task_trace=trace,
+        random_task_traces=rt,
+        std=std,
+        vif=vif,
+        corr=corr,
+        task_posture_rms=_posture_rms(setup, cov),
+        random_posture_rms=np.median(np.array(per), axis=0),
+        seed=seed,
+        notes=notes,
+    )
+
+
+def discriminate(
+    model: TreeModel | str | Path,
+    k: int,
+    measured: str | Path,
+    tied: list[str] | None = None,
+    candidates: int | None = None,
+    postures: object = None,
+    seed: int = 0,
+) -> tuple[dict, Candidates, TreeModel]:
+    """``stiffkit plan --discriminate``: the ``k`` feasible postures that best
+    tell apart the tied candidate effects ``tied`` (labels kind:target; by
+    default the first tie the diagnosis of ``measured`` reports), each fitted
+    to the rows measured so far (calib.plan_discriminate). Returns (the
+    result of plan_discriminate, the candidates, the model)."""
+    from .absolute_report import load_absolute
+    from .plan_discriminate import plan_discriminate
+
+    if measured is None:
+        raise InputError("--discriminate needs --measured MEAS.csv: the data the tied candidates are fitted to")
+    path = model if isinstance(model, (str, Path)) else model.path
+    if model_kind(path) != "absolute":
+        raise InputError(f"--discriminate: {path}: implemented for absolute (tracker) data")
+    model, data = load_absolute(path, measured)
+    if not tied:
+        from .absolute_diagnose import diagnose_absolute
+
+        dg = diagnose_absolute(model.copy(), data)
+        if not dg.ties:
+            raise InputError(
+                f"--discriminate: the diagnosis of {measured} finds no tie to tell apart; name the candidates: "
+                "--discriminate kind:target,kind:target"
+            )
+        tied = dg.ties[0]
+    settings = plan_settings(model)
+    if postures is not None:
+        Q, _t = read_postures(postures, model.actuated, "postures", _mimics(model))
+        cands = feasible(model, Q[_distinct(Q)], settings, str(postures))
+    else:
+        n = DEFAULT_CANDIDATES if candidates is None else V.count(candidates, "candidates", 1, 10**6)
+        cands = sample_postures(model, n, seed, settings)
+    k = V.count(k, "--select", 1)
+    if k > len(cands):
+        raise InputError(f"--select {k}: only {len(cands)} feasible candidates ({cands.summary()})")
+    return plan_discriminate(model, data, tied, cands, k, settings), cands, model
