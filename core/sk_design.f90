@@ -513,6 +513,7 @@ contains
             if (bad > 0) return
         end if
         if (ridge == 0.0_dp) gvalue = st%value
+        if (ridge > 0.0_dp) call criterion_direct(jc, m0, jt, sel, crit, gvalue, bad, s)
         do while (passes < max_passes)
             passes = passes + 1
             ! fresh blocks (bounded round-off); the value stays incremental
@@ -549,7 +550,7 @@ contains
             end do
             call value_of(mt, crit, st%q, st%value, b2)
             mt = mu
-            call chol_checked(mt, b2)
+            call chol_checked(mt, b2, absolute=.true.)
             if (b2 > 0) return
             call state_init(st, jc, m0, 0.0_dp, b2)
             if (b2 == 0) ridge = 0.0_dp

@@ -22,7 +22,8 @@ module sk_design_base
         darg_nobs = 11
     !> ridge (scaled units) added to a singular m0 for the greedy start
     real(dp), parameter, public :: design_ridge = 1.0e-8_dp
-    !> a Cholesky pivot^2 at or below this (scaled units) is a singular direction
+    !> a Cholesky pivot^2 at or below this times its column's diagonal is a
+    !> singular direction (1 - R^2 of the column on the ones before it)
     real(dp), parameter, public :: design_singular = 1.0e-12_dp
     !> a swap may not leave less than this fraction of the information of
     !> any direction (the pivots^2 of S2 = I - U_r^T M1^-1 U_r, sk_design)
@@ -145,17 +146,32 @@ contains
     end function sandwich_trace
 
     !> In-place Cholesky (lower) of the SPD a[n,n]; bad = first column whose
-    !> pivot^2 is <= design_singular (0 when all pass).
-    subroutine chol_checked(a, bad)
+    !> pivot^2 is <= design_singular times its own diagonal, i.e. a column
+    !> that the ones before it explain to 1 - R^2 <= design_singular (0 when
+    !> all pass). Relative to the column, so that a design whose information
+    !> is small next to all candidates' is not called singular for that.
+    !> With absolute, the test is pivot^2 <= design_singular in the scaled
+    !> units (all candidates' information has a unit diagonal): the stricter
+    !> test the selection uses before it drops its ridge, since its low-rank
+    !> updates need a well-conditioned start.
+    subroutine chol_checked(a, bad, absolute)
         real(dp), intent(inout) :: a(:, :)
         integer, intent(out) :: bad
+        logical, intent(in), optional :: absolute
         integer :: n, linfo, j
+        real(dp) :: d(size(a, 1))
         n = size(a, 1)
         bad = 0
         if (n == 0) return
+        do j = 1, n
+            d(j) = a(j, j)
+        end do
+        if (present(absolute)) then
+            if (absolute) d = 1.0_dp
+        end if
         call dpotrf('L', n, a, n, linfo)
         do j = 1, merge(linfo - 1, n, linfo > 0)
-            if (a(j, j)**2 <= design_singular) then
+            if (.not. a(j, j)**2 > design_singular * d(j)) then
                 bad = j
                 return
             end if
