@@ -123,6 +123,27 @@ def test_too_few_rows_stay_singular() -> None:
     assert len(set(res.selected)) == 3
 
 
+def test_a_weakly_excited_parameter_is_identifiable_not_singular() -> None:
+    # parameter 0 is seen 1e14 times more strongly by the candidates left
+    # out than by the chosen ones: tiny information next to all candidates',
+    # but independent of the others, so the design is regular (its
+    # column-normalised information is well conditioned) and its criteria
+    # are numpy's
+    rng = np.random.default_rng(4)
+    jc = rng.normal(size=(40, 3, 6))
+    jc[:30, :, 0] *= 1e-7
+    chosen = np.arange(8)
+    M = sum(jc[c].T @ jc[c] for c in chosen)
+    d = 1 / np.sqrt(np.diag(M))
+    Mn = M * np.outer(d, d)
+    assert np.linalg.cond(Mn) < 1e3
+    inv = np.linalg.inv(Mn) * np.outer(d, d)
+    jt = rng.normal(size=(5, 6))
+    assert design.criterion(jc, chosen, "task", jt=jt) == pytest.approx(np.trace(jt @ inv @ jt.T), rel=1e-8)
+    assert np.isfinite(design.criterion(jc, chosen, "A")) and np.isfinite(design.criterion(jc, chosen, "D"))
+    np.testing.assert_allclose(design.covariance(jc, chosen), inv, rtol=1e-8)
+
+
 def test_prior_information_enters() -> None:
     """With a prior that already pins parameters 0..4, the D plan of a
     candidate pool where half the candidates only see those is the other half."""

@@ -89,7 +89,7 @@ def test_task_plan_beats_random(robot, request):
     rand = np.array([_trace(s.jc, c, s.jt) for c in _draws(s, k, res.seed)])
     both = np.isfinite(res.random_task_traces) & np.isfinite(rand)
     assert res.random_task_traces[both] == pytest.approx(rand[both], rel=1e-8)
-    # the ratio against numpy's median (the core calls a few ill-conditioned random designs singular: +inf)
+    # the ratio against numpy's median (a random design the core calls singular is +inf there)
     ratio = _rms(res.task_trace, s.jt) / _rms(float(np.median(rand)), s.jt)
     print(f"{robot}: {s.npar} identifiable, K = {k}, task ratio {ratio:.3f} (report: {res.ratio:.3f})")
     assert ratio <= RATIO and res.ratio <= RATIO
