@@ -22,11 +22,16 @@ Every effect becomes virtual joints or parameters of the core's model:
   gravity force (moment about the axis of the weight beyond the joint and
   the row's payloads).
 - ``lateral`` (target: a revolute joint or ``all``): ``<joint>.cx cy``,
-  rotations about x' and y' of the joint frame after the joint's motion
-  (z' the axis; x' the joint frame's axis least aligned with z', made
-  orthogonal; y' = z' x x'; they turn with the joint, so a zero offset
-  folded into the joint's origin changes nothing) driven by the moment
-  components about them.
+  tilts of the joint's axis before its motion (fixed in the parent link),
+  driven by the moment components about the tilt axes (section 6.12):
+  x' is the common normal of the previous moving joint's axis and this one
+  (through its foot on this axis; for parallel axes the perpendicular
+  between them, through the origin), y' = z' x x'. Where y' is the previous
+  joint's axis line itself (perpendicular axes that meet) its tilt is that
+  joint's compliance: ``cy`` is held at 0 (not identified) unless the table
+  gives a value. A joint with no moving joint
+  above it, or coaxial with it, tilts about the origin frame's axis least
+  aligned with z' (made orthogonal) and y' = z' x x'.
 - ``joint_cubic`` / ``joint_deadzone`` (target: a joint with a ``joint``
   effect): the law becomes ``c tau + c3 tau^3`` (``<joint>.cubic``) or
   ``c tau + b tanh(tau / tau0)`` (``<joint>.backlash``, ``tau0`` a key in N m;
@@ -70,6 +75,9 @@ __all__ = [
     "GRAVITY",
     "model_kind",
     "MEASUREMENT_KINDS",
+    "lateral_tilts",
+    "duplicated_tilt",
+    "joint_tilts",
 ]
 
 #: [measurements] kind: relative deflections under known loads (section 3) or absolute positions (section 6)
@@ -99,7 +107,7 @@ KEYS = {
     "joint_offset": {"target", "value"},
     "frame": {"target", "value"},
     "joint": {"target", "value"},
-    "lateral": {"target", "value"},
+    "lateral": {"target", "value", "tilts"},
     "joint_cubic": {"target", "value"},
     "joint_deadzone": {"target", "value", "tau0"},
     "link": {"target", "template", "axis", "value", "rpy"},
@@ -152,11 +160,83 @@ def _rz(a: float) -> np.ndarray:
 
 
 def _lateral_axes(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """x', y' perpendicular to the unit joint axis z' (module docstring)."""
+    """x', y' perpendicular to the unit joint axis z': x' the axis least aligned with z', made orthogonal."""
     e = np.eye(3)[int(np.argmin(np.abs(axis)))]
     x = e - np.dot(e, axis) * axis
     x /= np.linalg.norm(x)
     return x, np.cross(axis, x)
+
+
+#: lines closer than this (m) meet; axes closer than this (rad) are parallel
+LINE_TOL, PARALLEL_TOL = 1e-6, 1e-3
+
+
+def lateral_tilts(tree: Tree, jn: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The tilt axes of joint ``jn``'s lateral compliance: (direction, point)
+    in its origin frame, x' then y' (module docstring, section 6.12)."""
+    return _tilts(tree, jn)[0]
+
+
+def duplicated_tilt(tree: Tree, jn: str) -> bool:
+    """Whether joint ``jn``'s y' tilt is the previous moving joint's axis line
+    (perpendicular axes that meet): its compliance is that joint's."""
+    return _tilts(tree, jn)[1]
+
+
+def _tilts(tree: Tree, jn: str) -> tuple[list[tuple[np.ndarray, np.ndarray]], bool]:
+    j = tree.joint(jn)
+    z = j.axis / np.linalg.norm(j.axis)
+    T = j.origin
+    p = tree.parent_joint(j.parent)
+    while p is not None and not p.moving:
+        T = p.origin @ T
+        p = tree.parent_joint(p.parent)
+    zero = np.zeros(3)
+    if p is None:
+        return [(ax, zero) for ax in _lateral_axes(z)], False
+    Ti = np.linalg.inv(T)  # the previous joint's frame (after its motion) in this joint's origin frame
+    zp = Ti[:3, :3] @ (p.axis / np.linalg.norm(p.axis))
+    op = Ti[:3, 3]
+    n = np.cross(zp, z)
+    # parallel (a common normal far away means nothing): the perpendicular between the axes
+    if np.linalg.norm(n) < PARALLEL_TOL:
+        d = -op - np.dot(-op, z) * z
+        if np.linalg.norm(d) < LINE_TOL:  # coaxial
+            return [(ax, zero) for ax in _lateral_axes(z)], False
+        x = d / np.linalg.norm(d)
+        return [(x, zero), (np.cross(z, x), zero)], False
+    x = n / np.linalg.norm(n)
+    A = np.array([[z @ z, -(z @ zp)], [z @ zp, -(zp @ zp)]])
+    s, t = np.linalg.solve(A, [z @ op, zp @ op])
+    foot = s * z
+    y = np.cross(z, x)
+    # y' through the foot is the previous axis line when the axes are perpendicular and meet
+    dup = abs(z @ zp) < PARALLEL_TOL and np.linalg.norm(foot - (op + t * zp)) < LINE_TOL
+    return [(x, foot), (y, foot)], bool(dup)
+
+
+def joint_tilts(tree: Tree, jn: str, table: dict, where: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The lateral tilts of joint ``jn``: the table's ``tilts`` (rows
+    [direction, point] in the joint's origin frame, as a folded model is
+    written: section 6.12) or :func:`lateral_tilts`."""
+    if "tilts" not in table:
+        return lateral_tilts(tree, jn)
+    if table.get("target", "all") == "all":
+        raise InputError(f"{where}: tilts need one target joint, not 'all'")
+    rows = table["tilts"]
+    if not isinstance(rows, list) or len(rows) != 2:
+        raise InputError(f"{where}: tilts must be 2 rows [ax, ay, az, px, py, pz] (x', y'), got {rows!r}")
+    z = tree.joint(jn).axis
+    out = []
+    for k, row in enumerate(rows):
+        v = _vec({"row": row}, "row", 6, f"{where}: tilts row {k + 1}")
+        a = v[:3]
+        if abs(np.linalg.norm(a) - 1) > 1e-6 or abs(a @ z) > 1e-6:
+            raise InputError(
+                f"{where}: tilts row {k + 1}: the direction must be a unit vector perpendicular to the axis z'"
+            )
+        out.append((a / np.linalg.norm(a), v[3:]))
+    return out
 
 
 def _vec(table: dict, key: str, n: int, where: str) -> np.ndarray:
@@ -369,14 +449,20 @@ class _Cursor:
 
     def __init__(self, b: _Builder, parent: int, origin: np.ndarray, joint: str = "") -> None:
         self.b, self.vj, self.origin, self.first, self.joint = b, parent, origin, True, joint
+        self.back = np.zeros(3)
 
-    def add(self, vtype: int = 0, axis: ArrayLike = (0, 0, 0), what: str = "") -> int:
+    def add(self, vtype: int = 0, axis: ArrayLike = (0, 0, 0), what: str = "", at: ArrayLike | None = None) -> int:
+        """The next virtual joint; ``at``: its point in the current frame (the
+        next one comes back from it)."""
         label = f"URDF joint {self.joint!r}" + (f", {what}" if what else "")
+        shift = np.zeros(3) if at is None else np.asarray(at, float)
+        pos, self.back = self.back + shift, -shift
         if self.first:
-            self.vj = self.b.add_vj(self.vj, vtype, axis, self.origin[:3, :3], self.origin[:3, 3], label)
+            o = self.origin
+            self.vj = self.b.add_vj(self.vj, vtype, axis, o[:3, :3], o[:3, 3] + o[:3, :3] @ pos, label)
             self.first = False
         else:
-            self.vj = self.b.add_vj(self.vj, vtype, axis, label=label)
+            self.vj = self.b.add_vj(self.vj, vtype, axis, pos=pos, label=label)
         return self.vj
 
 
@@ -570,6 +656,27 @@ def tree_model_from_tables(
                 pi = b.add_param(f"{j.name}.{FRAME_NAMES[k]}", "frame", j.name, i, start, val is None)
                 b.g.append((vj, pi, 1.0))
         if j.moving:
+            # the bearing's tilt: before the motion, fixed in the parent link (section 6.12)
+            if "lateral" in slot and j.type != "prismatic":
+                i, table, w = slot["lateral"]
+                val = table.get("value")
+                if val is not None:
+                    if isinstance(val, (int, float)) and not isinstance(val, bool):
+                        val = np.array([float(val)] * 2)
+                    else:
+                        val = _vec(table, "value", 2, w)
+                    if np.any(val < 0):
+                        raise InputError(f"{w}: lateral compliances must be >= 0 rad/(N m), got {list(val)}")
+                tilts = joint_tilts(tree, j.name, table, w)
+                # y' on the previous axis line duplicates that joint's compliance: held at 0 unless given
+                dup = "tilts" not in table and duplicated_tilt(tree, j.name)
+                for k, (ax, at) in enumerate(tilts):
+                    vj = cur.add(1, ax, f"lateral tilt c{'xy'[k]}", at=at)
+                    start = 0.0 if val is None else val[k]
+                    free = val is None and not (k == 1 and dup)
+                    pi = b.add_param(f"{j.name}.c{'xy'[k]}", "lateral", j.name, i, start, free)
+                    b.k.append((LAW_LINEAR, [vj], [pi] + [0] * 20, 1.0))
+                    b.blocks.append(("lateral", j.name))
             vj = cur.add(1 if j.type != "prismatic" else 2, j.axis)
             lead, mult, off = tree.leader(j.name)
             b.v[vj - 1].update(qcol=qcols[lead], qcoef=mult, qconst=off)
@@ -587,24 +694,6 @@ def tree_model_from_tables(
                 b.k.append(_joint_law(b, j.name, slot, vj))
                 b.blocks.append(("joint", j.name))
             vj_of_joint[j.name] = vj
-            # the bearing's tilt: after the motion, so the axes x', y' turn with the
-            # joint and a zero offset folded into the origin leaves the model unchanged
-            if "lateral" in slot and j.type != "prismatic":
-                i, table, w = slot["lateral"]
-                val = table.get("value")
-                if val is not None:
-                    if isinstance(val, (int, float)) and not isinstance(val, bool):
-                        val = np.array([float(val)] * 2)
-                    else:
-                        val = _vec(table, "value", 2, w)
-                    if np.any(val < 0):
-                        raise InputError(f"{w}: lateral compliances must be >= 0 rad/(N m), got {list(val)}")
-                for k, ax in enumerate(_lateral_axes(j.axis)):
-                    vj = cur.add(1, ax, f"lateral tilt c{'xy'[k]}")
-                    start = 0.0 if val is None else val[k]
-                    pi = b.add_param(f"{j.name}.c{'xy'[k]}", "lateral", j.name, i, start, val is None)
-                    b.k.append((LAW_LINEAR, [vj], [pi] + [0] * 20, 1.0))
-                    b.blocks.append(("lateral", j.name))
         else:
             vj_of_joint[j.name] = cur.add() if cur.first else cur.vj
         vj_of_link[j.child] = cur.vj
