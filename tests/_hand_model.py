@@ -181,10 +181,10 @@ class HandModel:
         """Tracker-frame marker points (P, nf, 3)."""
         return self._solve(theta, Q, np.eye(3) if R0 is None else R0)[0]
 
-    def _solve(self, theta, Q, R0):
+    def _solve(self, theta, Q, R0, defl0=None):
         ix = self.index
         comp = {n: theta[i] for n, i in ix.items() if n[0] in ("c", "lat")}
-        defl: dict = {}
+        defl: dict = dict(defl0 or {})  # a warm start of the equilibrium
         for _ in range(max(self.eqit, 1)):
             T, at = self._pose(theta, Q, defl)
             if not comp:
@@ -193,7 +193,7 @@ class HandModel:
             new = {k: comp[k] * tau[k] for k in comp}
             step = max((np.abs(new[k] - defl.get(k, 0.0)).max() for k in new), default=0.0)
             defl = new
-            if self.eqit <= 1 or step < 1e-13:
+            if self.eqit <= 1 or step < 1e-11:
                 T, at = self._pose(theta, Q, defl)
                 break
         R = R0 @ rot(np.eye(3)[0], theta[0]) @ rot(np.eye(3)[1], theta[1]) @ rot(np.eye(3)[2], theta[2])
@@ -263,15 +263,17 @@ def jacobian(model, theta, Q, free, R0):
 
 
 def fd_jacobian(model, theta, Q, free, R0):
-    """Forward differences (to check ``HandModel.jacobian``)."""
-    y0 = model.predict(theta, Q, R0).ravel()
+    """Forward differences of the converged equilibrium (each from the
+    base point's deflections): the exact derivative, to polish a fit and to
+    check ``HandModel.jacobian``."""
+    y0, _T, _at, _R, defl = model._solve(theta, Q, R0)
     h = _steps([model.names[i] for i in free])
     J = np.empty((y0.size, len(free)))
     for k, i in enumerate(free):
         th = theta.copy()
         th[i] += h[k]
-        J[:, k] = (model.predict(th, Q, R0).ravel() - y0) / h[k]
-    return y0, J
+        J[:, k] = (model._solve(th, Q, R0, defl)[0].ravel() - y0.ravel()) / h[k]
+    return y0.ravel(), J
 
 
 def kabsch(a, b):
@@ -303,11 +305,13 @@ def independent(J, order, kinds, tol=1e-6):
     return sorted(keep)
 
 
-def fit(model, Q, xyz, theta0, free=None, maxit=30, nonneg=True):
+def fit(model, Q, xyz, theta0, free=None, maxit=30, nonneg=True, polish=0):
     """Levenberg-Marquardt on ``free`` (when None the rank check picks them);
     with ``nonneg``, a compliance identified below 0 is held at 0 and the
-    others fitted again (as a careful calibrator, and stiffkit, do).
-    Returns theta, R0, free."""
+    others fitted again (as a careful calibrator, and stiffkit, do). The
+    screw Jacobian leaves out the change of the gravity moments, so its fixed
+    point is near, not at, the least-squares one: ``polish`` more iterations
+    with the exact (finite-difference) Jacobian. Returns theta, R0, free."""
     theta, R0, free = _lm(model, Q, xyz, theta0, free, maxit)
     for _ in range(5 if nonneg else 0):
         neg = [i for i in free if model.names[i][0] in ("c", "lat") and theta[i] < 0]
@@ -315,17 +319,21 @@ def fit(model, Q, xyz, theta0, free=None, maxit=30, nonneg=True):
             break
         theta[neg] = 0.0
         free = np.array([i for i in free if i not in neg], int)
-        theta, R0, free = _lm(model, Q, xyz, theta, free, maxit)
+        theta, R0, free = _lm(model, Q, xyz, theta, free, maxit, R0)
+    if polish:
+        theta, R0, free = _lm(model, Q, xyz, theta, free, polish, R0, fd_jacobian)
     return theta, R0, free
 
 
-def _lm(model, Q, xyz, theta0, free, maxit):
+def _lm(model, Q, xyz, theta0, free, maxit, R0=None, jac=jacobian):
+    """Levenberg-Marquardt from theta0 (the tracker from a point-set fit unless R0 is given)."""
     P = Q.shape[0]
     theta = theta0.copy()
-    theta[:6] = 0.0  # the tracker from the point-set fit
-    R0, t = kabsch(model.predict(theta, Q).reshape(-1, 3), xyz.reshape(-1, 3))
-    theta[:3] = 0.0
-    theta[3:6] = t
+    if R0 is None:
+        theta[:6] = 0.0  # the tracker from the point-set fit
+        R0, t = kabsch(model.predict(theta, Q).reshape(-1, 3), xyz.reshape(-1, 3))
+        theta[:3] = 0.0
+        theta[3:6] = t
     if free is None:
         allp = np.arange(len(model.names))
         _y, J = jacobian(model, theta, Q, allp, R0)
@@ -333,7 +341,7 @@ def _lm(model, Q, xyz, theta0, free, maxit):
         order = sorted(allp, key=lambda i: (kind[model.names[i][0]], i))
         free = np.array(independent(J, order, [model.names[i][0] for i in allp]), int)
     lam = 1e-3
-    y, J = jacobian(model, theta, Q, free, R0)
+    y, J = jac(model, theta, Q, free, R0)
     r = y - xyz.reshape(P * len(model.frames) * 3)
     cost = r @ r
     for _ in range(maxit):
@@ -353,7 +361,7 @@ def _lm(model, Q, xyz, theta0, free, maxit):
             theta, cost, lam = th, r2 @ r2, max(lam / 5, 1e-9)
             if done:
                 break
-            y, J = jacobian(model, theta, Q, free, R0)
+            y, J = jac(model, theta, Q, free, R0)
             r = y - xyz.ravel()
         else:
             lam *= 10
@@ -367,12 +375,12 @@ def errors(model, theta, R0, Q, xyz):
     return np.linalg.norm(model.predict(theta, Q, R0) - xyz, axis=2).ravel()
 
 
-def cross_validate(model, Q, xyz, theta, free, k=5):
+def cross_validate(model, Q, xyz, theta, free, k=5, polish=0):
     """K-fold by posture (posture p in fold p mod k, as stiffkit's config_folds deals them)."""
     d = np.zeros((Q.shape[0], xyz.shape[1]))
     for f in range(k):
         test = np.arange(Q.shape[0]) % k == f
-        th, R0, _ = fit(model, Q[~test], xyz[~test], theta, free, nonneg=False)
+        th, R0, _ = fit(model, Q[~test], xyz[~test], theta, free, maxit=15, nonneg=False, polish=polish)
         d[test] = np.linalg.norm(model.predict(th, Q[test], R0) - xyz[test], axis=2)
     return d.ravel()
 
