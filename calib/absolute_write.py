@@ -48,12 +48,12 @@ from ..io.files import atomic_write_text
 from ..robot.model import SYM
 from ..robot.model_bodies import BODY_KINDS, body_table
 from ..robot.tree import TreeJoint
+from ..robot.tree_lateral import joint_tilts
 from ..robot.tree_model import (
     EQ_ITERATIONS,
     FRAME_NAMES,
     LAW_DEADZONE,
     TreeModel,
-    joint_tilts,
     rpy_from_matrix,
 )
 
