@@ -20,9 +20,10 @@ follower, its multiplier times its leader's, up the mimic chain);
 everything else (inertials, limits, mimic tags, comments) unchanged. The
 folded URDF with the written model minus its ``joint_offset`` and
 ``frame`` effects (``write_model(fit, path, folded_urdf=...)``) predicts the
-same points: the elastic virtual joints of a joint sit after its motion
-(joint and lateral compliance), so moving the offset into the origin
-commutes with them. A 6x6 link spring sits at the joint's origin, before
+same points: a joint's compliance sits at its motion, so moving the offset
+into the origin commutes with it; its lateral tilts sit before the motion
+(docs/calibration.md section 6.12), and the folded model writes them
+(``tilts``) turned back by the folded offset, as they were. A 6x6 link spring sits at the joint's origin, before
 the frame error and the motion: folding moves it by the frame error and
 the offset (a change of second order, error times spring deflection); the
 writer says so when it happens.
