@@ -20,9 +20,10 @@ follower, its multiplier times its leader's, up the mimic chain);
 everything else (inertials, limits, mimic tags, comments) unchanged. The
 folded URDF with the written model minus its ``joint_offset`` and
 ``frame`` effects (``write_model(fit, path, folded_urdf=...)``) predicts the
-same points: the elastic virtual joints of a joint sit after its motion
-(joint and lateral compliance), so moving the offset into the origin
-commutes with them. A 6x6 link spring sits at the joint's origin, before
+same points: a joint's compliance sits at its motion, so moving the offset
+into the origin commutes with it; its lateral tilts sit before the motion
+(docs/calibration.md section 6.12), and the folded model writes them
+(``tilts``) turned back by the folded offset, as they were. A 6x6 link spring sits at the joint's origin, before
 the frame error and the motion: folding moves it by the frame error and
 the offset (a change of second order, error times spring deflection); the
 writer says so when it happens.
@@ -48,6 +49,7 @@ from ..io.files import atomic_write_text
 from ..robot.model import SYM
 from ..robot.model_bodies import BODY_KINDS, body_table
 from ..robot.tree import TreeJoint
+from ..robot.tree_lateral import joint_tilts
 from ..robot.tree_model import (
     EQ_ITERATIONS,
     FRAME_NAMES,
@@ -173,7 +175,7 @@ def model_effects(
                 tab["value"] = [vals[n] for n in FRAME_NAMES]
             elif kind in ("joint", "lateral"):
                 names = ["c"] if kind == "joint" else ["cx", "cy"]
-                v = [vals[n] for n in names]
+                v = [vals.get(n, 0.0) for n in names]  # a joint may have no cy (section 6.12)
                 for n, x in zip(names, v):
                     if x < 0:
                         e = sd.get(f"{target}.{n}", math.nan)
@@ -229,6 +231,7 @@ def write_model(fit: AbsoluteFit, path: str | Path, folded_urdf: str | Path | No
         getattr(fit, "std", None),
         getattr(fit, "groups", None),
     )
+    _written_tilts(model, fit.theta, effects, folded_urdf is not None)
     sigma = fit.sigma if getattr(fit, "sigma_declared", False) else model.sigma_position
     header = f"# written by stiffkit from the fit of {model.path or 'a model'} on {fit.data.path}"
     robot = dict(model.robot_table)
@@ -265,6 +268,40 @@ def _motion(joint: TreeJoint, value: float) -> np.ndarray:
     return T
 
 
+def _total_offset(model: TreeModel, val: dict[str, float], j: TreeJoint) -> tuple[float, bool]:
+    """A joint's total zero offset (its own plus its multiplier times its
+    leader's, up the mimic chain) and whether it has one."""
+    dq, name, coef, has = 0.0, j.name, 1.0, False
+    while j.moving:
+        if f"{name}.dq0" in val:
+            dq += coef * val[f"{name}.dq0"]
+            has = True
+        mimic = model.tree.joint(name).mimic
+        if mimic is None:
+            break
+        coef *= mimic[1]
+        name = mimic[0]
+    return dq, has
+
+
+def _written_tilts(model: TreeModel, theta: np.ndarray, tables: list[dict], folded: bool) -> None:
+    """Each lateral table of a folded model (or of a model whose tables had
+    them) gets its tilts (section 6.12) as they were, in the folded origin
+    frame (turned back by the folded zero offset): the written model
+    predicts what the fit predicted."""
+    if not folded and not any("tilts" in e for e in model.effects):
+        return
+    val = {p.name: float(theta[i]) for i, p in enumerate(model.params)}
+    for tab in tables:
+        if tab["kind"] != "lateral":
+            continue
+        j = model.tree.joint(tab["target"])
+        src = model.effects[next(p.effect for p in model.params if p.kind == "lateral" and p.target == j.name)]
+        back = _motion(j, -_total_offset(model, val, j)[0] if folded else 0.0)[:3, :3]
+        tilts = joint_tilts(model.tree, j.name, {**src, "target": j.name}, "lateral")
+        tab["tilts"] = [[float(x) for x in np.concatenate([back @ a, back @ p])] for a, p in tilts]
+
+
 def folded_origins(model: TreeModel, theta: np.ndarray) -> dict[str, np.ndarray]:
     """joint name -> its new origin (4, 4) for every joint with a frame
     error or a (total) zero offset other than 0 (module docstring)."""
@@ -273,16 +310,7 @@ def folded_origins(model: TreeModel, theta: np.ndarray) -> dict[str, np.ndarray]
     out = {}
     for j in model.tree.joints:
         frame = [val.get(f"{j.name}.{n}") for n in FRAME_NAMES]
-        dq, name, coef, has = 0.0, j.name, 1.0, False
-        while j.moving:
-            if f"{name}.dq0" in val:
-                dq += coef * val[f"{name}.dq0"]
-                has = True
-            mimic = model.tree.joint(name).mimic
-            if mimic is None:
-                break
-            coef *= mimic[1]
-            name = mimic[0]
+        dq, has = _total_offset(model, val, j)
         if (not has or dq == 0.0) and (frame[0] is None or not any(frame)):
             continue  # nothing to fold: the origin stays as written
         T = j.origin.copy()

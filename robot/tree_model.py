@@ -22,11 +22,16 @@ Every effect becomes virtual joints or parameters of the core's model:
   gravity force (moment about the axis of the weight beyond the joint and
   the row's payloads).
 - ``lateral`` (target: a revolute joint or ``all``): ``<joint>.cx cy``,
-  rotations about x' and y' of the joint frame after the joint's motion
-  (z' the axis; x' the joint frame's axis least aligned with z', made
-  orthogonal; y' = z' x x'; they turn with the joint, so a zero offset
-  folded into the joint's origin changes nothing) driven by the moment
-  components about them.
+  tilts of the joint's axis before its motion (fixed in the parent link),
+  driven by the moment components about the tilt axes (section 6.12):
+  x' is the common normal of the previous moving joint's axis and this one
+  (through its foot on this axis; for parallel axes the perpendicular
+  between them, through the origin), y' = z' x x'. Where y' is the previous
+  joint's axis line itself (perpendicular axes that meet) its tilt is that
+  joint's compliance: ``cy`` is held at 0 (not identified) unless the table
+  gives a value. A joint with no moving joint
+  above it, or coaxial with it, tilts about the origin frame's axis least
+  aligned with z' (made orthogonal) and y' = z' x x'.
 - ``joint_cubic`` / ``joint_deadzone`` (target: a joint with a ``joint``
   effect): the law becomes ``c tau + c3 tau^3`` (``<joint>.cubic``) or
   ``c tau + b tanh(tau / tau0)`` (``<joint>.backlash``, ``tau0`` a key in N m;
@@ -60,6 +65,7 @@ from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
 from .plan_settings import plan_table
 from .tree import Tree, load_tree
+from .tree_lateral import duplicated_tilt, joint_tilts, lateral_tilts
 from .urdf_read import gc_paused
 
 __all__ = [
@@ -72,6 +78,9 @@ __all__ = [
     "GRAVITY",
     "model_kind",
     "MEASUREMENT_KINDS",
+    "lateral_tilts",
+    "duplicated_tilt",
+    "joint_tilts",
 ]
 
 #: [measurements] kind: relative deflections under known loads (section 3) or absolute positions (section 6)
@@ -101,7 +110,7 @@ KEYS = {
     "joint_offset": {"target", "value"},
     "frame": {"target", "value"},
     "joint": {"target", "value"},
-    "lateral": {"target", "value"},
+    "lateral": {"target", "value", "tilts"},
     "joint_cubic": {"target", "value"},
     "joint_deadzone": {"target", "value", "tau0"},
     "link": {"target", "template", "axis", "value", "rpy"},
@@ -151,14 +160,6 @@ def _ry(a: float) -> np.ndarray:
 def _rz(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
-def _lateral_axes(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """x', y' perpendicular to the unit joint axis z' (module docstring)."""
-    e = np.eye(3)[int(np.argmin(np.abs(axis)))]
-    x = e - np.dot(e, axis) * axis
-    x /= np.linalg.norm(x)
-    return x, np.cross(axis, x)
 
 
 def _vec(table: dict, key: str, n: int, where: str) -> np.ndarray:
@@ -363,14 +364,20 @@ class _Cursor:
 
     def __init__(self, b: _Builder, parent: int, origin: np.ndarray, joint: str = "") -> None:
         self.b, self.vj, self.origin, self.first, self.joint = b, parent, origin, True, joint
+        self.back = np.zeros(3)
 
-    def add(self, vtype: int = 0, axis: ArrayLike = (0, 0, 0), what: str = "") -> int:
+    def add(self, vtype: int = 0, axis: ArrayLike = (0, 0, 0), what: str = "", at: ArrayLike | None = None) -> int:
+        """The next virtual joint; ``at``: its point in the current frame (the
+        next one comes back from it)."""
         label = f"URDF joint {self.joint!r}" + (f", {what}" if what else "")
+        shift = np.zeros(3) if at is None else np.asarray(at, float)
+        pos, self.back = self.back + shift, -shift
         if self.first:
-            self.vj = self.b.add_vj(self.vj, vtype, axis, self.origin[:3, :3], self.origin[:3, 3], label)
+            o = self.origin
+            self.vj = self.b.add_vj(self.vj, vtype, axis, o[:3, :3], o[:3, 3] + o[:3, :3] @ pos, label)
             self.first = False
         else:
-            self.vj = self.b.add_vj(self.vj, vtype, axis, label=label)
+            self.vj = self.b.add_vj(self.vj, vtype, axis, pos=pos, label=label)
         return self.vj
 
 
@@ -588,6 +595,27 @@ def tree_model_from_tables(
                 pi = b.add_param(f"{j.name}.{FRAME_NAMES[k]}", "frame", j.name, i, start, val is None)
                 b.g.append((vj, pi, 1.0))
         if j.moving:
+            # the bearing's tilt: before the motion, fixed in the parent link (section 6.12)
+            if "lateral" in slot and j.type != "prismatic":
+                i, table, w = slot["lateral"]
+                val = table.get("value")
+                if val is not None:
+                    if isinstance(val, (int, float)) and not isinstance(val, bool):
+                        val = np.array([float(val)] * 2)
+                    else:
+                        val = _vec(table, "value", 2, w)
+                    if np.any(val < 0):
+                        raise InputError(f"{w}: lateral compliances must be >= 0 rad/(N m), got {list(val)}")
+                tilts = joint_tilts(tree, j.name, table, w)
+                # y' on the previous axis line duplicates that joint's compliance: held at 0 unless given
+                dup = "tilts" not in table and duplicated_tilt(tree, j.name)
+                for k, (ax, at) in enumerate(tilts):
+                    vj = cur.add(1, ax, f"lateral tilt c{'xy'[k]}", at=at)
+                    start = 0.0 if val is None else val[k]
+                    free = val is None and not (k == 1 and dup)
+                    pi = b.add_param(f"{j.name}.c{'xy'[k]}", "lateral", j.name, i, start, free)
+                    b.k.append((LAW_LINEAR, [vj], [pi] + [0] * 20, 1.0))
+                    b.blocks.append(("lateral", j.name))
             vj = cur.add(1 if j.type != "prismatic" else 2, j.axis)
             lead, mult, off = tree.leader(j.name)
             b.q[vj] = (qcols[lead], mult, off)
@@ -605,24 +633,6 @@ def tree_model_from_tables(
                 b.k.append(_joint_law(b, j.name, slot, vj))
                 b.blocks.append(("joint", j.name))
             vj_of_joint[j.name] = vj
-            # the bearing's tilt: after the motion, so the axes x', y' turn with the
-            # joint and a zero offset folded into the origin leaves the model unchanged
-            if "lateral" in slot and j.type != "prismatic":
-                i, table, w = slot["lateral"]
-                val = table.get("value")
-                if val is not None:
-                    if isinstance(val, (int, float)) and not isinstance(val, bool):
-                        val = np.array([float(val)] * 2)
-                    else:
-                        val = _vec(table, "value", 2, w)
-                    if np.any(val < 0):
-                        raise InputError(f"{w}: lateral compliances must be >= 0 rad/(N m), got {list(val)}")
-                for k, ax in enumerate(_lateral_axes(j.axis)):
-                    vj = cur.add(1, ax, f"lateral tilt c{'xy'[k]}")
-                    start = 0.0 if val is None else val[k]
-                    pi = b.add_param(f"{j.name}.c{'xy'[k]}", "lateral", j.name, i, start, val is None)
-                    b.k.append((LAW_LINEAR, [vj], [pi] + [0] * 20, 1.0))
-                    b.blocks.append(("lateral", j.name))
         else:
             vj_of_joint[j.name] = cur.add() if cur.first else cur.vj
         vj_of_link[j.child] = cur.vj
