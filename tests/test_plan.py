@@ -27,6 +27,7 @@ from stiffkit.robot.compensate_files import read_targets
 
 RATIO = 0.7
 SIM_FITS = 5
+LINEAR_FITS = 200
 REAL_FITS = 7
 
 
@@ -109,8 +110,10 @@ def test_dualarm_simulated_fits(dualarm):
         delta = np.linalg.lstsq(A, rng.normal(size=A.shape[0]), rcond=None)[0]
         return float(np.sqrt(np.mean(np.sum((s.jt @ delta).reshape(-1, 3) ** 2, axis=1))))
 
-    planned = np.median([task_error(res.selected) for _ in range(SIM_FITS)])
-    random = np.median([task_error(c) for c in _draws(s, k, 99)[:SIM_FITS] for _ in range(1)])
+    # the task error is dominated by a few directions (a heavy-tailed
+    # distribution): medians over many noise draws, each cheap (one lstsq)
+    planned = np.median([task_error(res.selected) for _ in range(LINEAR_FITS)])
+    random = np.median([task_error(c) for c in _draws(s, k, 99) for _ in range(LINEAR_FITS // P.RANDOM_DESIGNS)])
     print(f"dualarm simulated fits: plan {planned * 1e3:.4f} mm, random {random * 1e3:.4f} mm")
     assert planned <= RATIO * random
 
