@@ -280,10 +280,14 @@ def test_diagnose_names_the_plan_command_on_a_tie(robot):
     with K = the postures measured (within 5..30); the tie as reported goes to plan_discriminate."""
     from stiffkit.calib.absolute_diagnose_report import format_absolute_diagnosis, plan_command
 
-    rng = np.random.default_rng(136)  # a data seed whose 18 rows tie two arm compliances
-    data = measure(robot, postures(robot, 9, rng), rng)
-    dg = diagnose_absolute(robot.model, data)
-    assert len(dg.ties) == 1
+    # the first data seed (from 130) whose 18 rows tie two candidates
+    for seed in range(130, 190):
+        rng = np.random.default_rng(seed)
+        data = measure(robot, postures(robot, 9, rng), rng)
+        dg = diagnose_absolute(robot.model, data)
+        if len(dg.ties) == 1:
+            break
+    assert len(dg.ties) == 1, "no seed in 130..189 gives one tie"
     want = "stiffkit plan MODEL.toml --discriminate --measured synthetic --select 9"
     tie = dg.to_json()["ties"][0]
     assert tie["plan_command"] == want and tie["plan_select"] == 9
