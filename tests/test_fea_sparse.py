@@ -99,3 +99,48 @@ def test_fuzz_triplet_reader(tmp_path_factory, lines):
         return
     assert rows.size == cols.size == vals.size >= 1
     assert rows.min() >= 1 and cols.min() >= 1 and max(rows.max(), cols.max()) == neq
+
+
+def test_triplet_values_read_exactly(tmp_path):
+    # the fast path (ccx's "%.13e": 14 digits, small exponents) and the
+    # strtod fallback (long mantissas, large exponents) give Python's float
+    rng = np.random.default_rng(11)
+    v = np.concatenate([rng.normal(size=300) * 10.0 ** rng.integers(-30, 30, 300), [0.0, -0.0, 1e-300, 5e307]])
+    texts = [f"{x:.13e}" for x in v[:200]] + [repr(float(x)) for x in v[200:250]] + [f"{x:.25e}" for x in v[250:]]
+    p = tmp_path / "k.sti"
+    p.write_text("".join(f"{i + 1} {i + 2} {t}\n" for i, t in enumerate(texts)))
+    rows, cols, vals, neq = read_triplets(p)
+    assert neq == len(texts) + 1 and (rows == np.arange(1, len(texts) + 1)).all() and (cols == rows + 1).all()
+    assert [float(t) for t in texts] == vals.tolist()
+
+
+def _block_chain(nn, rng):
+    """SPD stiffness of a chain of nn 3-dof nodes (3x3 blocks, a grounded
+    first node): equal column patterns within each node."""
+    K = np.zeros((3 * nn, 3 * nn))
+    for i in range(nn - 1):
+        A = rng.normal(size=(3, 3))
+        k = A @ A.T + 3 * np.eye(3)
+        s = slice(3 * i, 3 * i + 6)
+        K[s, s] += np.block([[k, -k], [-k, k]])
+    K[:3, :3] += 5 * np.eye(3)
+    return K
+
+
+def test_node_graph_ordering_solves_block_matrices():
+    # sk_analyze orders the node graph (3 equations a vertex): same answers
+    rng = np.random.default_rng(4)
+    K = _block_chain(30, rng)
+    b = rng.normal(size=(90, 6))
+    x, _ = cholmod_solve(*upper_triplets(K), b)
+    assert np.allclose(x, np.linalg.solve(K, b), rtol=1e-9, atol=1e-12)
+    p0, pts = np.zeros(3), rng.normal(size=(4, 3))
+    ceq = np.arange(79, 91).reshape(4, 3)  # the last four nodes, rigidly coupled
+    _u, q, _ = rigid_solve(*upper_triplets(K), 90, ceq, pts - p0)
+    T = np.zeros((90, 84 - 6 + 6))
+    T[:78, :78] = np.eye(78)
+    for i, r in enumerate(pts - p0):
+        T[78 + 3 * i : 81 + 3 * i, 78:81] = np.eye(3)
+        T[78 + 3 * i : 81 + 3 * i, 81:] = -np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+    Kr = T.T @ K @ T
+    assert np.allclose(q, np.linalg.inv(Kr)[78:, 78:], rtol=1e-8)
