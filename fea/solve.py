@@ -32,7 +32,15 @@ from .._core.sparse import (
 from ..errors import InputError
 from ..meshing import Mesh, MeshError, face_connectivity, mesh_part
 from .amplitudes import auto_amplitudes, beam_estimate
-from .ccx import ccx_version, displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck, write_static_deck
+from .ccx import (
+    ccx_version,
+    displacements_from_dat,
+    matrix_shim,
+    peak_rss_mb,
+    run_ccx,
+    write_matrix_deck,
+    write_static_deck,
+)
 from .config import LinkJob, check_extent, check_mesh_size
 from .facesets import CadSets, default_reference_point, mesh_set, resolve_job_sets, set_label
 from .meshkeys import node_memory_gb
@@ -146,8 +154,9 @@ def _amplitudes(job: LinkJob, estimate: Callable[[], np.ndarray]) -> np.ndarray:
 
 
 def _discard(path: Path) -> None:
-    """Let ccx write ``path`` into /dev/null: MATRIXSTORAGE always writes
-    the mass matrix too (as large as K, unused here), so the work folder's
+    """Let ccx write ``path`` into /dev/null (without the preload shim):
+    MATRIXSTORAGE always writes the mass matrix too (as large as K, unused
+    here), so the work folder's
     ``kmatrix.mas`` becomes a link to /dev/null (a stale file of an earlier
     run is removed first). Where links are refused, ccx writes the file."""
     try:
@@ -174,9 +183,11 @@ def _solve_matrix(
     t1 = time.perf_counter()
     p0 = np.asarray(job.reference_point)
     deck = write_matrix_deck(workdir / "kmatrix.inp", mesh, job.E, job.nu, job.density, fixed)
-    _discard(workdir / "kmatrix.mas")
-    say(f"ccx: assembling K ({mesh.n_nodes * 3} dofs, MATRIXSTORAGE)")
-    run = run_ccx(deck, job.ccx_timeout)
+    shim = matrix_shim()
+    if shim is None:
+        _discard(workdir / "kmatrix.mas")
+    say(f"ccx: assembling K ({mesh.n_nodes * 3} dofs, MATRIXSTORAGE{', binary' if shim else ''})")
+    run = run_ccx(deck, job.ccx_timeout, preload=shim)
     t_ccx = time.perf_counter()
     rows, cols, vals, neq = read_triplets(workdir / "kmatrix.sti")
     node, direction = read_dofs(workdir / "kmatrix.dof")
