@@ -4,6 +4,8 @@ small systems with known answers."""
 
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pytest
 from _profiles import examples
@@ -12,6 +14,7 @@ from hypothesis import strategies as st
 
 from stiffkit import InputError, SingularError
 from stiffkit._core.sparse import cholmod_solve, distributing_loads, face_weights, read_dofs, read_triplets, rigid_solve
+from stiffkit.fea.ccx import matrix_shim, run_ccx
 
 
 def upper_triplets(K):
@@ -144,3 +147,41 @@ def test_node_graph_ordering_solves_block_matrices():
         T[78 + 3 * i : 81 + 3 * i, 81:] = -np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
     Kr = T.T @ K @ T
     assert np.allclose(q, np.linalg.inv(Kr)[78:, 78:], rtol=1e-8)
+
+
+def _two_hex_deck(path):
+    """Two C3D8 bricks, clamped at x = 0: a MATRIXSTORAGE deck."""
+    ids = {(x, y, z): 1 + 4 * x + 2 * y + z for x in range(3) for y in range(2) for z in range(2)}
+    lines = ["*NODE, NSET=NALL"] + [f"{n}, {0.01 * x}, {0.01 * y}, {0.01 * z}" for (x, y, z), n in ids.items()]
+    lines.append("*ELEMENT, TYPE=C3D8, ELSET=EALL")
+    for x in range(2):
+        c = [(x, 0, 0), (x + 1, 0, 0), (x + 1, 1, 0), (x, 1, 0), (x, 0, 1), (x + 1, 0, 1), (x + 1, 1, 1), (x, 1, 1)]
+        lines.append(f"{x + 1}, " + ", ".join(str(ids[t]) for t in c))
+    lines += ["*NSET, NSET=NFIX", ", ".join(str(ids[(0, y, z)]) for y in range(2) for z in range(2))]
+    lines += ["*MATERIAL, NAME=M", "*ELASTIC", "2e11, 0.3", "*DENSITY", "7850"]
+    lines += ["*SOLID SECTION, ELSET=EALL, MATERIAL=M"]
+    lines += ["*BOUNDARY", "NFIX, 1, 3", "*STEP", "*FREQUENCY, SOLVER=MATRIXSTORAGE", "1", "*END STEP"]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="needs CalculiX ccx")
+def test_matrix_shim_writes_exact_binary_stiffness(tmp_path):
+    # ccx with core/sk_ccxio.c preloaded: binary .sti (the text's values to
+    # its 14 digits), no mass matrix; without it, ccx's own text
+    shim = matrix_shim()
+    assert shim is not None
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    run_ccx(_two_hex_deck(tmp_path / "a" / "k.inp"))
+    run_ccx(_two_hex_deck(tmp_path / "b" / "k.inp"), preload=shim)
+    text, binary = tmp_path / "a" / "k.sti", tmp_path / "b" / "k.sti"
+    assert binary.read_bytes().startswith(b"SKSTI-BINARY-1\n") and not text.read_bytes().startswith(b"SK")
+    assert (tmp_path / "b" / "k.mas").stat().st_size == 0 < (tmp_path / "a" / "k.mas").stat().st_size
+    rt, ct, vt, nt = read_triplets(text)
+    rb, cb, vb, nb = read_triplets(binary)
+    assert nt == nb == 24 and (rt == rb).all() and (ct == cb).all()
+    assert [float(f"{v:.13e}") for v in vb] == vt.tolist()
+    binary.write_bytes(binary.read_bytes()[:-3])  # a truncated record
+    with pytest.raises(InputError):
+        read_triplets(binary)
