@@ -191,8 +191,9 @@ _FACTOR = re.compile(rb"Factoring the system of equations")
 
 def matrix_shim() -> str | None:
     """Path of the LD_PRELOAD library (core/sk_ccxio.c) that makes ccx's
-    MATRIXSTORAGE run write K as binary records and skip the mass matrix;
-    None where it is not built (ccx then writes its text files)."""
+    MATRIXSTORAGE run skip the mass matrix (and, with STIFFKIT_EXACT_K=1,
+    write K as exact binary records); None where it is not built (ccx then
+    writes its text files)."""
     try:
         spec = importlib.util.find_spec("stiffkit._core._ccxio")
     except (ImportError, ValueError):

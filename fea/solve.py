@@ -186,7 +186,8 @@ def _solve_matrix(
     shim = matrix_shim()
     if shim is None:
         _discard(workdir / "kmatrix.mas")
-    say(f"ccx: assembling K ({mesh.n_nodes * 3} dofs, MATRIXSTORAGE{', binary' if shim else ''})")
+    exact = shim is not None and os.environ.get("STIFFKIT_EXACT_K") == "1"
+    say(f"ccx: assembling K ({mesh.n_nodes * 3} dofs, MATRIXSTORAGE{', exact binary K' if exact else ''})")
     run = run_ccx(deck, job.ccx_timeout, preload=shim)
     t_ccx = time.perf_counter()
     rows, cols, vals, neq = read_triplets(workdir / "kmatrix.sti")

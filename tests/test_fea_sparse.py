@@ -166,14 +166,15 @@ def _two_hex_deck(path):
 
 
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="needs CalculiX ccx")
-def test_matrix_shim_writes_exact_binary_stiffness(tmp_path):
-    # ccx with core/sk_ccxio.c preloaded: binary .sti (the text's values to
-    # its 14 digits), no mass matrix; without it, ccx's own text
+def test_matrix_shim_writes_exact_binary_stiffness(tmp_path, monkeypatch):
+    # ccx with core/sk_ccxio.c preloaded and STIFFKIT_EXACT_K=1: binary .sti
+    # (the text's values to its 14 digits), no mass matrix; without, text
     shim = matrix_shim()
     assert shim is not None
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()
     run_ccx(_two_hex_deck(tmp_path / "a" / "k.inp"))
+    monkeypatch.setenv("STIFFKIT_EXACT_K", "1")
     run_ccx(_two_hex_deck(tmp_path / "b" / "k.inp"), preload=shim)
     text, binary = tmp_path / "a" / "k.sti", tmp_path / "b" / "k.sti"
     assert binary.read_bytes().startswith(b"SKSTI-BINARY-1\n") and not text.read_bytes().startswith(b"SK")
@@ -185,3 +186,13 @@ def test_matrix_shim_writes_exact_binary_stiffness(tmp_path):
     binary.write_bytes(binary.read_bytes()[:-3])  # a truncated record
     with pytest.raises(InputError):
         read_triplets(binary)
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="needs CalculiX ccx")
+def test_matrix_shim_default_keeps_text_stiffness(tmp_path, monkeypatch):
+    # by default the shim only drops the mass matrix: K stays ccx's text
+    monkeypatch.delenv("STIFFKIT_EXACT_K", raising=False)
+    run_ccx(_two_hex_deck(tmp_path / "k.inp"), preload=matrix_shim())
+    assert (tmp_path / "k.mas").stat().st_size == 0
+    rows, _c, _v, neq = read_triplets(tmp_path / "k.sti")
+    assert neq == 24 and (tmp_path / "k.sti").read_bytes()[:2] == b"1 "
