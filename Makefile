@@ -117,6 +117,7 @@ lint: $(STAMP_DEPS)
 	gfortran $(FORTRAN_LINT) -std=f2018 -J "$$tmp" tests/core/sk_testing.f90 || exit 1; \
 	for f in tests/core/test_*.f90; do gfortran $(FORTRAN_LINT) -std=f2018 -J "$$tmp" $$f || exit 1; done; \
 	gcc -fsyntax-only -Wall -Wextra -Werror -std=c11 -I/usr/include/suitesparse core/sk_cholmod.c; \
+	gcc -fsyntax-only -Wall -Wextra -Werror core/sk_ccxio.c; \
 	echo "lint: clean"
 
 format: $(STAMP_DEPS)

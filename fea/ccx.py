@@ -9,6 +9,7 @@ ccx's output; a malformed deck can make ccx loop, so every run has a timeout.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import shutil
@@ -188,12 +189,29 @@ def _error_text(log: str, limit: int = 6) -> str:
 _FACTOR = re.compile(rb"Factoring the system of equations")
 
 
+def matrix_shim() -> str | None:
+    """Path of the LD_PRELOAD library (core/sk_ccxio.c) that makes ccx's
+    MATRIXSTORAGE run skip the mass matrix (and, with STIFFKIT_EXACT_K=1,
+    write K as exact binary records); None where it is not built (ccx then
+    writes its text files)."""
+    try:
+        spec = importlib.util.find_spec("stiffkit._core._ccxio")
+    except (ImportError, ValueError):
+        return None
+    return spec.origin if spec is not None and spec.origin and Path(spec.origin).is_file() else None
+
+
 def run_ccx(
-    deck: Path, timeout: float = 3600.0, threads: int = 1, progress: Callable[[str], None] | None = None
+    deck: Path,
+    timeout: float = 3600.0,
+    threads: int = 1,
+    progress: Callable[[str], None] | None = None,
+    preload: str | None = None,
 ) -> CcxRun:
     """Run ``ccx -i job`` in the deck's folder; raise CcxError with ccx's
     own error text on failure (exit 201: input error) or after ``timeout``.
-    ``progress(msg)`` is told when ccx starts each *STEP."""
+    ``progress(msg)`` is told when ccx starts each *STEP; ``preload``: a
+    library for LD_PRELOAD (:func:`matrix_shim`)."""
     exe = ccx_executable()
     deck = Path(deck)
     # line-buffered output (C stdio via stdbuf, gfortran units) so that the
@@ -205,6 +223,8 @@ def run_ccx(
         CCX_NPROC_EQUATION_SOLVER=str(threads),
         GFORTRAN_UNBUFFERED_PRECONNECTED="y",
     )
+    if preload:
+        env["LD_PRELOAD"] = " ".join(x for x in (preload, os.environ.get("LD_PRELOAD", "")) if x)
     stdbuf = shutil.which("stdbuf")
     cmd = ([stdbuf, "-oL"] if stdbuf else []) + [exe, "-i", deck.stem]
     logf = deck.with_suffix(".log")

@@ -12,6 +12,7 @@ node's own motion, the independent check of the field fit.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -31,7 +32,15 @@ from .._core.sparse import (
 from ..errors import InputError
 from ..meshing import Mesh, MeshError, face_connectivity, mesh_part
 from .amplitudes import auto_amplitudes, beam_estimate
-from .ccx import ccx_version, displacements_from_dat, peak_rss_mb, run_ccx, write_matrix_deck, write_static_deck
+from .ccx import (
+    ccx_version,
+    displacements_from_dat,
+    matrix_shim,
+    peak_rss_mb,
+    run_ccx,
+    write_matrix_deck,
+    write_static_deck,
+)
 from .config import LinkJob, check_extent, check_mesh_size
 from .facesets import CadSets, default_reference_point, mesh_set, resolve_job_sets, set_label
 from .meshkeys import node_memory_gb
@@ -144,6 +153,20 @@ def _amplitudes(job: LinkJob, estimate: Callable[[], np.ndarray]) -> np.ndarray:
     return auto_amplitudes(estimate()) if job.amplitudes == "auto" else np.asarray(job.amplitudes, dtype=float)
 
 
+def _discard(path: Path) -> None:
+    """Let ccx write ``path`` into /dev/null (without the preload shim):
+    MATRIXSTORAGE always writes the mass matrix too (as large as K, unused
+    here), so the work folder's
+    ``kmatrix.mas`` becomes a link to /dev/null (a stale file of an earlier
+    run is removed first). Where links are refused, ccx writes the file."""
+    try:
+        if path.is_symlink() or path.is_file():
+            path.unlink()
+        path.symlink_to(os.devnull)
+    except OSError:
+        pass
+
+
 def _solve_matrix(
     job: LinkJob,
     mesh: Mesh,
@@ -160,8 +183,12 @@ def _solve_matrix(
     t1 = time.perf_counter()
     p0 = np.asarray(job.reference_point)
     deck = write_matrix_deck(workdir / "kmatrix.inp", mesh, job.E, job.nu, job.density, fixed)
-    say(f"ccx: assembling K ({mesh.n_nodes * 3} dofs, MATRIXSTORAGE)")
-    run = run_ccx(deck, job.ccx_timeout)
+    shim = matrix_shim()
+    if shim is None:
+        _discard(workdir / "kmatrix.mas")
+    exact = shim is not None and os.environ.get("STIFFKIT_EXACT_K") == "1"
+    say(f"ccx: assembling K ({mesh.n_nodes * 3} dofs, MATRIXSTORAGE{', exact binary K' if exact else ''})")
+    run = run_ccx(deck, job.ccx_timeout, preload=shim)
     t_ccx = time.perf_counter()
     rows, cols, vals, neq = read_triplets(workdir / "kmatrix.sti")
     node, direction = read_dofs(workdir / "kmatrix.dof")
@@ -227,7 +254,7 @@ def _solve_ccx(
 def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str], None] | None = None) -> FeaSolution:
     """Mesh and solve the six load cases (no cache)."""
     say = progress or (lambda msg: None)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     across = (
         f", across {job.across_factor * job.size:g} {job.units}" if job.structured and job.across_factor != 1 else ""
     )
@@ -237,7 +264,7 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str],
     )
     cad = resolve_job_sets(job)
     mesh = mesh_job(job, cad)
-    t_mesh = time.perf_counter() - t0
+    t_mesh, c_mesh = time.perf_counter() - t0, time.process_time() - c0
     say(f"mesh: {mesh.n_nodes} nodes, {mesh.n_elements} {mesh.ccx_type} elements")
     fixed, load, faces = support_and_load(job, mesh, cad)
     conn = face_connectivity(mesh, faces)
@@ -266,7 +293,7 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str],
         U, ref, amps, timing, more = _solve_matrix(job, mesh, workdir, fixed, load, coupled, g, say)
     else:
         U, ref, amps, timing, more = _solve_ccx(job, mesh, workdir, fixed, load, faces, coupled, g, say, progress)
-    timing = {"mesh": t_mesh, "fea": time.perf_counter() - t1, **timing}
+    timing = {"mesh": t_mesh, "mesh_cpu": c_mesh, "fea": time.perf_counter() - t1, **timing}
     stats.update(more)
     stats["python_max_rss_mb"] = peak_rss_mb()
     stats["ccx_version"] = ccx_version()
