@@ -149,6 +149,8 @@ class Tree:
 
 #: how far from 1 the norm of a joint axis may be to be normalised (with a warning); beyond, an error
 AXIS_TOL = 1e-6
+#: an axis norm within this of 1 is normalised without a word (decimal round-off)
+AXIS_QUIET = 1e-12
 
 
 def _axis(j: UrdfJoint, path: Path) -> np.ndarray:
@@ -165,7 +167,7 @@ def _axis(j: UrdfJoint, path: Path) -> np.ndarray:
             f"{path}: joint {j.name!r}: axis {' '.join(f'{v:.12g}' for v in j.axis)} has norm {n:.9g}; "
             f"a URDF axis is a unit vector (normalised only within {AXIS_TOL:g} of 1)"
         )
-    if n != 1.0:
+    if abs(n - 1.0) > AXIS_QUIET:  # below it: the round-off of a unit axis written in decimals
         V.warn(
             f"{path}: joint {j.name!r}: axis norm {n:.12g} is not 1; normalised",
             key=("urdf-axis", str(path), j.name),

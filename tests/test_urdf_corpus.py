@@ -213,6 +213,19 @@ def test_non_unit_axes(tmp_path, text, ok):
         assert f"joint 'j1': axis {text} has norm {norm:.9g}" in str(exc.value)
 
 
+def test_a_unit_axis_written_in_decimals_is_not_warned(tmp_path):
+    """0.48 0.6 0.64 has norm 1 only to round-off (0.9999999999999999):
+    normalised without the warning that used to read 'axis norm 1 is not 1'."""
+    text = "0.48 0.6 0.64"
+    assert np.linalg.norm([0.48, 0.6, 0.64]) != 1.0
+    p = _write(tmp_path, [C.J("j1", "revolute", "base_link", "a", axis_text=text)])
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        t = load_tree(p)
+    assert np.linalg.norm(t.joint("j1").axis) == pytest.approx(1.0, abs=1e-15)
+    assert not any("axis norm" in str(w.message) for w in rec)
+
+
 def test_an_empty_robot_and_an_undefined_mimic_leader_are_named(tmp_path):
     """Two defects found in public descriptions (bench/urdf_sweep.py): an
     unexpanded xacro wrapper with no link, a mimic naming a joint the file
