@@ -462,11 +462,13 @@ def _posture_rms(setup: PlanSetup, cov: np.ndarray | None) -> np.ndarray:
     return np.sqrt(np.divide(tot, pts, out=np.zeros(ntp), where=pts > 0))
 
 
-def _cov(setup: PlanSetup, chosen: np.ndarray) -> np.ndarray | None:
+def _cov(setup: PlanSetup, chosen: np.ndarray) -> tuple[np.ndarray | None, design.DesignError | None]:
+    """The core's covariance of ``chosen``, or None and the core's error
+    (naming the first non-identifiable column) when it is singular."""
     try:
-        return design.covariance(setup.jc, chosen, m0=setup.m0)
-    except design.DesignError:
-        return None
+        return design.covariance(setup.jc, chosen, m0=setup.m0), None
+    except design.DesignError as exc:
+        return None, exc
 
 
 def plan(
@@ -501,31 +503,31 @@ def plan(
     rng = np.random.default_rng(seed + 1)
     ncand = setup.jc.shape[0]
     draws = [np.sort(rng.choice(ncand, k, replace=False)) for _ in range(RANDOM_DESIGNS)]
-    rv = np.array([design.criterion(setup.jc, d, crit, m0=setup.m0, jt=jt if crit == "task" else None) for d in draws])
     rt = np.array([design.criterion(setup.jc, d, "task", m0=setup.m0, jt=jt) for d in draws])
+    rv = rt if crit == "task" else np.array([design.criterion(setup.jc, d, crit, m0=setup.m0) for d in draws])
     trace = float(res.value) if crit == "task" else design.criterion(setup.jc, chosen, "task", m0=setup.m0, jt=jt)
-    cov = _cov(setup, chosen)
-    M = sum(setup.jc[c].T @ setup.jc[c] for c in chosen) + (0 if setup.m0 is None else setup.m0)
+    cov, exc = _cov(setup, chosen)
+    # the information's diagonal (variance inflation = diag(M^-1) diag(M))
+    info_diag = np.einsum("cij,cij->j", setup.jc[chosen], setup.jc[chosen])
+    if setup.m0 is not None:
+        info_diag = info_diag + np.diag(setup.m0)
     notes = []
     if cov is None:
         npar = setup.npar
         std = vif = np.full(npar, math.inf)
         corr = np.full((npar, npar), np.nan)
-        try:
-            design.covariance(setup.jc, chosen, m0=setup.m0)
-        except design.DesignError as exc:
-            col = getattr(exc, "column", None)
-            which = setup.names[col] if col is not None and 0 <= col < npar else "a parameter"
-            notes.append(
-                f"the plan leaves {which} non-identifiable (its information matrix is singular): "
-                f"plan more than {k} (--select)"
-            )
+        col = getattr(exc, "column", None)
+        which = setup.names[col] if col is not None and 0 <= col < npar else "a parameter"
+        notes.append(
+            f"the plan leaves {which} non-identifiable (its information matrix is singular): "
+            f"plan more than {k} (--select)"
+        )
     else:
         std = np.sqrt(np.diag(cov))
-        vif = np.diag(cov) * np.diag(M)
+        vif = np.diag(cov) * info_diag
         d = np.where(std > 0, std, 1.0)
         corr = cov / np.outer(d, d)
-    per = [_posture_rms(setup, _cov(setup, d)) for d in draws]
+    per = [_posture_rms(setup, _cov(setup, d)[0]) for d in draws]
     return PlanResult(
         setup=setup,
         k=k,

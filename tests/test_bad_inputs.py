@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _links import small_beam
 
 import stiffkit as sk
 from stiffkit.cli import main
@@ -66,24 +67,8 @@ def ws(tmp_path_factory):
     return root
 
 
-BEAM = """[geometry]
-shape = "box"
-size = [40.0, 10.0, 10.0]
-units = "mm"
-[material]
-E = 2.0e11
-nu = 0.3
-[support]
-plane = "x-min"
-[load]
-plane = "x-max"
-reference_point = [40.0, 0.0, 0.0]
-[field]
-region = "face"
-[mesh]
-order = 1
-size = 5.0
-"""
+# the small beam of tests/_links.py, with the field fitted on the load face
+BEAM = small_beam(5.0).replace("[mesh]", '[field]\nregion = "face"\n[mesh]')
 
 # ---------------------------------------------------------------- helpers
 
