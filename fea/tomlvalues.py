@@ -3,7 +3,6 @@ key, and every problem is a :class:`ConfigError` (an InputError)."""
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterable
 
 from ..errors import InputError
@@ -14,9 +13,7 @@ class ConfigError(InputError):
     """LINK.toml is missing, malformed or has an invalid value."""
 
 
-def suggest(word: object, choices: Iterable[str]) -> str:
-    close = difflib.get_close_matches(str(word), list(choices), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+suggest = V.suggest
 
 
 def get_value(tbl: dict, key: str, where: str, path: str, kind: type | None = None, default: object = ...) -> object:

@@ -152,6 +152,24 @@ def shown(v: object) -> str:
     return v if isinstance(v, str) and _PLAIN.fullmatch(v) else repr(v)
 
 
+def suggest(word: object, choices: Iterable[str]) -> str:
+    """ " (did you mean 'x'?)" for the choice closest to a mistyped word, or ""."""
+    import difflib
+
+    close = difflib.get_close_matches(str(word), list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def known_keys(table: dict, known: Iterable[str], what: str, error: type[InputError] = InputError) -> None:
+    """Refuse keys of ``table`` outside ``known``: "{what} 'k1', 'k2' (did
+    you mean ..?); known: ..." (a typo is an error, not a silent default)."""
+    known = list(known)
+    unknown = sorted(set(table) - set(known))
+    if unknown:
+        names = ", ".join(map(shown, unknown))
+        raise error(f"{what} {names}{suggest(unknown[0], known)}; known: {', '.join(known)}")
+
+
 def warn(message: str, stacklevel: int = 3, key: object = None) -> None:
     """A :class:`PlausibilityWarning` (the command line prints it as one
     line); ``key`` identifies the finding (e.g. (quantity, value)) so that a

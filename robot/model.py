@@ -9,7 +9,7 @@ when the table carries a value) and a virtual spring of the chain.
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -407,11 +407,7 @@ def _number(table: dict, key: str, where: str, q: str | None = None, **limits: o
     return V.number(table[key], f"{where}: {key}", q, **limits)
 
 
-def _suggest(word: str, choices: Iterable[str]) -> str:
-    import difflib
-
-    close = difflib.get_close_matches(str(word), list(choices), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+_suggest = V.suggest
 
 
 #: keys an [[effect]] table may carry, per kind (a typo is an error, not a silent default)
@@ -644,11 +640,7 @@ ROBOT_KEYS = ("urdf", "base_link", "tool_frame")
 MEAS_KEYS = ("sigma_position", "sigma_rotation", "kind")
 
 
-def _known(table: dict, known: Collection[str], what: str) -> None:
-    unknown = sorted(set(table) - set(known))
-    if unknown:
-        names = ", ".join(map(V.shown, unknown))
-        raise InputError(f"{what} {names}{_suggest(unknown[0], known)}; known: {', '.join(known)}")
+_known = V.known_keys
 
 
 def model_from_tables(

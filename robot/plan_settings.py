@@ -115,11 +115,7 @@ def _limits(table: object, where: str, joints: dict[str, tuple[str, tuple[float,
 def _tracker(t: object, where: str) -> dict:
     if not isinstance(t, dict):
         raise InputError(f"{where} tracker must be a table {{position = [x, y, z], direction = [..], cone_deg = ..}}")
-    unknown = sorted(set(t) - set(TRACKER_KEYS))
-    if unknown:
-        raise InputError(
-            f"{where} tracker: unknown key(s) {', '.join(map(V.shown, unknown))}; known: position, direction, cone_deg"
-        )
+    V.known_keys(t, TRACKER_KEYS, f"{where} tracker: unknown key(s)")
     missing = [k for k in TRACKER_KEYS if k not in t]
     if missing:
         raise InputError(
@@ -157,9 +153,7 @@ def parse_plan(table: dict, path: Path | str, model: object) -> PlanSettings:
     TreeModel or a Model: joint names and URDF limits, link names, the data
     kind); InputError naming file, table and key."""
     where = f"{path}: [plan]"
-    unknown = sorted(set(table) - set(PLAN_KEYS))
-    if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(map(V.shown, unknown))}; known: {', '.join(PLAN_KEYS)}")
+    V.known_keys(table, PLAN_KEYS, f"{where}: unknown key(s)")
     tree = getattr(model, "tree", None)
     absolute = tree is not None
     if absolute:
