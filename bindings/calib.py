@@ -85,6 +85,19 @@ def wls(a: np.ndarray, y: np.ndarray, rcond: float, gtol: float) -> tuple:
     return theta, stdu, s, v, int(rank), group, res
 
 
+def qr_r(a: np.ndarray) -> np.ndarray:
+    """The triangular factor R (n, n) of the QR decomposition of a (m, n):
+    R^T R = a^T a. With fewer rows than columns, a is padded with zero rows
+    (the same R^T R)."""
+    a = np.asarray(a, float)
+    m, n = a.shape
+    if m < n:
+        a = np.vstack([a, np.zeros((n - m, n))])
+    r, info = call(_calib.sk_qr_r, "sk_qr_r", np.asfortranarray(a))
+    check(info, "QR factor (sk_qr_r)")
+    return r
+
+
 def score(
     a: np.ndarray, r: np.ndarray, z: np.ndarray, cstart: np.ndarray, rcond: float, ztol: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -85,7 +85,7 @@ class FoldFactors:
             train = ~test
             if not test.any():
                 continue
-            R = np.linalg.qr(np.hstack([self.M[train], self.b[train, None]]), mode="r")
+            R = core.qr_r(np.hstack([self.M[train], self.b[train, None]]))
             self.parts.append((test, int(train.sum()), R))
 
     def held_out(

@@ -76,6 +76,19 @@ subroutine sk_wls(n, p, a, y, rcond, gtol, theta, stdu, s, v, rank, group, res, 
     call wls_svd(a, y, rcond, gtol, theta, stdu, s, v, rank, group, res, info)
 end subroutine sk_wls
 
+!> The triangular factor r[n,n] of the QR decomposition of a[m,n], m >= n
+!> (sk_linalg%qr_triangle; r^T r = a^T a).
+subroutine sk_qr_r(m, n, a, r, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_linalg, only: qr_triangle
+    implicit none
+    integer(c_int), intent(in) :: m, n
+    real(c_double), intent(in) :: a(m, n)
+    real(c_double), intent(out) :: r(n, n)
+    integer(c_int), intent(out) :: info
+    call qr_triangle(a, r, info)
+end subroutine sk_qr_r
+
 !> Score tests of candidates z(:, cstart(c):cstart(c+1)-1) (sk_calib%score_tests).
 subroutine sk_score(n, p, nz, nc1, a, r, z, cstart, rcond, ztol, stat, dof, pr, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int

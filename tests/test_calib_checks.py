@@ -166,3 +166,15 @@ def test_max_score_between_best_p_and_bonferroni():
     p2 = core.max_score(a, np.hstack([z, z]), np.concatenate([cs, cs[1:] + 12]).astype(np.int32), 1e-10, 1e-6, lobs,
                         0, 4000, 1)  # fmt: skip
     assert abs(p2 - p) < 4 * math.sqrt(p * (1 - p) / 4000)
+
+
+@pytest.mark.parametrize("m, n", [(9, 4), (4, 4), (3, 6)])
+def test_core_qr_factor_is_triangular_with_the_gram_matrix(m, n):
+    """calib.crossval.FoldFactors' factor: R upper triangular (n, n) with
+    R^T R = A^T A, also for fewer rows than columns (zero rows added)."""
+    from stiffkit._core import calib as core
+
+    A = np.random.default_rng(m * 10 + n).normal(size=(m, n))
+    R = core.qr_r(A)
+    assert R.shape == (n, n) and np.all(np.tril(R, -1) == 0)
+    np.testing.assert_allclose(R.T @ R, A.T @ A, atol=1e-12)
