@@ -5,7 +5,7 @@ points at all.
 A candidate is an ``[[effect]]`` table the model lacks: every per-joint kind
 (JOINT_KINDS) on every joint it applies to and on ``all``, a link spring on
 every link that carries mass beyond it, the base spring. To add a kind:
-append its tables in :func:`absolute_candidates`; if its effect moves
+give it a candidate generator in the catalogue (robot/catalogue.py); if its effect moves
 links directly (not only through the weights), say which in
 :func:`moved_links` (a kind it does not know is judged by its columns
 only); if its size has a physical bound, give PLAUSIBLE_SIZE an entry.
@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from ..robot.model_bodies import body_candidates
+from ..robot import catalogue
 from ..robot.tree_model import TreeModel, tree_model_from_tables
 
 __all__ = ["absolute_candidates", "moved_links", "inert_reason", "JOINT_KINDS", "PLAUSIBLE_SIZE"]
@@ -53,39 +53,8 @@ ZERO_COLUMN = 1e-9
 
 def absolute_candidates(model: TreeModel) -> list[dict]:
     """Effect tables of every catalogued kind on every target the model
-    lacks, the per-joint kinds also on ``all``."""
-    tree = model.tree
-    have = {(p.kind, p.target) for p in model.params}
-    out = []
-    for kind in JOINT_KINDS:
-        if kind in ("joint_offset", "joint"):
-            joints = [j.name for j in tree.joints if j.moving]
-        elif kind == "lateral":
-            joints = [j.name for j in tree.joints if j.moving and j.type != "prismatic"]
-        else:
-            joints = [j.name for j in tree.joints]
-        missing = [j for j in joints if (kind, j) not in have]
-        if len(missing) > 1:
-            out.append({"kind": kind, "target": "all"})
-        out += [{"kind": kind, "target": j} for j in missing]
-    massive = _links_carrying_mass(model)
-    for link in massive:
-        if ("link", link) not in have:
-            out.append({"kind": "link", "target": link, "template": SPRING_TEMPLATE})
-    if ("base", "base") not in have and massive:
-        out.append({"kind": "base", "template": "full"})
-    return out + body_candidates(model)  # mass factors (robot/model_bodies.py)
-
-
-def _links_carrying_mass(model: TreeModel) -> list[str]:
-    """Links with at least one child joint and some mass beyond it."""
-    tree = model.tree
-    mass_below: dict[str, float] = {ln: 0.0 for ln in tree.links}
-    for j in reversed(tree.joints):
-        ine = tree.inertials.get(j.child)
-        mass_below[j.child] += ine.mass if ine else 0.0
-        mass_below[j.parent] += mass_below[j.child]
-    return [ln for ln in tree.links if tree.children(ln) and mass_below[ln] > 0 and ln != tree.root]
+    lacks, the per-joint kinds also on ``all`` (robot/catalogue.py)."""
+    return [table for table, _hint in catalogue.candidates(model, catalogue.ABSOLUTE)]
 
 
 def _subtree(model: TreeModel, link: str) -> set[str]:

@@ -2,9 +2,8 @@
 (``calib.diagnose``): which effect tables are tried on a model, and the
 record of one candidate's scores.
 
-To add a kind: append its tables in :func:`candidate_tables` (a kind of
-``robot.model.KINDS`` that ``expand_effect`` knows); the scoring, ranking
-and reports take every table alike.
+The candidates come from the catalogue of kinds (robot/catalogue.py,
+``candidates``); the scoring, ranking and reports take every table alike.
 """
 
 from __future__ import annotations
@@ -14,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..robot import catalogue
 from ..robot.model import Model
 
 __all__ = ["Candidate", "candidate_tables", "inert_reasons", "ZERO_COLUMN"]
@@ -83,45 +83,11 @@ class Candidate:
 
 
 def candidate_tables(model: Model, tau0: dict | None = None) -> list[tuple[dict, str]]:
-    """Every contract kind on every target the model does not already have:
-    (effect table, hint). ``tau0`` {joint: N m} gives the smoothing torque
-    of the joint_deadzone candidates (from the data's torque scale)."""
-    ch = model.chain
-    out = []
-    joints = ch.actuated
-    for j in joints:
-        if not model.has("joint", j):
-            out.append(({"kind": "joint", "target": j}, ""))
-    for j in joints:
-        if not model.has("joint_profile", j):
-            out.append(({"kind": "joint_profile", "target": j}, ""))
-    for j in joints:
-        if not model.has("joint_cubic", j):
-            out.append(({"kind": "joint_cubic", "target": j}, ""))
-    for j in joints:
-        if not model.has("joint_deadzone", j):
-            t0 = (tau0 or {}).get(j, 1.0)
-            out.append(({"kind": "joint_deadzone", "target": j, "tau0": t0}, ""))
-    have = {(t.source, t.target, t.template) for t in model.terms if t.kind == "six"}
-    for link in ch.links:
-        if ch.is_tool_spring(link):  # its spring is the tool spring: offered as kind tool
-            continue
-        for tpl in ("beam", "diagonal", "full"):
-            if ("link", link, tpl) not in have:
-                out.append(({"kind": "link", "target": link, "template": tpl}, ""))
-    last = [ln for ln in ch.links if ch.is_tool_spring(ln)]
-    for kind in ("base", "tool"):
-        for tpl in ("diagonal", "full"):
-            if (kind, kind, tpl) not in have and not (kind == "tool" and any(("link", ln, tpl) in have for ln in last)):
-                hint = (
-                    f"the tool spring is also the spring of link {last[0]!r} (same frame)"
-                    if kind == "tool" and last
-                    else ""
-                )
-                out.append(({"kind": kind, "template": tpl}, hint))
-    if not any(t.kind == "point_offset" for t in model.terms):
-        out.append(({"kind": "point_offset"}, ""))
-    return out
+    """Every catalogued kind on every target the model does not already have:
+    (effect table, hint), from the catalogue (robot/catalogue.py). ``tau0``
+    {joint: N m} gives the smoothing torque of the joint_deadzone candidates
+    (from the data's torque scale)."""
+    return catalogue.candidates(model, catalogue.DEFLECTION, tau0)
 
 
 def inert_reasons(cands: list[tuple[dict, str]], Z: list[np.ndarray]) -> list[str]:

@@ -22,27 +22,17 @@ from ..errors import InputError
 from ..io import validate as V
 from ..io.linkjson import check_spring_matrix, read_link_compliance
 from ..io.tables import read_toml
+from . import catalogue
+from .catalogue import DEADZONE_TAU0_FRACTION, profile_basis
 from .indices import Indices, stiffness_indices_where
 from .plan_settings import plan_table
 from .urdf import Chain, load_chain
 
-KINDS = (
-    "joint",
-    "link",
-    "base",
-    "tool",
-    "joint_profile",
-    "gravity_compensator",
-    "point_offset",
-    "joint_cubic",
-    "joint_deadzone",
-)
+KINDS = catalogue.kinds(catalogue.DEFLECTION)
 #: kinds that act on one joint's spring (target: a joint name)
-JOINT_KINDS = ("joint", "joint_profile", "gravity_compensator", "joint_cubic", "joint_deadzone")
-#: joint kinds whose deflection is not linear in the joint torque (contract extensions)
-LOAD_NONLINEAR = ("joint_cubic", "joint_deadzone")
-#: default smoothing of joint_deadzone: tau0 = this fraction of the RMS torque about the joint
-DEADZONE_TAU0_FRACTION = 0.05
+JOINT_KINDS = tuple(k for k in KINDS if catalogue.KIND[k].per_joint)
+#: joint kinds whose deflection is not linear in the joint torque (docs/calibration.md section 7.1)
+LOAD_NONLINEAR = tuple(k for k in KINDS if catalogue.KIND[k].load_nonlinear)
 TEMPLATES = ("full", "beam", "diagonal")
 AXES = "xyz"
 SPRING_JOINT, SPRING_FRAME, SPRING_BASE, SPRING_TOOL = 1, 2, 3, 4
@@ -308,12 +298,6 @@ class Model:
         return stiffness_indices_where(K, ok, lscale), ok
 
 
-def profile_basis(q: np.ndarray) -> np.ndarray:
-    """(N, 5): 1, cos q, sin q, cos 2q, sin 2q (joint_profile)."""
-    q = np.asarray(q, float)
-    return np.column_stack([np.ones_like(q), np.cos(q), np.sin(q), np.cos(2 * q), np.sin(2 * q)])
-
-
 def load_factor(kind: str, tau: np.ndarray, tau0: float | np.ndarray | None = None) -> np.ndarray:
     """Secant factor of a load-nonlinear joint kind: its joint deflection is
     value * factor * tau (contract extensions).
@@ -411,17 +395,7 @@ _suggest = V.suggest
 
 
 #: keys an [[effect]] table may carry, per kind (a typo is an error, not a silent default)
-KEYS = {
-    "joint": {"target", "value"},
-    "joint_profile": {"target", "value"},
-    "gravity_compensator": {"target", "a", "b", "beta", "s0", "k_s"},
-    "link": {"target", "template", "axis", "value", "rpy"},
-    "base": {"target", "template", "axis", "value", "rpy"},
-    "tool": {"target", "template", "axis", "value", "rpy"},
-    "point_offset": {"target", "r"},
-    "joint_cubic": {"target", "value"},
-    "joint_deadzone": {"target", "value", "tau0"},
-}
+KEYS = catalogue.keys(catalogue.DEFLECTION)
 
 
 def expand_effect(

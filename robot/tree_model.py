@@ -61,8 +61,10 @@ from .._core.tree import CoreArrays
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_toml
+from . import catalogue
+from .catalogue import DEADZONE_TAU0_FRACTION, LAW_CUBIC, LAW_DEADZONE, LAW_LINEAR, LAW_SPRING6  # noqa: F401
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
-from .model_bodies import BODY_KEYS, BODY_KINDS, body_entries
+from .model_bodies import body_entries
 from .plan_settings import plan_table
 from .tree import Tree, load_tree
 from .tree_lateral import duplicated_tilt, joint_tilts, lateral_tilts
@@ -86,39 +88,13 @@ __all__ = [
 #: [measurements] kind: relative deflections under known loads (section 3) or absolute positions (section 6)
 MEASUREMENT_KINDS = ("deflection", "absolute")
 
-ABS_KINDS = (
-    "tracker",
-    "marker",
-    "joint_offset",
-    "frame",
-    "joint",
-    "lateral",
-    "joint_cubic",
-    "joint_deadzone",
-    "link",
-    "base",
-) + BODY_KINDS  # the gravity parameters (model_bodies): last, so the reduction keeps compliances first
+ABS_KINDS = catalogue.kinds(catalogue.ABSOLUTE)  # the gravity parameters last: the reduction keeps compliances first
 GRAVITY = (0.0, 0.0, -9.81)
-#: default tau0 of joint_deadzone: this fraction of the RMS gravity torque about the joint
-DEADZONE_TAU0_FRACTION = 0.05
 #: equilibrium: at most this many fixed-point iterations, to this tolerance (m)
 EQ_ITERATIONS, EQ_TOL = 100, 1e-9
 
-KEYS = {
-    "tracker": {"xyz", "rpy", "fixed"},
-    "marker": {"target", "xyz", "fixed"},
-    "joint_offset": {"target", "value"},
-    "frame": {"target", "value"},
-    "joint": {"target", "value"},
-    "lateral": {"target", "value", "tilts"},
-    "joint_cubic": {"target", "value"},
-    "joint_deadzone": {"target", "value", "tau0"},
-    "link": {"target", "template", "axis", "value", "rpy"},
-    "base": {"template", "axis", "value", "rpy"},
-    **BODY_KEYS,
-}
+KEYS = catalogue.keys(catalogue.ABSOLUTE)
 FRAME_NAMES = ("dx", "dy", "dz", "drx", "dry", "drz")
-LAW_LINEAR, LAW_CUBIC, LAW_DEADZONE, LAW_SPRING6 = 1, 2, 3, 4
 
 
 @dataclass
@@ -414,20 +390,24 @@ def _joint_law(b: _Builder, jn: str, slot: dict, vj: int) -> tuple:
             raise InputError(f"{w}: a joint compliance must be >= 0 (rad/(N m) or m/N), got {val}")
     kp = [b.add_param(f"{jn}.c", "joint", jn, i, 0.0 if val is None else val, val is None)] + [0] * 20
     law, w0 = LAW_LINEAR, 1.0
-    for kind, law_k, pname in (("joint_cubic", LAW_CUBIC, "cubic"), ("joint_deadzone", LAW_DEADZONE, "backlash")):
+    for kind in catalogue.LAW_KINDS:  # a law in place of the linear one (robot/catalogue.py)
         if kind not in slot:
             continue
+        e = catalogue.KIND[kind]
         i2, t2, w2 = slot[kind]
         v2 = t2.get("value")
-        v2 = None if v2 is None else _number(v2, w2, "value")
-        kp[1] = b.add_param(f"{jn}.{pname}", kind, jn, i2, 0.0 if v2 is None else v2, v2 is None)
-        law = law_k
-        if kind == "joint_deadzone":
+        if v2 is not None:
+            v2 = [_number(v2, w2, "value")] if e.scalar else list(_vec(t2, "value", len(e.params), w2))
+        for s, p in enumerate(e.params):
+            start = p.default if v2 is None else v2[s]
+            kp[1 + s] = b.add_param(f"{jn}.{p.suffix}", kind, jn, i2, start, v2 is None)
+        law = catalogue.law_code(kind)
+        if e.w0_key:
             w0 = 0.0  # 0: set from the data's torque scale before the first evaluation
-            if "tau0" in t2:
-                w0 = _number(t2["tau0"], w2, "tau0")
+            if e.w0_key in t2:
+                w0 = _number(t2[e.w0_key], w2, e.w0_key)
                 if w0 <= 0:
-                    raise InputError(f"{w2}: tau0 must be > 0 N m, got {w0}")
+                    raise InputError(f"{w2}: {e.w0_key} must be > 0 N m, got {w0}")
     return law, [vj], kp, w0
 
 
@@ -478,14 +458,7 @@ def tree_model_from_tables(
 
     # which joint gets which per-joint effect (one of each kind per joint)
     per_joint: dict[str, dict[str, tuple[int, dict, str]]] = {}
-    for kind, moving in (
-        ("joint_offset", True),
-        ("frame", False),
-        ("joint", True),
-        ("lateral", True),
-        ("joint_cubic", True),
-        ("joint_deadzone", True),
-    ):
+    for kind, moving in ((e.name, e.moving) for e in catalogue.ENTRIES if e.per_joint and catalogue.ABSOLUTE in e.data):
         # a table naming one joint takes precedence over target = "all" (which
         # then means every other joint); two tables naming one joint, or two
         # "all", are an error
@@ -507,11 +480,12 @@ def tree_model_from_tables(
                     raise InputError(f"{w}: joint {jn!r} already has a {kind} effect ({slot[kind][2]})")
                 slot[kind] = (i, table, w)
     for jn, slot in per_joint.items():
-        for nl in ("joint_cubic", "joint_deadzone"):
+        for nl in catalogue.LAW_KINDS:
             if nl in slot and "joint" not in slot:
                 raise InputError(f"{slot[nl][2]}: {nl} on {jn!r} needs a 'joint' effect on the same joint (its c)")
-        if "joint_cubic" in slot and "joint_deadzone" in slot:
-            raise InputError(f"{slot['joint_deadzone'][2]}: joint {jn!r} has both joint_cubic and joint_deadzone")
+        laws = [k for k in catalogue.LAW_KINDS if k in slot]
+        if len(laws) > 1:  # one law per joint's block
+            raise InputError(f"{slot[laws[1]][2]}: joint {jn!r} has both {laws[0]} and {laws[1]}")
     links = {}
     for i, table, w in by_kind["link"]:
         target = table.get("target")
