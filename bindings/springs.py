@@ -97,7 +97,7 @@ def rotate6(rot: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 def psd_defect(m: np.ndarray) -> tuple[np.ndarray, float]:
     """How far each 6x6 spring of m (6,6) or (N,6,6) is from positive
-    semi-definite, unit-free (sk_linalg::psd_defect): (dmin (N,), tol);
+    semi-definite, unit-free (sk_small_sym::psd_defect): (dmin (N,), tol);
     dmin < -tol means a negative eigenvalue (not a physical spring)."""
     m = np.asarray(m, dtype=float)
     m3 = m[None] if m.ndim == 2 else m

@@ -34,7 +34,7 @@ PATH_GAP = 1.5
 def residual_structure(data: AbsoluteData, residual: np.ndarray, w: np.ndarray, model: TreeModel) -> dict:
     """Is what the model leaves a function of the posture, or of the order
     of measurement (drift), rather than noise? Two permutation tests of the
-    neighbour correlation (core sk_calib neighbour_correlation): each
+    neighbour correlation (core sk_neighbours neighbour_correlation): each
     point's error against that of the same marker in the nearest other
     posture (distance over the joints that move that marker), and in the
     configuration measured just before or after it (the file's order)."""

@@ -116,10 +116,10 @@ subroutine sk_max_score(n, p, nz, nc1, a, z, cstart, rcond, ztol, lobs, dpe, nsi
 end subroutine sk_max_score
 
 !> Neighbour correlation of residuals, a permutation test of structure
-!> (sk_calib%neighbour_correlation).
+!> (sk_neighbours%neighbour_correlation).
 subroutine sk_neighbour_correlation(d, k, n, x, e, w, grp, cls, nperm, seed, rho, pval, nn, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
-    use sk_calib, only: neighbour_correlation
+    use sk_neighbours, only: neighbour_correlation
     implicit none
     integer(c_int), intent(in) :: d, k, n, nperm, seed
     real(c_double), intent(in) :: x(d, n), e(k, n), w(n)
@@ -156,7 +156,7 @@ end subroutine sk_select
 !> log of the chi-square survival function.
 subroutine sk_chi2_logsf(x, k, l)
     use, intrinsic :: iso_c_binding, only: c_double
-    use sk_calib, only: chi2_logsf
+    use sk_tails, only: chi2_logsf
     implicit none
     real(c_double), intent(in) :: x, k
     real(c_double), intent(out) :: l
@@ -166,7 +166,7 @@ end subroutine sk_chi2_logsf
 !> log of the F(d1, d2) survival function.
 subroutine sk_f_logsf(f, d1, d2, l)
     use, intrinsic :: iso_c_binding, only: c_double
-    use sk_calib, only: f_logsf
+    use sk_tails, only: f_logsf
     implicit none
     real(c_double), intent(in) :: f, d1, d2
     real(c_double), intent(out) :: l

@@ -71,7 +71,8 @@ end subroutine sk_rotate6
 !> < -tol means spring i has a negative eigenvalue. tol is psd_tol.
 subroutine sk_psd_defect(n, m, dmin, tol)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
-    use sk_linalg, only: psd_defect, psd_tol, all_finite
+    use sk_small_sym, only: psd_defect, psd_tol
+    use sk_linalg, only: all_finite
     implicit none
     integer(c_int), intent(in) :: n
     real(c_double), intent(in) :: m(6, 6, n)

@@ -3,25 +3,25 @@
 !> observation matrix (eqs. 7-9, 15-20) with the partition of the
 !> parameters into identifiable (G1), non-identifiable (G2) and
 !> semi-identifiable (G3) groups (M4a), greedy selection of an
-!> independent subset (M5b), score (Lagrange-multiplier) tests of candidate
-!> columns projected off the model's column space, the multiplicity-corrected
-!> test of the best candidate (the null distribution of the smallest p-value
-!> over all candidates, by Monte Carlo on their projected spaces), and the
-!> tail probabilities (chi-square, F) the tests need, in log space so that
-!> strong effects do not underflow to 0.
+!> independent subset (M5b), relations between coupled parameters (eq. 21),
+!> score (Lagrange-multiplier) tests of candidate columns projected off the
+!> model's column space, and the multiplicity-corrected test of the best
+!> candidate (the null distribution of the smallest p-value over all
+!> candidates, by Monte Carlo on their projected spaces). The tail
+!> probabilities are sk_tails'; the neighbour correlation of a residual is
+!> sk_neighbours'.
 !>
 !> The observation matrix and data are weighted by the caller (rows divided
 !> by the measurement standard deviation), so unit-variance noise is assumed.
 module sk_calib
     use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
-    use, intrinsic :: iso_fortran_env, only: int64
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: svd, all_finite, matmul_tn, sym_eig, group_by
+    use sk_linalg, only: svd, all_finite, matmul_tn, sym_eig
+    use sk_tails, only: chi2_logsf, f_logsf
     implicit none
     private
-    public :: wls_svd, score_tests, select_independent, chi2_logsf, f_logsf
-    public :: log_gammq, log_betai, null_relations, max_score_test, neighbour_correlation
+    public :: wls_svd, score_tests, select_independent, null_relations, max_score_test
 
     integer, parameter, public :: group_identifiable = 1
     integer, parameter, public :: group_non_identifiable = 2
@@ -509,221 +509,5 @@ contains
         rel = m
         info = sk_ok
     end subroutine null_relations
-
-    !> log Q(a, x), Q the regularised upper incomplete gamma function:
-    !> series for P when x < a + 1, Lentz continued fraction otherwise.
-    pure function log_gammq(a, x) result(lq)
-        real(dp), intent(in) :: a, x
-        real(dp) :: lq, ap, del, ssum, b, c, dd, h, an, lpre
-        integer :: n
-        if (x <= 0.0_dp) then
-            lq = 0.0_dp
-            return
-        end if
-        lpre = -x + a*log(x) - log_gamma(a)
-        if (x < a + 1.0_dp) then
-            ap = a
-            ssum = 1.0_dp/a
-            del = ssum
-            do n = 1, 100000
-                ap = ap + 1.0_dp
-                del = del*x/ap
-                ssum = ssum + del
-                if (abs(del) < abs(ssum)*1.0e-16_dp) exit
-            end do
-            lq = log(max(1.0_dp - exp(lpre + log(ssum)), tiny(1.0_dp)))
-        else
-            b = x + 1.0_dp - a
-            c = 1.0_dp/tiny(1.0_dp)
-            dd = 1.0_dp/b
-            h = dd
-            do n = 1, 100000
-                an = -n*(n - a)
-                b = b + 2.0_dp
-                dd = an*dd + b
-                if (abs(dd) < tiny(1.0_dp)) dd = tiny(1.0_dp)
-                c = b + an/c
-                if (abs(c) < tiny(1.0_dp)) c = tiny(1.0_dp)
-                dd = 1.0_dp/dd
-                del = dd*c
-                h = h*del
-                if (abs(del - 1.0_dp) < 1.0e-16_dp) exit
-            end do
-            lq = lpre + log(h)
-        end if
-    end function log_gammq
-
-    !> log of the chi-square survival function, k degrees of freedom.
-    pure function chi2_logsf(x, k) result(l)
-        real(dp), intent(in) :: x, k
-        real(dp) :: l
-        l = log_gammq(0.5_dp*k, 0.5_dp*x)
-    end function chi2_logsf
-
-    !> Continued fraction of the incomplete beta function (modified Lentz).
-    pure function betacf(a, b, x) result(h)
-        real(dp), intent(in) :: a, b, x
-        real(dp) :: h, aa, c, d, del, qab, qap, qam
-        integer :: m, m2
-        qab = a + b
-        qap = a + 1.0_dp
-        qam = a - 1.0_dp
-        c = 1.0_dp
-        d = 1.0_dp - qab*x/qap
-        if (abs(d) < tiny(1.0_dp)) d = tiny(1.0_dp)
-        d = 1.0_dp/d
-        h = d
-        do m = 1, 100000
-            m2 = 2*m
-            aa = m*(b - m)*x/((qam + m2)*(a + m2))
-            d = 1.0_dp + aa*d
-            if (abs(d) < tiny(1.0_dp)) d = tiny(1.0_dp)
-            c = 1.0_dp + aa/c
-            if (abs(c) < tiny(1.0_dp)) c = tiny(1.0_dp)
-            d = 1.0_dp/d
-            h = h*d*c
-            aa = -(a + m)*(qab + m)*x/((a + m2)*(qap + m2))
-            d = 1.0_dp + aa*d
-            if (abs(d) < tiny(1.0_dp)) d = tiny(1.0_dp)
-            c = 1.0_dp + aa/c
-            if (abs(c) < tiny(1.0_dp)) c = tiny(1.0_dp)
-            d = 1.0_dp/d
-            del = d*c
-            h = h*del
-            if (abs(del - 1.0_dp) < 1.0e-16_dp) exit
-        end do
-    end function betacf
-
-    !> log I_x(a, b), the regularised incomplete beta function.
-    pure recursive function log_betai(a, b, x) result(l)
-        real(dp), intent(in) :: a, b, x
-        real(dp) :: l, lbt
-        if (x <= 0.0_dp) then
-            l = -huge(1.0_dp)
-            return
-        else if (x >= 1.0_dp) then
-            l = 0.0_dp
-            return
-        end if
-        lbt = log_gamma(a + b) - log_gamma(a) - log_gamma(b) + a*log(x) + b*log(1.0_dp - x)
-        if (x < (a + 1.0_dp)/(a + b + 2.0_dp)) then
-            l = lbt + log(betacf(a, b, x)) - log(a)
-        else
-            l = log(max(1.0_dp - exp(lbt + log(betacf(b, a, 1.0_dp - x)) - log(b)), tiny(1.0_dp)))
-        end if
-    end function log_betai
-
-    !> log of the F(d1, d2) survival function at f.
-    pure function f_logsf(f, d1, d2) result(l)
-        real(dp), intent(in) :: f, d1, d2
-        real(dp) :: l
-        if (f <= 0.0_dp) then
-            l = 0.0_dp
-        else
-            l = log_betai(0.5_dp*d2, 0.5_dp*d1, d2/(d2 + d1*f))
-        end if
-    end function f_logsf
-
-    !> Is a residual a function of something (a posture, the time of the
-    !> measurement), or noise? For every point i in use (w(i) > 0), its
-    !> nearest point nn(i) by x(:, i) (Euclidean over the d coordinates)
-    !> among the points in use of the same class cls (e.g. the same marker)
-    !> and of another group grp (another configuration);
-    !>   rho = sum_i e_i . e_nn(i) / sum_i |e_i|^2
-    !> over the points that have one. Noise gives rho near 0 (slightly below:
-    !> the fit takes out what neighbours share); an effect that varies
-    !> smoothly with x makes neighbours alike. pval: a permutation test, the
-    !> share of nperm random pairings (each point with a uniformly drawn
-    !> point of its class and another group) whose rho reaches the observed
-    !> one, (1 + count) / (1 + nperm); the draws are reproducible (a
-    !> xorshift generator seeded by seed). nn(i) = 0 for points without a
-    !> neighbour. info: sk_err_size, sk_err_nonfinite, sk_err_argument
-    !> (nperm < 1), sk_err_too_few (fewer than 3 points with a neighbour),
-    !> sk_ok.
-    subroutine neighbour_correlation(x, e, w, grp, cls, nperm, seed, rho, pval, nn, info)
-        real(dp), intent(in) :: x(:, :), e(:, :), w(:)
-        integer(ip), intent(in) :: grp(:), cls(:), nperm, seed
-        real(dp), intent(out) :: rho, pval
-        integer(ip), intent(out) :: nn(:), info
-        integer, allocatable :: members(:), cstart(:)
-        integer :: n, i, j, k, c, ncls, lo, hi, cnt, iperm, tries
-        integer(int64) :: st
-        real(dp) :: best, d2, num, den, rp
-        n = size(x, 2)
-        rho = 0.0_dp
-        pval = 1.0_dp
-        nn = 0
-        info = sk_err_size
-        if (size(e, 2) /= n .or. size(w) /= n .or. size(grp) /= n .or. size(cls) /= n .or. size(nn) /= n) return
-        info = sk_err_nonfinite
-        if (.not. (all_finite(x) .and. all_finite(e) .and. all_finite(w))) return
-        info = sk_err_argument
-        if (nperm < 1 .or. any(cls < 1)) return
-        ! the points in use of each class, contiguous (points out of use: class ncls + 1)
-        ncls = 0
-        if (n > 0) ncls = maxval(cls)
-        call group_by(merge(cls, int(ncls + 1, ip), w > 0.0_dp), ncls + 1, cstart, members, info)
-        if (info /= sk_ok) return
-        ! nearest neighbours
-        do c = 1, ncls
-            lo = cstart(c)
-            hi = cstart(c + 1) - 1
-            do k = lo, hi
-                i = members(k)
-                best = huge(1.0_dp)
-                do j = lo, hi
-                    if (grp(members(j)) == grp(i)) cycle
-                    d2 = sum((x(:, members(j)) - x(:, i))**2)
-                    if (d2 < best) then
-                        best = d2
-                        nn(i) = members(j)
-                    end if
-                end do
-            end do
-        end do
-        info = sk_err_too_few
-        if (count(nn > 0) < 3) return
-        num = 0.0_dp
-        den = 0.0_dp
-        do i = 1, n
-            if (nn(i) == 0) cycle
-            num = num + dot_product(e(:, i), e(:, nn(i)))
-            den = den + dot_product(e(:, i), e(:, i))
-        end do
-        info = sk_ok
-        if (.not. den > 0.0_dp) return
-        rho = num/den
-        ! permutations: random partners within the class, another group
-        st = int(seed, int64)*2654435761_int64 + 88172645463325252_int64
-        if (st == 0) st = 88172645463325252_int64
-        cnt = 0
-        do iperm = 1, nperm
-            num = 0.0_dp
-            do i = 1, n
-                if (nn(i) == 0) cycle
-                c = cls(i)
-                lo = cstart(c)
-                hi = cstart(c + 1) - 1
-                do tries = 1, 64
-                    j = members(lo + int(modulo(xorshift(st), int(hi - lo + 1, int64))))
-                    if (grp(j) /= grp(i)) exit
-                end do
-                if (grp(j) == grp(i)) j = nn(i)
-                num = num + dot_product(e(:, i), e(:, j))
-            end do
-            rp = num/den
-            if (rp >= rho) cnt = cnt + 1
-        end do
-        pval = real(1 + cnt, dp)/real(1 + nperm, dp)
-    end subroutine neighbour_correlation
-
-    !> xorshift64 step: the next state, returned (non-negative part).
-    integer(int64) function xorshift(st) result(r)
-        integer(int64), intent(inout) :: st
-        st = ieor(st, ishft(st, 13))
-        st = ieor(st, ishft(st, -7))
-        st = ieor(st, ishft(st, 17))
-        r = iand(st, huge(st))
-    end function xorshift
 
 end module sk_calib

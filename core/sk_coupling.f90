@@ -15,7 +15,8 @@
 module sk_coupling
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: cross, inverse, all_finite, eye
+    use sk_rotation, only: cross
+    use sk_linalg, only: inverse, all_finite, eye
     implicit none
     private
     public :: face_weights, distributing_loads, work_conjugate

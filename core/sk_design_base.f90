@@ -7,7 +7,8 @@
 module sk_design_base
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: all_finite, chol_small
+    use sk_small_sym, only: chol_small
+    use sk_linalg, only: all_finite
     use sk_tree_check, only: fail
     implicit none
     private

@@ -15,8 +15,9 @@
 module sk_field_fit
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv, &
-                         svd, all_finite, eye, jacobi_eig, inv3
+    use sk_rotation, only: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv, inv3
+    use sk_small_sym, only: jacobi_eig
+    use sk_linalg, only: svd, all_finite, eye
     implicit none
     private
     public :: fit_field, fit_rigid, trim_mask

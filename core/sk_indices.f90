@@ -19,7 +19,7 @@
 module sk_indices
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: jacobi_eig
+    use sk_small_sym, only: jacobi_eig
     implicit none
     private
     public :: stiffness_indices

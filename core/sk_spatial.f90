@@ -8,7 +8,8 @@
 !> between points); Klimchik et al. eq. 2 uses the same transfer inside J.
 module sk_spatial
     use sk_kinds, only: dp
-    use sk_linalg, only: skew, eye
+    use sk_rotation, only: skew
+    use sk_linalg, only: eye
     implicit none
     private
     public :: twist_transfer, wrench_transfer, rotate6, compliance_move, blockdiag_rot

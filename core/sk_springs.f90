@@ -40,7 +40,8 @@ module sk_springs
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_spatial, only: rotate_blocks, congruence_transfer, revolute_twist
-    use sk_linalg, only: jacobi_eig, sym_eigvals_small, spd_inverse_small, psd_defect, psd_tol, all_finite
+    use sk_small_sym, only: jacobi_eig, sym_eigvals_small, spd_inverse_small, psd_defect, psd_tol
+    use sk_linalg, only: all_finite
     implicit none
     private
     public :: op_spring, op_joint, op_series, op_parallel

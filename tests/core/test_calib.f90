@@ -1,12 +1,14 @@
-!> Unit tests of sk_calib: least squares with a duplicated and a zero column
-!> (groups, null-space relations), score tests, greedy selection, and the
-!> chi-square / F tail probabilities in log space, and the neighbour
-!> correlation test of a residual's structure.
+!> Unit tests of sk_calib, sk_tails and sk_neighbours: least squares with a
+!> duplicated and a zero column (groups, null-space relations), score tests,
+!> greedy selection, the chi-square / F tail probabilities in log space, and
+!> the neighbour correlation test of a residual's structure.
 program test_calib
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_calib
+    use sk_tails, only: chi2_logsf, f_logsf
+    use sk_neighbours, only: neighbour_correlation
     implicit none (type, external)
 
     call test_wls_groups()

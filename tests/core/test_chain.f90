@@ -6,7 +6,8 @@ program test_chain
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, skew
+    use sk_rotation, only: skew
+    use sk_linalg, only: eye
     use sk_chain
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     implicit none (type, external)

@@ -1,11 +1,12 @@
-!> Unit tests of sk_linalg, sk_field_fit, sk_compliance and sk_beams on
+!> Unit tests of sk_rotation, sk_linalg, sk_field_fit, sk_compliance and sk_beams on
 !> small known systems; tolerances scaled by epsilon.
 program test_field_fit
     use sk_testing, only: expect, finish
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: rot_exp, rot_log, skew, cross, det3, inverse, eye
+    use sk_rotation, only: rot_exp, rot_log, skew, cross, det3
+    use sk_linalg, only: inverse, eye
     use sk_field_fit
     use sk_compliance, only: normal_quantile, compliance_from_experiments
     use sk_beams

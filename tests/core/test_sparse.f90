@@ -4,7 +4,7 @@ program test_sparse
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: cross
+    use sk_rotation, only: cross
     use sk_sparse
     use sk_coupling
     implicit none (type, external)

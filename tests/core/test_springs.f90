@@ -4,10 +4,11 @@ program test_springs
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, skew
+    use sk_rotation, only: skew
+    use sk_linalg, only: eye
     use sk_spatial, only: twist_transfer, compliance_move
     use sk_springs
-    use sk_linalg, only: jacobi_eig, sym_eigvals_small, psd_defect
+    use sk_small_sym, only: jacobi_eig, sym_eigvals_small, psd_defect
     use sk_indices, only: stiffness_indices
     implicit none (type, external)
 

@@ -7,7 +7,8 @@ program test_tree
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, rot_exp, rot_log, svd, lu_factor, lu_solve
+    use sk_rotation, only: rot_exp, rot_log
+    use sk_linalg, only: eye, svd, lu_factor, lu_solve
     use sk_tree
     use sk_tree_solve
     use sk_chain, only: chain_frames
