@@ -16,6 +16,7 @@ module sk_tree_check
     use sk_errors
     use sk_linalg, only: eye, all_finite
     use sk_spatial, only: nsym
+    use sk_laws, only: law_linear, law_deadzone, law_spring6, law_ndof
     implicit none
     private
     public :: model_check, inputs_check, observations_check, rows_check, params_check, is_rotation
@@ -23,7 +24,6 @@ module sk_tree_check
     public :: fail
 
     integer, parameter, public :: vj_fixed = 0, vj_revolute = 1, vj_prismatic = 2
-    integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
 
     !> argument codes of loc(1)
     integer(ip), parameter, public :: arg_vparent = 1, arg_vtype = 2, arg_vaxis = 3, arg_vrot = 4, &
@@ -119,7 +119,7 @@ contains
         if (info /= sk_ok) return
         n = 0
         do k = 1, nk
-            n = n + merge(6, 1, ktype(k) == law_spring6)
+            n = n + law_ndof(ktype(k))
         end do
         if (n /= ne) call fail(sk_err_size, arg_ne, 0, info, loc)
         ! finite values
@@ -183,7 +183,7 @@ contains
             if (any(kpar(:, k) < 0) .or. any(kpar(:, k) > npar)) call fail(sk_err_argument, arg_kpar, k, info, loc)
             if (ktype(k) == law_deadzone .and. .not. kw0(k) > 0.0_dp) call fail(sk_err_argument, arg_kw0, k, info, loc)
             if (info /= sk_ok) return
-            do j = 1, merge(6, 1, ktype(k) == law_spring6)
+            do j = 1, law_ndof(ktype(k))
                 v = kvj(j, k)
                 if (v < 1 .or. v > nv) then
                     call fail(sk_err_argument, arg_kvj, k, info, loc)

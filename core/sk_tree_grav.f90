@@ -17,11 +17,12 @@
 !>   dw_s/dd_b,k   = u_s . ((R_v e_k) x F_b)         (prismatic: 0),
 !> dm_p = dm_b/dalpha_p = bmass(b) times the body's other factors.
 !> These are the right-hand side of the deflection sensitivity
-!> (I - D G_ee) Z = D dw/dtheta (sk_tree%elastic_sensitivity); the
+!> (I - D G_ee) Z = D dw/dtheta (sk_tree_equil%elastic_sensitivity); the
 !> parameters move no point directly. One theta index on several bodies
 !> (a subtree's factor) sums their columns. Cost: O(depth) per entry and
 !> posture.
-submodule(sk_tree) sk_tree_grav
+submodule(sk_tree_model) sk_tree_grav
+    use sk_linalg, only: cross
     implicit none
 
 contains

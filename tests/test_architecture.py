@@ -283,7 +283,7 @@ def test_integer_codes_shared_with_the_core_agree():
     spring types of the chain) are the core's own named constants."""
     from stiffkit.robot import model, tree_model
 
-    laws = _named_codes("core/sk_tree_check.f90", "law")  # defined there, re-exported by sk_tree
+    laws = _named_codes("core/sk_laws.f90", "law")  # defined there, re-exported by sk_tree
     laws.pop("LAW_NSLOT", None)  # a function result, not a code
     py_laws = {k: v for k, v in vars(tree_model).items() if k.startswith("LAW_") and isinstance(v, int)}
     assert laws and py_laws == laws

@@ -1,0 +1,134 @@
+!> The effect laws of the core: how an elastic block of the robot model
+!> deflects under its generalised forces, delta = law(w; parameters), and
+!> the derivatives every Jacobian of the model needs. One block is one
+!> effect of the catalogue (a joint compliance, a cubic joint, a dead
+!> zone, a 6-dof link or joint spring); the kinematic tree (sk_tree_equil:
+!> equilibrium and sensitivities) is the caller, and any new evaluator of
+!> the model (serial chains, relative data) calls the same routines, so a
+!> law is written once, here.
+!>
+!> Codes (ktype; bindings and robot/tree_model.py LAW_* use the same
+!> numbers, tests/test_architecture.py checks them):
+!>   law_linear   1  1 coordinate,  delta = c w                      par = (c)
+!>   law_cubic    2  1 coordinate,  delta = c w + c3 w^3             par = (c, c3)
+!>   law_deadzone 3  1 coordinate,  delta = c w + b tanh(w / w0)     par = (c, b)
+!>                   (w0 > 0 a fixed smoothing width, N m or N: the block's kw0)
+!>   law_spring6  4  6 coordinates, delta(6) = C w(6), C symmetric from 21
+!>                   parameters, the upper triangle row by row (sk_spatial
+!>                   sym_index order); a 6-dof spring's coordinates are
+!>                   screws: 3 prismatic along x, y, z, then revolute about
+!>                   x, y, z of the spring frame (VJM, Klimchik et al. eq. 3).
+!> Units: w in N m (revolute coordinate) or N (prismatic); delta in rad or
+!> m; c in rad/(N m) or m/N. Compliances, not stiffnesses: a rigid effect
+!> is c = 0, and every law is linear in its parameters but the dead
+!> zone's width w0.
+!>
+!> Interface shared by every law (par is always the block's 21 slots,
+!> only the first law_nslot(ktype) used; w and d hold law_ndof(ktype)
+!> entries):
+!>   law_ndof(ktype)                          coordinates of a block (1 or 6)
+!>   law_nslot(ktype)                         parameter slots (1, 2, 2, 21)
+!>   law_delta(ktype, par, w0, w, d)          the deflection d = law(w)
+!>   law_derivs(ktype, par, w0, w, dmat, dpar)  D = d delta/dw [n,n] and
+!>                                            d delta/d(slot) [n,nslot]
+!>   law_sym6(par)                            the 6x6 compliance of law_spring6
+!> Adding a law: a new code here (and in robot/tree_model.py), its cases in
+!> law_ndof, law_nslot, law_delta and law_derivs, and its parameter checks
+!> in sk_tree_check%model_check; nothing else of the core changes.
+module sk_laws
+    use sk_kinds, only: dp
+    use sk_spatial, only: sym_index, nsym
+    implicit none
+    private
+    public :: law_ndof, law_nslot, law_delta, law_derivs, law_sym6
+
+    !> law codes (ktype of an elastic block)
+    integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
+
+contains
+
+    !> Number of elastic coordinates of a block of law ktype (6 for a
+    !> 6-dof spring, 1 otherwise).
+    pure integer function law_ndof(ktype)
+        integer, intent(in) :: ktype
+        law_ndof = merge(6, 1, ktype == law_spring6)
+    end function law_ndof
+
+    !> The symmetric 6x6 compliance of 21 parameters (sym_index order).
+    pure function law_sym6(par) result(c)
+        real(dp), intent(in) :: par(nsym)
+        real(dp) :: c(6, 6)
+        integer :: k, i, j
+        do k = 1, nsym
+            call sym_index(k, i, j)
+            c(i, j) = par(k)
+            c(j, i) = par(k)
+        end do
+    end function law_sym6
+
+    !> Deflection d(1:n) of a block for its generalised forces w(1:n)
+    !> (n = law_ndof(ktype)); par: the block's 21 parameter slots, w0 the
+    !> dead zone's width (unused by the other laws).
+    pure subroutine law_delta(ktype, par, w0, w, d)
+        integer, intent(in) :: ktype
+        real(dp), intent(in) :: par(nsym), w0, w(:)
+        real(dp), intent(out) :: d(:)
+        select case (ktype)
+        case (law_linear)
+            d(1) = par(1)*w(1)
+        case (law_cubic)
+            d(1) = par(1)*w(1) + par(2)*w(1)**3
+        case (law_deadzone)
+            d(1) = par(1)*w(1) + par(2)*tanh(w(1)/w0)
+        case default
+            d(1:6) = matmul(law_sym6(par), w(1:6))
+        end select
+    end subroutine law_delta
+
+    !> Number of parameter slots of a law type (1, 2, 2, 21).
+    pure integer function law_nslot(ktype)
+        integer, intent(in) :: ktype
+        select case (ktype)
+        case (law_linear)
+            law_nslot = 1
+        case (law_cubic, law_deadzone)
+            law_nslot = 2
+        case default
+            law_nslot = nsym
+        end select
+    end function law_nslot
+
+    !> Derivatives of a block's law at w(1:n): dmat[n,n] = d delta/dw (the
+    !> block of D in the sensitivity (I - D G) Z = ...), dpar[n,:] =
+    !> d delta/d(parameter slot), slots 1..law_nslot(ktype) set.
+    pure subroutine law_derivs(ktype, par, w0, w, dmat, dpar)
+        integer, intent(in) :: ktype
+        real(dp), intent(in) :: par(nsym), w0, w(:)
+        real(dp), intent(out) :: dmat(:, :), dpar(:, :)
+        real(dp) :: t
+        integer :: k, i, j
+        select case (ktype)
+        case (law_linear)
+            dmat(1, 1) = par(1)
+            dpar(1, 1) = w(1)
+        case (law_cubic)
+            dmat(1, 1) = par(1) + 3.0_dp*par(2)*w(1)**2
+            dpar(1, 1) = w(1)
+            dpar(1, 2) = w(1)**3
+        case (law_deadzone)
+            t = tanh(w(1)/w0)
+            dmat(1, 1) = par(1) + par(2)*(1.0_dp - t*t)/w0
+            dpar(1, 1) = w(1)
+            dpar(1, 2) = t
+        case default
+            dmat(1:6, 1:6) = law_sym6(par)
+            dpar(1:6, 1:nsym) = 0.0_dp
+            do k = 1, nsym
+                call sym_index(k, i, j)
+                dpar(i, k) = w(j)
+                if (i /= j) dpar(j, k) = w(i)
+            end do
+        end select
+    end subroutine law_derivs
+
+end module sk_laws
