@@ -1,4 +1,4 @@
-"""The core's integer ``info`` codes (core/sk_errors.f90, core/sk_cholmod.c)
+"""The core's integer ``info`` codes (core/sk_errors.f90, core/sk_status.h)
 mapped to exceptions.
 
 Every wrapper in this package calls :func:`check` with the routine's name

@@ -1,6 +1,7 @@
-"""Python face of the sparse core (core/sk_cholmod.c, sk_sparse.f90,
-sk_coupling.f90): CalculiX matrix files, one CHOLMOD factorisation for
-several load cases, and the distributing coupling of a reference point."""
+"""Python face of the sparse core (core/sk_ccxread.c, sk_cholmod.c,
+sk_sparse.f90, sk_coupling.f90): CalculiX matrix files, one CHOLMOD
+factorisation for several load cases, and the distributing coupling of a
+reference point."""
 
 from __future__ import annotations
 

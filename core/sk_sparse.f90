@@ -1,7 +1,8 @@
 !> Sparse route of the FEA pipeline: CalculiX matrix files and
 !> one CHOLMOD factorisation for several load cases.
 !>
-!> The C functions live in sk_cholmod.c; this module holds their bind(C)
+!> The C functions live in sk_ccxread.c (the matrix and .dof readers) and
+!> sk_cholmod.c (the factorisation); this module holds their bind(C)
 !> interfaces (f2py never reads it) and Fortran front ends that turn
 !> Fortran strings into C strings and C status codes into sk_errors codes.
 module sk_sparse
