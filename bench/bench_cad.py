@@ -24,7 +24,7 @@ machine).
     python bench/bench_cad.py            # the three parts (~10 min on 2 cores)
     python bench/bench_cad.py arm        # one part
     python bench/bench_cad.py across=2   # 2 elements across the walls (default 3): ~1/3 the nodes
-    STIFFKIT_EXACT_K=1 python bench/bench_cad.py   # the matrix route reads ccx's K exactly (binary)
+    STIFFKIT_EXACT_K=0 python bench/bench_cad.py   # matrix route on ccx's 14-digit text K (default: exact binary)
 """
 
 from __future__ import annotations

@@ -76,13 +76,23 @@ def cholmod_solve(
 
 
 def rigid_solve(
-    rows: npt.ArrayLike, cols: npt.ArrayLike, vals: npt.ArrayLike, n: int, ceq: npt.ArrayLike, offsets: npt.ArrayLike
+    rows: npt.ArrayLike,
+    cols: npt.ArrayLike,
+    vals: npt.ArrayLike,
+    n: int,
+    ceq: npt.ArrayLike,
+    offsets: npt.ArrayLike,
+    loads: npt.ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Rigid coupling on the assembled K (one CHOLMOD factorisation of
     T^T K T): ``ceq`` (nc, 3) 1-based equations of the coupled nodes (0 =
-    constrained), ``offsets`` (nc, 3) node - reference point. Returns u
-    (n, 6): every equation under the six unit wrenches, q (6, 6): the
-    reference-point compliance, and timings."""
+    constrained), ``offsets`` (nc, 3) node - reference point; ``loads``
+    (n, 6): further nodal loads of each case (default none). Returns u
+    (n, 6): every equation under the six unit wrenches (plus ``loads``),
+    q (6, 6): the reference-point motion, and timings."""
+    b = np.zeros((int(n), 6)) if loads is None else np.asarray(loads, dtype=float)
+    if b.shape != (int(n), 6):
+        raise InputError(f"rigid_solve: loads of shape {b.shape}, expected ({int(n)}, 6)")
     u, q, times, lnz, info = call(
         _sparse.sk_rigid_solve,
         "sk_rigid_solve",
@@ -92,6 +102,7 @@ def rigid_solve(
         np.asarray(vals, dtype=float),
         np.asfortranarray(np.asarray(ceq, np.int32).T),
         np.asfortranarray(np.asarray(offsets, float).T),
+        np.asfortranarray(b),
     )
     check(
         info,

@@ -38,6 +38,9 @@ LINK.toml (format: docs/link.md; lengths in geometry.units):
                 box = [xmin, ymin, zmin, xmax, ymax, zmax]   the faces inside the box
                 group = "name"        a .geo physical group or a STEP face label
               tolerance = default of the CAD selectors: 1e-4 of the bounding-box diagonal
+              coupling = "rigid" (default: every node held in x, y, z) | "distributing"
+                                      (only the set's weighted mean motion held: the face
+                                      free to contract and warp, beam theory's clamp)
   [load]      the same selectors (both lug holes: a list of two cylinders), and
               reference_point = [x, y, z] (default: the load set's centre of area, on its
               axis for coaxial cylinders), coupling = "rigid" (default: *RIGID BODY, a pin

@@ -103,15 +103,16 @@ subroutine sk_work_conjugate(nf, m, g, u, xref, info)
 end subroutine sk_work_conjugate
 
 !> Rigid coupling on the assembled K: reference-point compliance q[6,6] and
-!> displacements u[n,6] of the six unit wrenches (see sk_sparse rigid_solve).
-subroutine sk_rigid_solve(n, nnz, nc, rows, cols, vals, ceq, r, u, q, times, lnz, info)
+!> displacements u[n,6] of the six unit wrenches, plus the nodal loads b[n,6]
+!> of each case (see sk_sparse rigid_solve).
+subroutine sk_rigid_solve(n, nnz, nc, rows, cols, vals, ceq, r, b, u, q, times, lnz, info)
     use, intrinsic :: iso_c_binding, only: c_int, c_double
     use sk_sparse, only: rigid_solve
     implicit none
     integer(c_int), intent(in) :: n, nnz, nc
     integer(c_int), intent(in) :: rows(nnz), cols(nnz), ceq(3, nc)
-    real(c_double), intent(in) :: vals(nnz), r(3, nc)
+    real(c_double), intent(in) :: vals(nnz), r(3, nc), b(n, 6)
     real(c_double), intent(out) :: u(n, 6), q(6, 6), times(3), lnz
     integer(c_int), intent(out) :: info
-    call rigid_solve(n, rows, cols, vals, ceq, r, u, q, times, lnz, info)
+    call rigid_solve(n, rows, cols, vals, ceq, r, b, u, q, times, lnz, info)
 end subroutine sk_rigid_solve

@@ -8,12 +8,12 @@
  *   - with STIFFKIT_EXACT_K=1 in the environment, job.sti gets the header
  *     SK_STI_MAGIC and then binary records (int32 row, int32 col, float64
  *     value): no formatting, no parsing, and the value exact (the text has
- *     14 digits). Not the default: on the slender structured beam
+ *     14 digits). fea/solve.py sets it for every matrix-route run (unless
+ *     the user's STIFFKIT_EXACT_K=0): on the slender structured beam
  *     (examples/beam.toml, 116k nodes) the 14-digit rounding of K moves the
- *     bending compliance by 3.5e-4 relative (cond(K) amplifies it), so the
- *     exact K changes published figures (max element error 0.068 % instead
- *     of 0.036 %; one step of iterative refinement on the exact K moves the
- *     solution by < 4e-7, so the exact-K figure is the FE model's own).
+ *     bending compliance by 3.5e-4 relative (cond(K) amplifies it); one step
+ *     of iterative refinement on the exact K moves the solution by < 4e-7,
+ *     so the exact-K figure is the FE model's own.
  * Only streams whose path ends in .sti or .mas, and only that exact format
  * string, are diverted; every other call goes to glibc unchanged, so a ccx
  * that writes differently produces its ordinary text (which the reader,

@@ -206,7 +206,7 @@ out:
  * the reference-point motion = compliance of the rigidly coupled face).
  */
 int sk_c_cholmod_rigid(int n, long nnz, const int *rows, const int *cols, const double *vals,
-                       int nc, const int *ceq, const double *r, double *u, double *q,
+                       int nc, const int *ceq, const double *r, const double *b, double *u, double *q,
                        double *times, double *stats)
 {
     if (n < 1 || nnz < 1 || nc < 1) return SK_ERR_SIZE;
@@ -313,7 +313,23 @@ int sk_c_cholmod_rigid(int n, long nnz, const int *rows, const int *cols, const 
     if (cm.status < CHOLMOD_OK) { status = cm.status == CHOLMOD_OUT_OF_MEMORY ? SK_ERR_NOMEM : SK_ERR_SIZE; goto out; }
     B = cholmod_l_zeros((size_t)m, 6, CHOLMOD_REAL, &cm);
     if (!B) { status = SK_ERR_NOMEM; goto out; }
-    for (int j = 0; j < 6; j++) ((double *)B->x)[(size_t)j * (size_t)m + (size_t)(nfree + j)] = 1.0;
+    for (int j = 0; j < 6; j++) {
+        double *bj = (double *)B->x + (size_t)j * (size_t)m;
+        const double *fj = b + (size_t)j * (size_t)n;
+        bj[nfree + j] = 1.0;
+        /* further nodal loads f (the reaction of a distributing support): T^T f */
+        for (int e = 0; e < n; e++)
+            if (colmap[e] >= 0) bj[colmap[e]] += fj[e];
+        for (int i = 0; i < nc; i++) {
+            double rx = r[3 * i], ry = r[3 * i + 1], rz = r[3 * i + 2];
+            double c[3][6] = {{1, 0, 0, 0, rz, -ry}, {0, 1, 0, -rz, 0, rx}, {0, 0, 1, ry, -rx, 0}};
+            for (int d = 0; d < 3; d++) {
+                int e = ceq[3 * i + d];
+                if (e == 0) continue;
+                for (int k = 0; k < 6; k++) bj[nfree + k] += c[d][k] * fj[e - 1];
+            }
+        }
+    }
     X = cholmod_l_solve(CHOLMOD_A, L, B, &cm);
     t3 = sk_now();
     if (!X) { status = SK_ERR_NOMEM; goto out; }

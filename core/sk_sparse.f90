@@ -47,13 +47,13 @@ module sk_sparse
             real(c_double), intent(in) :: vals(*), b(*)
             real(c_double), intent(out) :: x(*), times(3), stats(1)
         end function c_cholmod_solve
-        integer(c_int) function c_cholmod_rigid(n, nnz, rows, cols, vals, nc, ceq, r, u, q, times, stats) &
+        integer(c_int) function c_cholmod_rigid(n, nnz, rows, cols, vals, nc, ceq, r, b, u, q, times, stats) &
                 bind(C, name='sk_c_cholmod_rigid')
             import :: c_int, c_long, c_double
             integer(c_int), value :: n, nc
             integer(c_long), value :: nnz
             integer(c_int), intent(in) :: rows(*), cols(*), ceq(*)
-            real(c_double), intent(in) :: vals(*), r(*)
+            real(c_double), intent(in) :: vals(*), r(*), b(*)
             real(c_double), intent(out) :: u(*), q(6, 6), times(3), stats(1)
         end function c_cholmod_rigid
     end interface
@@ -144,10 +144,12 @@ contains
     !> u_i = t + phi x r_i; ceq[3,nc] their 1-based equations (0: none),
     !> r[3,nc] their offsets from the reference point. Returns the motion q
     !> of the reference point under the six unit wrenches (its compliance)
-    !> and the displacements u[n,6] of every equation.
-    subroutine rigid_solve(n, rows, cols, vals, ceq, r, u, q, times, lnz, info)
+    !> and the displacements u[n,6] of every equation. b[n,6]: further nodal
+    !> loads of each case (equation space; zero for none), e.g. the
+    !> reaction of a distributing support.
+    subroutine rigid_solve(n, rows, cols, vals, ceq, r, b, u, q, times, lnz, info)
         integer(ip), intent(in) :: n, rows(:), cols(:), ceq(:, :)
-        real(dp), intent(in) :: vals(:), r(:, :)
+        real(dp), intent(in) :: vals(:), r(:, :), b(:, :)
         real(dp), intent(out) :: u(:, :), q(6, 6), times(3), lnz
         integer(ip), intent(out) :: info
         real(dp) :: stats(1)
@@ -156,7 +158,8 @@ contains
         times = 0.0_dp
         lnz = 0.0_dp
         if (size(cols) /= size(rows) .or. size(vals) /= size(rows) .or. size(ceq, 1) /= 3 &
-            .or. any(shape(r) /= shape(ceq)) .or. size(u, 1) /= n .or. size(u, 2) /= 6) then
+            .or. any(shape(r) /= shape(ceq)) .or. size(u, 1) /= n .or. size(u, 2) /= 6 &
+            .or. size(b, 1) /= n .or. size(b, 2) /= 6) then
             info = sk_err_size
             return
         end if
@@ -164,13 +167,13 @@ contains
             info = sk_err_too_few
             return
         end if
-        if (any(vals /= vals) .or. any(r /= r)) then
+        if (any(vals /= vals) .or. any(r /= r) .or. any(b /= b)) then
             info = sk_err_nonfinite
             return
         end if
         stats = 0.0_dp
         info = c_cholmod_rigid(n, int(size(rows), c_long), rows, cols, vals, int(size(ceq, 2), c_int), &
-                               ceq, r, u, q, times, stats)
+                               ceq, r, b, u, q, times, stats)
         lnz = stats(1)
     end subroutine rigid_solve
 

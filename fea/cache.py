@@ -25,6 +25,7 @@ from ..errors import StiffkitWarning
 from ..io.files import atomic_open
 from ..meshing import Mesh
 from ..meshing.refine import PRISM_ARRANGEMENT
+from .ccx import exact_k
 from .config import LinkJob
 from .solve import FeaSolution, resolve_route, solve_fea
 
@@ -81,6 +82,10 @@ def cache_key(job: LinkJob, route: str) -> str:
         }
     if job.features:  # only then: keys of plain meshes stay as they were
         key["features"] = {"across": job.across, "around": job.around, "prism": PRISM_ARRANGEMENT}
+    if route == "matrix" and exact_k():  # K read exactly (binary), not ccx's 14-digit text
+        key["stiffness"] = "exact"
+    if job.support_coupling != "rigid":  # only then: keys of clamped runs stay as they were
+        key["support_coupling"] = job.support_coupling
     if job.structured:  # only then: keys of unstructured runs stay as they were
         key["structured"] = True
         key["across_factor"] = job.across_factor

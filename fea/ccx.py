@@ -65,6 +65,19 @@ def _write_set(fh: IO[str], kind: str, name: str, items: npt.ArrayLike) -> None:
         fh.write(", ".join(str(int(v)) for v in items[k : k + 12]) + "\n")
 
 
+def _write_boundary(fh: IO[str], held: Sequence[tuple[int, Sequence[int]]] | None) -> None:
+    """*BOUNDARY: the NFIX set in x, y, z, or (``held``) only the listed
+    (node, dofs) pairs, e.g. the statically determinate hold of a
+    distributing support."""
+    fh.write("*BOUNDARY\n")
+    if held is None:
+        fh.write("NFIX, 1, 3\n")
+        return
+    for node, dofs in held:
+        for d in dofs:
+            fh.write(f"{int(node)}, {int(d)}, {int(d)}\n")
+
+
 def _write_material(fh: IO[str], E: float, nu: float, density: float | None) -> None:
     fh.write(f"*MATERIAL, NAME=MAT\n*ELASTIC\n{E:.10e}, {nu:.10g}\n")
     if density is not None:
@@ -95,12 +108,17 @@ def write_static_deck(
     coupling: str,
     amplitudes: npt.ArrayLike,
     print_all: bool = True,
+    held: Sequence[tuple[int, Sequence[int]]] | None = None,
+    support_loads: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> StaticDeck:
     """Six *STATIC steps, one unit-direction wrench each (scaled by
     ``amplitudes``), at a reference node coupled to the load face:
     ``coupling = "distributing"`` (*COUPLING + *DISTRIBUTING on the element
     faces ``load_faces`` [(element, face)]) or ``"rigid"`` (*RIGID BODY on
-    ``load_nodes``; moments go on the ROT node). Root nodes clamped in 1-3.
+    ``load_nodes``; moments go on the ROT node). Root nodes clamped in 1-3,
+    or (a distributing support) only the ``held`` (node, dofs) pairs, with
+    ``support_loads`` = (nodes, g (6, ns, 3)): nodal forces -g[j] of the
+    unit wrench j added to step j (the support's distributed reaction).
     """
     path = Path(path)
     amps = np.asarray(amplitudes, dtype=float)
@@ -113,7 +131,8 @@ def write_static_deck(
         fh.write(f"*NODE, NSET=NREF\n{ref}, {p[0]:.12e}, {p[1]:.12e}, {p[2]:.12e}\n")
         if rot is not None:
             fh.write(f"{rot}, {p[0]:.12e}, {p[1]:.12e}, {p[2]:.12e}\n")
-        _write_set(fh, "NSET", "NFIX", fixed_nodes)
+        if held is None:
+            _write_set(fh, "NSET", "NFIX", fixed_nodes)
         _write_set(fh, "NSET", "NLOAD", load_nodes)
         if coupling == "distributing":
             fh.write("*SURFACE, NAME=SLOAD, TYPE=ELEMENT\n")
@@ -123,7 +142,7 @@ def write_static_deck(
         else:
             fh.write(f"*RIGID BODY, NSET=NLOAD, REF NODE={ref}, ROT NODE={rot}\n")
         _write_material(fh, E, nu, None)
-        fh.write("*BOUNDARY\nNFIX, 1, 3\n")
+        _write_boundary(fh, held)
         for j in range(6):
             if j < 3:
                 node, dof = ref, j + 1
@@ -131,6 +150,10 @@ def write_static_deck(
                 node, dof = (ref, j + 1) if rot is None else (rot, j - 2)
             fh.write(f"** load case {j + 1}: {LOAD_LABELS[j]} = {amps[j]:.6g}\n")
             fh.write(f"*STEP\n*STATIC\n*CLOAD, OP=NEW\n{node}, {dof}, {amps[j]:.12e}\n")
+            if support_loads is not None:
+                snodes, g = support_loads
+                for i, d in zip(*np.nonzero(g[j])):
+                    fh.write(f"{int(snodes[i])}, {int(d) + 1}, {-amps[j] * g[j, i, d]:.12e}\n")
             fh.write("*NODE PRINT, NSET=NALL\nU\n" if print_all else "*NODE PRINT, NSET=NLOAD\nU\n")
             fh.write("*NODE PRINT, NSET=NREF\nU\n")
             fh.write("*END STEP\n")
@@ -138,17 +161,26 @@ def write_static_deck(
 
 
 def write_matrix_deck(
-    path: Path | str, mesh: Mesh, E: float, nu: float, density: float, fixed_nodes: npt.ArrayLike
+    path: Path | str,
+    mesh: Mesh,
+    E: float,
+    nu: float,
+    density: float,
+    fixed_nodes: npt.ArrayLike,
+    held: Sequence[tuple[int, Sequence[int]]] | None = None,
 ) -> Path:
     """Deck whose only step writes the assembled stiffness (and mass)
-    matrices: *FREQUENCY, SOLVER=MATRIXSTORAGE (needs *DENSITY)."""
+    matrices: *FREQUENCY, SOLVER=MATRIXSTORAGE (needs *DENSITY). The
+    ``fixed_nodes`` are held in x, y, z, or only the ``held`` (node, dofs)."""
     path = Path(path)
     with atomic_open(path) as fh:
         fh.write("** stiffkit: assembled stiffness for the CHOLMOD route\n")
         _write_mesh(fh, mesh.nodes, mesh.elements, mesh.ccx_type)
-        _write_set(fh, "NSET", "NFIX", fixed_nodes)
+        if held is None:
+            _write_set(fh, "NSET", "NFIX", fixed_nodes)
         _write_material(fh, E, nu, density)
-        fh.write("*BOUNDARY\nNFIX, 1, 3\n*STEP\n*FREQUENCY, SOLVER=MATRIXSTORAGE\n1\n*END STEP\n")
+        _write_boundary(fh, held)
+        fh.write("*STEP\n*FREQUENCY, SOLVER=MATRIXSTORAGE\n1\n*END STEP\n")
     return path
 
 
@@ -191,7 +223,8 @@ _FACTOR = re.compile(rb"Factoring the system of equations")
 
 def matrix_shim() -> str | None:
     """Path of the LD_PRELOAD library (core/sk_ccxio.c) that makes ccx's
-    MATRIXSTORAGE run skip the mass matrix (and, with STIFFKIT_EXACT_K=1,
+    MATRIXSTORAGE run skip the mass matrix (and, with STIFFKIT_EXACT_K=1 in
+    its environment, as :func:`exact_k` asks by default,
     write K as exact binary records); None where it is not built (ccx then
     writes its text files)."""
     try:
@@ -201,17 +234,26 @@ def matrix_shim() -> str | None:
     return spec.origin if spec is not None and spec.origin and Path(spec.origin).is_file() else None
 
 
+def exact_k() -> bool:
+    """True when the matrix route reads K exactly (the default where the
+    shim is built): ccx's K as binary records, not its 14-digit text.
+    STIFFKIT_EXACT_K=0 asks for the text."""
+    return matrix_shim() is not None and os.environ.get("STIFFKIT_EXACT_K", "1") != "0"
+
+
 def run_ccx(
     deck: Path,
     timeout: float = 3600.0,
     threads: int = 1,
     progress: Callable[[str], None] | None = None,
     preload: str | None = None,
+    env: dict[str, str] | None = None,
 ) -> CcxRun:
     """Run ``ccx -i job`` in the deck's folder; raise CcxError with ccx's
     own error text on failure (exit 201: input error) or after ``timeout``.
     ``progress(msg)`` is told when ccx starts each *STEP; ``preload``: a
-    library for LD_PRELOAD (:func:`matrix_shim`)."""
+    library for LD_PRELOAD (:func:`matrix_shim`); ``env``: variables set
+    for this run only."""
     exe = ccx_executable()
     deck = Path(deck)
     # line-buffered output (C stdio via stdbuf, gfortran units) so that the
@@ -222,6 +264,7 @@ def run_ccx(
         CCX_NPROC_STIFFNESS=str(threads),
         CCX_NPROC_EQUATION_SOLVER=str(threads),
         GFORTRAN_UNBUFFERED_PRECONNECTED="y",
+        **(env or {}),
     )
     if preload:
         env["LD_PRELOAD"] = " ".join(x for x in (preload, os.environ.get("LD_PRELOAD", "")) if x)

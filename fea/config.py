@@ -99,6 +99,10 @@ class LinkJob:
     around: int = 16  # elements around a hole's full circle
     accuracy: float | None = None  # relative compliance error to refine to (fea.accuracy)
     max_nodes: int = 300_000  # the memory limit: nodes of the largest mesh
+    # [support] coupling: "rigid" clamps every node of the set (x, y, z);
+    # "distributing" holds the set's work-conjugate (weighted mean) rigid
+    # motion at zero and leaves it free to contract and warp (beam theory's clamp)
+    support_coupling: str = "rigid"
     raw: dict = field(default_factory=dict)
 
     @property
@@ -157,7 +161,7 @@ class LinkJob:
 SECTIONS = {
     "geometry": ("step", "shape", "size", "length", "outer_diameter", "inner_diameter", "units"),
     "material": ("E", "nu", "density"),
-    "support": (*KINDS, "tolerance"),
+    "support": (*KINDS, "tolerance", "coupling"),
     "load": (*KINDS, "tolerance", "reference_point", "coupling", "amplitudes"),
     "field": ("region", "size", *KINDS, "tolerance"),
     "mesh": MESH_KEYS,
@@ -318,6 +322,9 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         if max(abs(v) for v in ref) * scale > V.QUANTITIES["position"].limit:
             raise ConfigError(f"{path}: [load] reference_point = {ref!r} {units} is out of range")
     coupling = _choice(_get(ld, "coupling", "load", path, str, "rigid"), COUPLINGS, "load", "coupling", path)
+    sup_coupling = _choice(
+        _get(data["support"], "coupling", "support", path, str, "rigid"), COUPLINGS, "support", "coupling", path
+    )
     amps = ld.get("amplitudes", "auto")
     if amps != "auto":
         if not isinstance(amps, list) or len(amps) != 6:
@@ -467,6 +474,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         pooled=pooled,
         structured=structured,
         across_factor=across,
+        support_coupling=sup_coupling,
         raw=data,
         **mk,
     )

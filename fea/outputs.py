@@ -102,8 +102,14 @@ class LinkResult:
             "deflections": self.deflections().tolist(),
             "route": sol.route,
             "coupling": self.job.coupling,
-            "boundary_condition": f"nodes of {set_label(self.job, 'support')} clamped in x, y, z; "
-            f"loads at the reference point through a {self.job.coupling} "
+            "support_coupling": self.job.support_coupling,
+            "boundary_condition": (
+                f"nodes of {set_label(self.job, 'support')} clamped in x, y, z; "
+                if self.job.support_coupling == "rigid"
+                else f"{set_label(self.job, 'support')} held through a distributing coupling (its work-conjugate "
+                "rigid motion fixed, the face free to contract and warp); "
+            )
+            + f"loads at the reference point through a {self.job.coupling} "
             f"coupling to {set_label(self.job, 'load')}",
             "reference_point_m": list(self.job.reference_point),
             "field": {"region": self.job.region, "size_m": self.job.region_size, "nodes": int(self.field_nodes.size)},

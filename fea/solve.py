@@ -35,6 +35,7 @@ from .amplitudes import auto_amplitudes, beam_estimate
 from .ccx import (
     ccx_version,
     displacements_from_dat,
+    exact_k,
     matrix_shim,
     peak_rss_mb,
     run_ccx,
@@ -45,7 +46,7 @@ from .config import LinkJob, check_extent, check_mesh_size
 from .facesets import CadSets, default_reference_point, mesh_set, resolve_job_sets, set_label
 from .meshkeys import node_memory_gb
 
-__all__ = ["FeaSolution", "resolve_route", "mesh_job", "support_and_load", "solve_fea"]
+__all__ = ["FeaSolution", "DistributingSupport", "resolve_route", "mesh_job", "support_and_load", "solve_fea"]
 
 
 @dataclass
@@ -148,6 +149,55 @@ def support_and_load(job: LinkJob, mesh: Mesh, cad: CadSets | None = None) -> tu
     return fixed, load, faces
 
 
+@dataclass
+class DistributingSupport:
+    """``[support] coupling = "distributing"``: the support set's
+    work-conjugate rigid motion G^T u (the weighted mean translation and
+    rotation that ccx's *DISTRIBUTING uses) is held at zero; the set itself
+    is free to contract and warp, as beam theory's clamp is (eq. 22 holds
+    the root section's resultant motion, not every point of it).
+
+    Solved as: the part held statically determinately at three of the
+    set's nodes (``held``: 3 + 2 + 1 dofs, no reaction for a balanced
+    load), the load wrench balanced by its reaction -g[j] spread over the
+    set like a distributing load, and the rigid motion G^T u subtracted
+    afterwards (exactly the constraint G^T u = 0, since G^T of a rigid
+    motion is that motion)."""
+
+    nodes: np.ndarray  # (ns,) 1-based nodes of the set with weight
+    g: np.ndarray  # (6, ns, 3) nodal forces of the six unit wrenches at the reference point
+    held: list  # [(node, (dofs...))]: the statically determinate hold
+
+    @classmethod
+    def of(cls, job: LinkJob, mesh: Mesh, cad: CadSets | None, p0: np.ndarray) -> DistributingSupport:
+        _n, sfaces = mesh_set(job, mesh, "support", cad, job.plane_tolerance)
+        w, _area = face_weights(mesh.nodes, face_connectivity(mesh, sfaces))
+        nodes = np.nonzero(w > 0)[0] + 1
+        x = mesh.nodes[nodes - 1]
+        g = distributing_loads(x, w[nodes - 1], p0)
+        c = (w[nodes - 1, None] * x).sum(axis=0) / w[nodes - 1].sum()
+        a = int(np.argmin(np.linalg.norm(x - c, axis=1)))
+        b = int(np.argmax(np.linalg.norm(x - x[a], axis=1)))
+        d = x[b] - x[a]
+        i = int(np.argmax(np.abs(d)))
+        e = np.cross(d / np.linalg.norm(d), x - x[a])  # motion of each node under a unit rotation about AB
+        cn = int(np.argmax(np.abs(e).max(axis=1)))
+        held = [
+            (int(nodes[a]), (1, 2, 3)),
+            (int(nodes[b]), tuple(k + 1 for k in range(3) if k != i)),
+            (int(nodes[cn]), (int(np.argmax(np.abs(e[cn]))) + 1,)),
+        ]
+        return cls(nodes=nodes, g=g, held=held)
+
+    def hold(self, mesh: Mesh, U: np.ndarray, ref: np.ndarray, p0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The fields U (6, n, 3) and the reference motion ref (6, 6) less
+        the support set's work-conjugate rigid motion of each case."""
+        m = work_conjugate(self.g, U[:, self.nodes - 1])  # (6 cases, 6)
+        r = mesh.nodes - np.asarray(p0)
+        U = np.stack([U[j] - m[j, :3] - np.cross(m[j, 3:], r) for j in range(6)])
+        return U, ref - m.T
+
+
 def _amplitudes(job: LinkJob, estimate: Callable[[], np.ndarray]) -> np.ndarray:
     """The [load] amplitudes, or the automatic ones from ``estimate()``."""
     return auto_amplitudes(estimate()) if job.amplitudes == "auto" else np.asarray(job.amplitudes, dtype=float)
@@ -176,19 +226,21 @@ def _solve_matrix(
     coupled: np.ndarray,
     g: np.ndarray,
     say: Callable[[str], None],
+    support: DistributingSupport | None = None,
 ) -> tuple:
     """Matrix route: ccx assembles K, the core factorises it once (CHOLMOD)
     and solves the six unit cases; returns (U, ref, amplitudes, timing, stats)
     with the route's own timings."""
     t1 = time.perf_counter()
     p0 = np.asarray(job.reference_point)
-    deck = write_matrix_deck(workdir / "kmatrix.inp", mesh, job.E, job.nu, job.density, fixed)
+    held = None if support is None else support.held
+    deck = write_matrix_deck(workdir / "kmatrix.inp", mesh, job.E, job.nu, job.density, fixed, held=held)
     shim = matrix_shim()
     if shim is None:
         _discard(workdir / "kmatrix.mas")
-    exact = shim is not None and os.environ.get("STIFFKIT_EXACT_K") == "1"
-    say(f"ccx: assembling K ({mesh.n_nodes * 3} dofs, MATRIXSTORAGE{', exact binary K' if exact else ''})")
-    run = run_ccx(deck, job.ccx_timeout, preload=shim)
+    exact = exact_k()
+    say(f"ccx: assembling K ({mesh.n_nodes * 3} dofs, MATRIXSTORAGE{', exact binary K' if exact else ', text K'})")
+    run = run_ccx(deck, job.ccx_timeout, preload=shim, env={"STIFFKIT_EXACT_K": "1" if exact else "0"})
     t_ccx = time.perf_counter()
     rows, cols, vals, neq = read_triplets(workdir / "kmatrix.sti")
     node, direction = read_dofs(workdir / "kmatrix.dof")
@@ -198,8 +250,13 @@ def _solve_matrix(
     eq = -np.ones((mesh.n_nodes + 1, 3), dtype=np.int64)
     eq[node, direction - 1] = np.arange(neq)
     Uunit = np.zeros((6, mesh.n_nodes, 3))
+    B = np.zeros((neq, 6))
+    if support is not None:  # the support's distributed reaction
+        sidx = eq[support.nodes]
+        for j in range(6):
+            ok = sidx >= 0
+            np.add.at(B[:, j], sidx[ok], -support.g[j][ok])
     if job.coupling == "distributing":
-        B = np.zeros((neq, 6))
         idx = eq[coupled]  # (nf, 3)
         for j in range(6):
             ok = idx >= 0
@@ -211,9 +268,13 @@ def _solve_matrix(
         unit_ref = work_conjugate(g, Uunit[:, coupled - 1]).T  # (6 dof, 6 cases)
     else:
         say(f"CHOLMOD: factor T^T K T ({neq} equations, rigid face of {load.size} nodes), six solves")
-        X, unit_ref, ctime = rigid_solve(rows, cols, vals, neq, eq[load] + 1, mesh.nodes[load - 1] - p0)
+        X, unit_ref, ctime = rigid_solve(
+            rows, cols, vals, neq, eq[load] + 1, mesh.nodes[load - 1] - p0, None if support is None else B
+        )
         for j in range(6):
             Uunit[j, node - 1, direction - 1] = X[:, j]
+    if support is not None:
+        Uunit, unit_ref = support.hold(mesh, Uunit, unit_ref, p0)
     for name in ("kmatrix.sti", "kmatrix.mas"):
         (workdir / name).unlink(missing_ok=True)
     amps = _amplitudes(job, lambda: unit_ref)
@@ -233,12 +294,26 @@ def _solve_ccx(
     g: np.ndarray,
     say: Callable[[str], None],
     progress: Callable[[str], None] | None,
+    support: DistributingSupport | None = None,
 ) -> tuple:
     """Six-step route: ccx solves the six scaled cases; returns (U, ref,
     amplitudes, timing, stats) with the route's own timings."""
     p0 = np.asarray(job.reference_point)
     amps = _amplitudes(job, lambda: beam_estimate(job, mesh))
-    deck = write_static_deck(workdir / "sixcases.inp", mesh, job.E, job.nu, fixed, faces, load, p0, job.coupling, amps)
+    deck = write_static_deck(
+        workdir / "sixcases.inp",
+        mesh,
+        job.E,
+        job.nu,
+        fixed,
+        faces,
+        load,
+        p0,
+        job.coupling,
+        amps,
+        held=None if support is None else support.held,
+        support_loads=None if support is None else (support.nodes, support.g),
+    )
     say(f"ccx: six load cases ({mesh.n_nodes * 3} dofs, {job.coupling} coupling)")
     run = run_ccx(deck.path, job.ccx_timeout, progress=progress)
     U, ref = displacements_from_dat(workdir / "sixcases.dat", mesh.n_nodes, deck)
@@ -246,6 +321,8 @@ def _solve_ccx(
         # ccx's *DISTRIBUTING gives the reference node no solved motion:
         # use the work-conjugate motion of the coupled face instead
         ref = work_conjugate(g, U[:, coupled - 1]).T
+    if support is not None:
+        U, ref = support.hold(mesh, U, ref, p0)
     (workdir / "sixcases.frd").unlink(missing_ok=True)
     timing = {"ccx": run.seconds}
     return U, ref, amps, timing, {"ccx_max_rss_mb": run.max_rss_mb}
@@ -288,11 +365,20 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str],
     }
     if cad is not None:
         stats["cad_faces"] = {sec: ids for sec, ids in cad.ids.items() if ids}
+    support = None
+    if job.support_coupling == "distributing":
+        support = DistributingSupport.of(job, mesh, cad, np.asarray(job.reference_point))
+        stats["support_coupled_nodes"] = int(support.nodes.size)
+        stats["support_held"] = support.held
+    if route == "matrix":
+        stats["exact_k"] = exact_k()
     workdir.mkdir(parents=True, exist_ok=True)
     if route == "matrix":
-        U, ref, amps, timing, more = _solve_matrix(job, mesh, workdir, fixed, load, coupled, g, say)
+        U, ref, amps, timing, more = _solve_matrix(job, mesh, workdir, fixed, load, coupled, g, say, support)
     else:
-        U, ref, amps, timing, more = _solve_ccx(job, mesh, workdir, fixed, load, faces, coupled, g, say, progress)
+        U, ref, amps, timing, more = _solve_ccx(
+            job, mesh, workdir, fixed, load, faces, coupled, g, say, progress, support
+        )
     timing = {"mesh": t_mesh, "mesh_cpu": c_mesh, "fea": time.perf_counter() - t1, **timing}
     stats.update(more)
     stats["python_max_rss_mb"] = peak_rss_mb()
