@@ -115,6 +115,7 @@ lint: $(STAMP_DEPS)
 	for f in $$(grep -o "'sk_[a-z_]*\.f90'" core/meson.build | tr -d "'"); do \
 	  gfortran $(FORTRAN_LINT) -J "$$tmp" core/$$f || exit 1; done; \
 	gfortran $(FORTRAN_LINT) -std=f2018 -J "$$tmp" tests/core/sk_testing.f90 || exit 1; \
+	gfortran $(FORTRAN_LINT) -std=f2018 -J "$$tmp" tests/core/tree_builder.f90 || exit 1; \
 	for f in tests/core/test_*.f90; do gfortran $(FORTRAN_LINT) -std=f2018 -J "$$tmp" $$f || exit 1; done; \
 	gcc -fsyntax-only -Wall -Wextra -Werror -std=c11 -I/usr/include/suitesparse core/sk_cholmod.c || exit 1; \
 	gcc -fsyntax-only -Wall -Wextra -Werror -std=c11 core/sk_ccxread.c || exit 1; \
