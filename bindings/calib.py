@@ -76,6 +76,63 @@ def spring_jacobians(nd: int, chain: dict, stype: np.ndarray, sidx: np.ndarray, 
     return jac
 
 
+def deflection_rows(
+    chain: dict, enc: dict, theta: np.ndarray, q: np.ndarray, w: np.ndarray, p: np.ndarray, jac: bool = True
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Predicted rows (6, n) of the deflection model and, with ``jac``, their
+    Jacobian (6, n, npar) at theta (core/sk_deflect.f90). ``enc`` is the
+    encoded model (stype, sidx, tint, tgeo, elem, par; robot/model_core.py);
+    q (ndof, n), w (6, n), p (3, n) Fortran-ordered."""
+    theta = np.asarray(theta, float)
+    n = q.shape[1]
+    pred, J, info = call(
+        _calib.sk_deflection_rows,
+        "sk_deflection_rows",
+        n if jac else 0,
+        **chain,
+        **enc,
+        theta=theta,
+        q=q,
+        w=w,
+        p=p,
+        want_jac=int(bool(jac)),
+    )
+    check(
+        info,
+        "deflection rows (sk_deflection_rows)",
+        {6: "the chain, its springs or the model's terms are inconsistent (a bad index or count)"},
+    )
+    return pred, (J if jac else None)
+
+
+def joint_secant(enc: dict, q: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
+    """Compliance (ns, N) of every joint spring of a known model at postures
+    q (ndof, N): at zero load, or the secant under the torques tau (ns, N)
+    (core/sk_deflect.f90)."""
+    ns = len(enc["stype"])
+    cj, info = call(
+        _calib.sk_joint_secant,
+        "sk_joint_secant",
+        enc["stype"],
+        enc["tint"],
+        enc["tgeo"],
+        enc["par"],
+        q,
+        np.zeros((ns, q.shape[1]), order="F") if tau is None else np.asfortranarray(tau, float),
+        int(tau is not None),
+    )
+    check(info, "joint compliances (sk_joint_secant)", {6: "the model's terms are inconsistent"})
+    return cj
+
+
+def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
+    """d2V/dq2 per unit k_s of a gravity compensator of geometry g (a, b,
+    beta, s0) at joint angles q (docs/calibration.md section 2; core/sk_deflect.f90)."""
+    q = np.asarray(q, float)
+    h = _calib.sk_compensator_h(q.ravel(), float(g["a"]), float(g["b"]), float(g["beta"]), float(g["s0"]))
+    return h.reshape(q.shape)
+
+
 def wls(a: np.ndarray, y: np.ndarray, rcond: float, gtol: float) -> tuple:
     """Weighted least squares by a scaled rank-revealing SVD with M4a groups.
 

@@ -1,11 +1,10 @@
 """A model evaluated on a set of measurements: the predicted rows and their
 Jacobian with respect to the free parameters.
 
-The observation basis of every spring comes from the core in one call
-(klimchik eqs. 4-5, 12); this module combines it into the columns of the
-model's parameters (joint compliances, profiles, gravity compensators,
-6-dof springs, point offset) and, for the load-nonlinear joint kinds, the
-joint torque of every row.
+The core evaluates them in one call (core/sk_deflect.f90: the springs'
+observation basis, klimchik eqs. 4-5, 12, the joint laws, the compensator
+and point-offset chain rules); this module encodes the model's terms
+(robot/model_core.py) and weighs the rows.
 """
 
 from __future__ import annotations
@@ -17,20 +16,11 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
-from ..robot.model import (
-    LOAD_NONLINEAR,
-    SPRING_JOINT,
-    Model,
-    compensator_h,
-    default_tau0,
-    load_factor,
-    profile_basis,
-)
+from ..robot.model import SPRING_JOINT, Model, default_tau0
+from ..robot.model_core import encode
 from .measure import Measurements
 
 if TYPE_CHECKING:
-    import numpy.typing as npt
-
     from ..robot.model import Term
 
 __all__ = ["Problem"]
@@ -41,8 +31,7 @@ class Problem:
 
     ``evaluate(theta)`` returns the predicted (6, n) rows (point deflection,
     tool rotation) and their Jacobian (6, n, npar) with respect to the free
-    parameters of ``terms``. The spring basis is computed by the core once
-    per point offset.
+    parameters of ``terms``, one core call.
     """
 
     def __init__(
@@ -65,13 +54,11 @@ class Problem:
             if model.chain.qidx[k] > 0 and (SPRING_JOINT, k + 1) not in springs:
                 springs.append((SPRING_JOINT, k + 1))
         self.springs = springs
-        self.offset = {}
-        col = 0
-        for sp in springs:
-            self.offset[sp] = col
-            col += 1 if sp[0] == SPRING_JOINT else 21
-        self.nb = col
-        self._cache = {}
+        self._rows = (
+            np.asfortranarray(meas.q.T),
+            np.asfortranarray(meas.w.T),
+            np.asfortranarray(meas.p.T),
+        )
         sp = sigma_position if sigma_position is not None else model.sigma_position
         sr = sigma_rotation if sigma_rotation is not None else model.sigma_rotation
         self.sigma_declared = sp is not None
@@ -110,13 +97,6 @@ class Problem:
         v = term.geometry.get("tau0")
         return float(v) if v is not None else default_tau0(self.torques[:, term.joint])
 
-    def load_column(self, term: Term, B: np.ndarray | None = None) -> np.ndarray:
-        """(6, n) rows of a load-nonlinear joint term per unit of its value."""
-        B = self.basis()[0] if B is None else B
-        g = B[:, :, self.offset[(SPRING_JOINT, term.joint + 1)]]
-        tau0 = self.tau0(term) if term.kind == "joint_deadzone" else None
-        return g * load_factor(term.kind, self.torques[:, term.joint], tau0)
-
     @staticmethod
     def _layout(terms: Sequence[Term]) -> dict[int, slice]:
         out, k = {}, 0
@@ -134,41 +114,12 @@ class Problem:
     def npar(self) -> int:
         return sum(len(t.names) for t in self.terms if t.free)
 
-    def basis(self, r: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(B (6, n, nb), Rt (n, 3, 3)) at point offset r (tool frame)."""
-        if r is not None and not np.any(r):
-            r = None
-        key = None if r is None else tuple(np.asarray(r, float))
-        if key in self._cache:
-            return self._cache[key]
-        ch = self.model.chain
-        p = self.meas.p if r is None else self.meas.p + np.asarray(r, float)
-        stype = np.array([s[0] for s in self.springs], np.int32)
-        sidx = np.array([s[1] for s in self.springs], np.int32)
-        B, Rt = core.spring_basis(
-            self.nb,
-            ch.core_arrays(),
-            stype=stype,
-            sidx=sidx,
-            q=np.asfortranarray(self.meas.q.T),
-            w=np.asfortranarray(self.meas.w.T),
-            p=np.asfortranarray(p.T),
-        )
-        out = (B, Rt)
-        if len(self._cache) > 4:
-            self._cache.clear()
-        self._cache[key] = out
-        return out
-
-    def offset_value(
-        self, theta: np.ndarray, terms: Sequence[Term] | None = None, layout: dict[int, slice] | None = None
-    ) -> np.ndarray | None:
+    def encoded(self, terms: Sequence[Term] | None = None, layout: dict[int, slice] | None = None) -> dict:
+        """The core's arrays of ``terms`` (robot/model_core.py), dead zones
+        without a declared tau0 taking it from these rows."""
         terms = self.terms if terms is None else terms
         layout = self.layout if layout is None else layout
-        for i, t in enumerate(terms):
-            if t.kind == "point_offset":
-                return theta[layout[i]] if t.free else t.value
-        return None
+        return encode(terms, layout, self.springs, self.tau0)
 
     def evaluate(
         self,
@@ -177,70 +128,11 @@ class Problem:
         layout: dict[int, slice] | None = None,
         jac: bool = True,
     ) -> tuple[np.ndarray, np.ndarray | None]:
-        """Predicted rows (6, n) and Jacobian (6, n, npar) at theta."""
-        terms = self.terms if terms is None else terms
-        layout = self.layout if layout is None else layout
-        npar = sum(len(t.names) for t in terms if t.free)
-        B, Rt = self.basis(self.offset_value(theta, terms, layout))
-        n = self.meas.n
-        q = self.meas.q
-        pred = np.zeros((6, n))
-        J = np.zeros((6, n, npar)) if jac else None
-        cb, dl, comp = {}, {}, {}
-        for i, t in enumerate(terms):
-            val = theta[layout[i]] if t.free else t.value
-            if t.kind == "six":
-                off = self.offset[t.spring]
-                cols = B[:, :, [off + e for e in t.elements]]
-                pred += cols @ val
-                if t.free and jac:
-                    J[:, :, layout[i]] = cols
-            elif t.kind in ("joint", "joint_profile"):
-                fn = np.ones((n, 1)) if t.kind == "joint" else profile_basis(q[:, t.qcol])
-                cb[t.joint] = cb.get(t.joint, 0.0) + fn @ val
-                if t.free:
-                    dl.setdefault(t.joint, []).append((layout[i], fn))
-            elif t.kind == "gravity_compensator":
-                comp[t.joint] = (t, val, layout.get(i))
-            elif t.kind in LOAD_NONLINEAR:
-                # linear in its value, nonlinear in the joint torque; added to
-                # the joint's deflection after any compensator
-                col = self.load_column(t, B)
-                pred += col * val[0]
-                if t.free and jac:
-                    J[:, :, layout[i]] = col[:, :, None]
-        for j, c in cb.items():
-            g = B[:, :, self.offset[(SPRING_JOINT, j + 1)]]
-            if j in comp:
-                t, ks, sl = comp[j]
-                h = compensator_h(q[:, t.qcol], t.geometry)
-                den = 1.0 + c * ks[0] * h
-                ceff = c / den
-                dc = 1.0 / den**2
-                dk = -c * c * h / den**2
-                if jac and sl is not None:
-                    J[:, :, sl] = (g * dk)[:, :, None]
-            else:
-                ceff, dc = c, np.ones(n)
-            pred += g * ceff
-            if jac:
-                for sl, fn in dl.get(j, []):
-                    J[:, :, sl] = g[:, :, None] * (dc[:, None] * fn)[None]
-        if jac:
-            for i, t in enumerate(terms):
-                if t.kind == "point_offset" and t.free:
-                    J[0:3, :, layout[i]] = self.offset_columns(pred, Rt)
-        return pred, J
-
-    @staticmethod
-    def offset_columns(pred: np.ndarray, Rt: np.ndarray) -> np.ndarray:
-        """d(point deflection)/dr (3, n, 3) = [dphi]x R_tool at the prediction
-        (the point deflection is dt + dphi x R_tool (p + r))."""
-        dphi = pred[3:6].T  # (n, 3)
-        out = np.empty((3, dphi.shape[0], 3))
-        for i in range(3):
-            out[:, :, i] = np.cross(dphi, Rt[:, :, i]).T
-        return out
+        """Predicted rows (6, n) and Jacobian (6, n, npar) at theta (core/sk_deflect.f90)."""
+        q, w, p = self._rows
+        return core.deflection_rows(
+            self.model.chain.core_arrays(), self.encoded(terms, layout), np.asarray(theta, float), q, w, p, jac
+        )
 
     def weighted(self, rows6: np.ndarray) -> np.ndarray:
         """Rows (6, n[, k]) -> weighted observation vector/matrix (rows*n[, k])."""

@@ -28,7 +28,7 @@ module sk_chain
         rotate_blocks, congruence_transfer, sym_index, nsym
     implicit none
     private
-    public :: chain_frames, spring_jacobian, spring_ndof, tool_compliance_batch
+    public :: chain_frames, spring_jacobian, spring_ndof, tool_compliance_batch, check_chain
     public :: spring_basis_batch, sym_index, nsym, spring_jacobians, chain_poses_batch
     !> spring types (the stype codes above; robot/model.py SPRING_* mirrors them,
     !> tests/test_architecture.py checks that the two agree)

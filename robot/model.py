@@ -23,8 +23,9 @@ from ..io import validate as V
 from ..io.linkjson import check_spring_matrix, read_link_compliance
 from ..io.tables import read_toml
 from . import catalogue
-from .catalogue import DEADZONE_TAU0_FRACTION, profile_basis
+from .catalogue import DEADZONE_TAU0_FRACTION
 from .indices import Indices, stiffness_indices_where
+from .model_core import encode
 from .plan_settings import plan_table
 from .urdf import Chain, load_chain
 
@@ -148,43 +149,37 @@ class Model:
         the secant compliance under that load, dq_j / tau_j, so that the
         tool compliance times the wrench is the deflection."""
         terms = self.terms if terms is None else terms
-        c = {}
+        joints: list[int] = []
+        jterms = []
         for t in terms:
-            if t.kind in ("joint", "joint_profile"):
-                if t.value is None:
-                    raise InputError(
-                        f"effect {t.source or t.kind} on {t.target!r} has no value; "
-                        f"identify it first (stiffkit fit --write-model)"
-                    )
-                c.setdefault(t.joint, np.zeros(Q.shape[0]))
-                c[t.joint] = c[t.joint] + (t.value[0] if t.kind == "joint" else profile_basis(Q[:, t.qcol]) @ t.value)
-        for t in terms:
-            if t.kind == "gravity_compensator":
-                if t.value is None:
-                    raise InputError(f"gravity_compensator on {t.target!r} has no k_s; identify it first")
-                h = compensator_h(Q[:, t.qcol], t.geometry)
-                c[t.joint] = c[t.joint] / (1.0 + c[t.joint] * t.value[0] * h)
-        tau = None
-        for t in terms:
-            if t.kind not in LOAD_NONLINEAR:
+            if t.kind not in JOINT_KINDS:
                 continue
+            if t.value is None and t.kind == "gravity_compensator":
+                raise InputError(f"gravity_compensator on {t.target!r} has no k_s; identify it first")
             if t.value is None:
                 raise InputError(
-                    f"{t.kind} on {t.target!r} has no value; identify it first (stiffkit fit --write-model)"
+                    f"{t.kind if t.kind in LOAD_NONLINEAR else 'effect ' + (t.source or t.kind)} on {t.target!r} "
+                    f"has no value; identify it first (stiffkit fit --write-model)"
                 )
-            if wrench is None:
-                if t.kind == "joint_deadzone":
-                    raise InputError(
-                        f"joint_deadzone on {t.target!r}: a joint with a dead zone deflects by an amount "
-                        f"that depends on the sign and size of the load, so it has no compliance at a "
-                        f"posture alone; give the load (Model.tool_compliance(Q, wrench=W) is the secant "
-                        f"compliance under W, whose product with W is the deflection)"
-                    )
-                continue  # joint_cubic: no contribution to the tangent at zero load
-            if tau is None:
-                tau = self.chain.joint_torques(Q, wrench)
-            c.setdefault(t.joint, np.zeros(Q.shape[0]))
-            c[t.joint] = c[t.joint] + t.value[0] * load_factor(t.kind, tau[:, t.joint], t.geometry.get("tau0"))
+            if t.kind == "joint_deadzone" and wrench is None:
+                raise InputError(
+                    f"joint_deadzone on {t.target!r}: a joint with a dead zone deflects by an amount "
+                    f"that depends on the sign and size of the load, so it has no compliance at a "
+                    f"posture alone; give the load (Model.tool_compliance(Q, wrench=W) is the secant "
+                    f"compliance under W, whose product with W is the deflection)"
+                )
+            if t.kind in ("joint", "joint_profile") or (wrench is not None and t.kind in LOAD_NONLINEAR):
+                if t.joint not in joints:
+                    joints.append(t.joint)
+            jterms.append(t)
+        springs = [(SPRING_JOINT, j + 1) for j in joints]
+        enc = encode(jterms, {}, springs)
+        tau = None
+        if wrench is not None and enc["stype"].size:
+            tq = self.chain.joint_torques(Q, wrench)  # (N, nj)
+            tau = np.asfortranarray(tq[:, enc["sidx"] - 1].T)
+        cjs = core.joint_secant(enc, np.asfortranarray(np.asarray(Q, float).T), tau) if enc["stype"].size else None
+        c = {j: cjs[k].copy() for k, j in enumerate(joints)}
         for j, cj in c.items():
             bad = ~(cj >= 0)
             if bad.any():
@@ -298,25 +293,8 @@ class Model:
         return stiffness_indices_where(K, ok, lscale), ok
 
 
-def load_factor(kind: str, tau: np.ndarray, tau0: float | np.ndarray | None = None) -> np.ndarray:
-    """Secant factor of a load-nonlinear joint kind: its joint deflection is
-    value * factor * tau (contract extensions).
-
-    joint_cubic:    dq = c3 tau^3              -> factor tau^2
-    joint_deadzone: dq = b tanh(tau / tau0)    -> factor tanh(tau / tau0) / tau
-                    (a backlash of +-b smoothed over |tau| ~ tau0; 1 / tau0 at tau = 0)
-    """
-    tau = np.asarray(tau, float)
-    if kind == "joint_cubic":
-        return tau * tau
-    if kind == "joint_deadzone":
-        if tau0 is None or not tau0 > 0:
-            raise InputError(f"joint_deadzone needs a positive tau0 (N m), got {tau0!r}")
-        x = tau / tau0
-        small = np.abs(x) < 1e-4
-        safe = np.where(small, 1.0, tau)
-        return np.where(small, (1.0 - x * x / 3.0) / tau0, np.tanh(x) / safe)
-    raise ValueError(f"not a load-nonlinear kind: {kind!r}")
+#: the gravity compensator's d2V/dq2 per unit k_s (the law is the core's, core/sk_deflect.f90)
+compensator_h = core.compensator_h
 
 
 def default_tau0(tau: np.ndarray) -> float:
@@ -328,18 +306,6 @@ def default_tau0(tau: np.ndarray) -> float:
     if not v > 0:
         return 1.0
     return float(f"{v:.2g}")
-
-
-def compensator_h(q: np.ndarray, g: dict) -> np.ndarray:
-    """d2V/dq2 per unit k_s of the gravity compensator (docs/calibration.md §2):
-    s = sqrt(a^2 + b^2 - 2ab cos phi), phi = q + beta, V = k_s (s - s0)^2 / 2
-    -> s'^2 + (s - s0) s''."""
-    a, b, beta, s0 = g["a"], g["b"], g["beta"], g["s0"]
-    phi = np.asarray(q, float) + beta
-    s = np.sqrt(a * a + b * b - 2 * a * b * np.cos(phi))
-    ds = a * b * np.sin(phi) / s
-    dds = (a * b * np.cos(phi) - ds * ds) / s
-    return ds * ds + (s - s0) * dds
 
 
 # ---------------------------------------------------------------------------

@@ -1,0 +1,362 @@
+!> Deflection rows of a serial chain under known loads (relative data,
+!> docs/calibration.md section 3; klimchik eqs. 4-5, 12): the predicted
+!> point deflection and tool rotation of every measurement row and their
+!> analytic Jacobian with respect to the model's free parameters,
+!> including the chain rule through a gravity compensator and a point
+!> offset. The joint laws are the tree's (sk_tree law_delta/law_derivs:
+!> linear, cubic, dead zone); the posture-dependent compliance of a joint
+!> (profile, compensator) is below.
+!>
+!> Model (terms t = 1..nt, tint[7,nt], tgeo[5,nt]):
+!>   tint(1,t) kind: 1 joint (c), 2 joint_profile (c0..c4 on 1, cos q,
+!>             sin q, cos 2q, sin 2q), 3 gravity_compensator (k_s),
+!>             4 joint_cubic (c3), 5 joint_deadzone (b, tau0 = tgeo(5,t)),
+!>             6 six-dof spring (elements), 7 point offset (r, tool frame)
+!>   tint(2,t) the term's spring (1-based into stype/sidx; 0 for kind 7)
+!>   tint(3,t) its first value in par, tint(4,t) its number of values
+!>   tint(5,t) its first Jacobian column (1-based), 0 when known
+!>   tint(6,t) the q column of its joint (joint kinds), tint(7,t) the
+!>             first of its elements in elem (kind 6; sym_index order)
+!>   tgeo(1:4,t) compensator a, b, beta, s0 (m, m, rad, m)
+!> par holds every term's values; those of free terms are taken from theta.
+!> A joint spring deflects by delta = law(tau), tau = J_s^T w its torque,
+!> with the linear compliance c_eff = c(q) / (1 + c(q) k_s h(q)) (c(q) the
+!> sum of its joint and profile terms, h the compensator's d2V/dq2 per unit
+!> k_s, docs/calibration.md section 2); a 6-dof spring by C J_s^T w. A row's
+!> six numbers are the point deflection dt + dphi x (R_tool (p + r)) and
+!> the tool rotation dphi (base axes).
+module sk_deflect
+    use sk_kinds, only: dp, ip
+    use sk_errors
+    use sk_linalg, only: skew, cross, all_finite
+    use sk_spatial, only: sym_index, nsym
+    use sk_chain, only: chain_frames, spring_jacobian, spring_ndof, check_chain, spring_joint
+    use sk_tree, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone
+    implicit none
+    private
+    public :: deflection_rows, joint_secant, compensator_h, profile_basis
+    !> term kinds (robot/model_core.py TERM_* mirrors them)
+    integer, parameter, public :: term_joint = 1, term_profile = 2, term_compensator = 3, term_cubic = 4, &
+        term_deadzone = 5, term_six = 6, term_offset = 7
+    !> |tau / tau0| below which the dead zone's secant is its tangent at zero
+    real(dp), parameter :: secant_small = 1.0e-4_dp
+
+contains
+
+    !> d2V/dq2 per unit k_s of a gravity compensator (docs/calibration.md
+    !> section 2): s = sqrt(a^2 + b^2 - 2ab cos phi), phi = q + beta,
+    !> V = k_s (s - s0)^2 / 2 -> h = s'^2 + (s - s0) s''.
+    elemental real(dp) function compensator_h(q, a, b, beta, s0) result(h)
+        real(dp), intent(in) :: q, a, b, beta, s0
+        real(dp) :: phi, s, ds, dds
+        phi = q + beta
+        s = sqrt(a*a + b*b - 2.0_dp*a*b*cos(phi))
+        ds = a*b*sin(phi)/s
+        dds = (a*b*cos(phi) - ds*ds)/s
+        h = ds*ds + (s - s0)*dds
+    end function compensator_h
+
+    !> The joint_profile basis at q: 1, cos q, sin q, cos 2q, sin 2q.
+    pure function profile_basis(q) result(f)
+        real(dp), intent(in) :: q
+        real(dp) :: f(5)
+        f = [1.0_dp, cos(q), sin(q), cos(2.0_dp*q), sin(2.0_dp*q)]
+    end function profile_basis
+
+    !> Check the term tables against the springs, the values and the rows.
+    pure subroutine check_terms(tint, tgeo, elem, ns, npall, npar, ndof, info)
+        integer(ip), intent(in) :: tint(:, :), elem(:), ns, npall, npar, ndof
+        real(dp), intent(in) :: tgeo(:, :)
+        integer(ip), intent(out) :: info
+        integer :: t, k, n
+        info = sk_err_argument
+        if (size(tint, 1) /= 7 .or. size(tgeo, 1) /= 5 .or. size(tgeo, 2) /= size(tint, 2)) return
+        do t = 1, size(tint, 2)
+            k = tint(1, t)
+            n = tint(4, t)
+            if (k < term_joint .or. k > term_offset) return
+            if (k /= term_offset .and. (tint(2, t) < 1 .or. tint(2, t) > ns)) return
+            if (tint(3, t) < 1 .or. tint(3, t) + n - 1 > npall) return
+            if (tint(5, t) < 0) return
+            if (tint(5, t) > 0 .and. tint(5, t) + n - 1 > npar) return
+            select case (k)
+            case (term_joint, term_compensator, term_cubic, term_deadzone)
+                if (n /= 1) return
+            case (term_profile)
+                if (n /= 5) return
+            case (term_offset)
+                if (n /= 3) return
+            case default
+                if (tint(7, t) < 1 .or. tint(7, t) + n - 1 > size(elem)) return
+                if (any(elem(tint(7, t):tint(7, t) + n - 1) < 1) .or. any(elem(tint(7, t):tint(7, t) + n - 1) > nsym)) &
+                    return
+            end select
+            if (k <= term_deadzone .and. (tint(6, t) < 1 .or. tint(6, t) > ndof)) return
+            if (k == term_deadzone .and. .not. tgeo(5, t) > 0.0_dp) return
+            if (k == term_compensator .and. .not. (tgeo(1, t) > 0.0_dp .and. tgeo(2, t) > 0.0_dp)) return
+        end do
+        info = sk_ok
+    end subroutine check_terms
+
+    !> The linear compliance of joint spring s at posture q: c_eff, and
+    !> dc_eff/dc (the chain factor of its joint and profile values) and
+    !> dc_eff/dk_s (0 without a compensator).
+    pure subroutine joint_linear(s, tint, tgeo, pv, q, ceff, dc, dk)
+        integer, intent(in) :: s
+        integer(ip), intent(in) :: tint(:, :)
+        real(dp), intent(in) :: tgeo(:, :), pv(:), q(:)
+        real(dp), intent(out) :: ceff, dc, dk
+        real(dp) :: c, ks, h, den
+        integer :: t, p
+        logical :: comp
+        c = 0.0_dp
+        comp = .false.
+        ks = 0.0_dp
+        h = 0.0_dp
+        do t = 1, size(tint, 2)
+            if (tint(2, t) /= s) cycle
+            p = tint(3, t)
+            select case (tint(1, t))
+            case (term_joint)
+                c = c + pv(p)
+            case (term_profile)
+                c = c + dot_product(profile_basis(q(tint(6, t))), pv(p:p + 4))
+            case (term_compensator)
+                comp = .true.
+                ks = pv(p)
+                h = compensator_h(q(tint(6, t)), tgeo(1, t), tgeo(2, t), tgeo(3, t), tgeo(4, t))
+            end select
+        end do
+        if (comp) then
+            den = 1.0_dp + c*ks*h
+            ceff = c/den
+            dc = 1.0_dp/den**2
+            dk = -c*c*h/den**2
+        else
+            ceff = c
+            dc = 1.0_dp
+            dk = 0.0_dp
+        end if
+    end subroutine joint_linear
+
+    !> Deflection of joint spring s under torque tau (the tree's laws: the
+    !> linear compliance with the cubic c3 and the dead zone b, tau0 of its
+    !> terms), and d delta/d c_eff, d delta/d c3, d delta/d b.
+    pure subroutine joint_law(s, tint, tgeo, pv, ceff, tau, delta, dlin, dcub, ddz)
+        integer, intent(in) :: s
+        integer(ip), intent(in) :: tint(:, :)
+        real(dp), intent(in) :: tgeo(:, :), pv(:), ceff, tau
+        real(dp), intent(out) :: delta, dlin, dcub, ddz
+        real(dp) :: par(nsym), d(1), dm(1, 1), dp2(1, nsym), w(1)
+        integer :: t
+        w(1) = tau
+        par = 0.0_dp
+        par(1) = ceff
+        call law_delta(law_linear, par, 1.0_dp, w, d)
+        call law_derivs(law_linear, par, 1.0_dp, w, dm, dp2)
+        delta = d(1)
+        dlin = dp2(1, 1)
+        dcub = 0.0_dp
+        ddz = 0.0_dp
+        do t = 1, size(tint, 2)
+            if (tint(2, t) /= s) cycle
+            par = 0.0_dp
+            par(2) = pv(tint(3, t))
+            select case (tint(1, t))
+            case (term_cubic)
+                call law_delta(law_cubic, par, 1.0_dp, w, d)
+                call law_derivs(law_cubic, par, 1.0_dp, w, dm, dp2)
+                delta = delta + d(1)
+                dcub = dp2(1, 2)
+            case (term_deadzone)
+                call law_delta(law_deadzone, par, tgeo(5, t), w, d)
+                call law_derivs(law_deadzone, par, tgeo(5, t), w, dm, dp2)
+                delta = delta + d(1)
+                ddz = dp2(1, 2)
+            end select
+        end do
+    end subroutine joint_law
+
+    !> All values: par with the free slices from theta.
+    pure subroutine values(tint, par, theta, pv)
+        integer(ip), intent(in) :: tint(:, :)
+        real(dp), intent(in) :: par(:), theta(:)
+        real(dp), intent(out) :: pv(:)
+        integer :: t, n
+        pv = par
+        do t = 1, size(tint, 2)
+            n = tint(4, t)
+            if (tint(5, t) > 0) pv(tint(3, t):tint(3, t) + n - 1) = theta(tint(5, t):tint(5, t) + n - 1)
+        end do
+    end subroutine values
+
+    !> Predicted rows pred[6,nm] at theta and, when want_jac, their Jacobian
+    !> jac[6,nm,npar] (module header). q[ndof,nm], w[6,nm] (f, m at the tool
+    !> origin, base axes), p[3,nm] (tool coordinates). info: sk_ok,
+    !> sk_err_argument (inconsistent chain, springs or terms), sk_err_nonfinite.
+    subroutine deflection_rows(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, &
+            theta, q, w, p, want_jac, pred, jac, info)
+        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3)
+        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:), tint(:, :), elem(:)
+        real(dp), intent(in) :: tgeo(:, :), par(:), theta(:), q(:, :), w(:, :), p(:, :)
+        logical, intent(in) :: want_jac
+        real(dp), intent(out) :: pred(:, :), jac(:, :, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: rf(:, :, :), pf(:, :), pv(:), g(:, :, :), a(:, :)
+        real(dp) :: rt(3, 3), pt(3), jj(6, 6), pm(3, 6), r(3), col(6), fn(5), ceff, dc, dk, delta, dlin, dcub, ddz
+        integer :: m, s, t, k, kk, ia, ib, nj, ns, jc, pp, toff, n
+        nj = size(qidx)
+        ns = size(stype)
+        pred = 0.0_dp
+        if (want_jac) jac = 0.0_dp
+        call check_chain(jaxis, qidx, size(q, 1, kind=ip), stype, sidx, info)
+        if (info /= sk_ok) return
+        call check_terms(tint, tgeo, elem, int(ns, ip), size(par, kind=ip), size(theta, kind=ip), &
+            size(q, 1, kind=ip), info)
+        if (info /= sk_ok) return
+        info = sk_err_size
+        if (size(w, 2) /= size(q, 2) .or. size(p, 2) /= size(q, 2) .or. size(pred, 2) /= size(q, 2)) return
+        if (want_jac .and. (size(jac, 2) /= size(q, 2) .or. size(jac, 3) /= size(theta))) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(q) .and. all_finite(w) .and. all_finite(p) .and. all_finite(par) &
+            .and. all_finite(theta) .and. all_finite(tgeo))) return
+        allocate(rf(3, 3, nj), pf(3, nj), pv(size(par)), g(6, 6, ns), a(6, ns))
+        call values(tint, par, theta, pv)
+        r = 0.0_dp
+        toff = 0
+        do t = 1, size(tint, 2)
+            if (tint(1, t) == term_offset) then
+                toff = t
+                r = pv(tint(3, t):tint(3, t) + 2)
+            end if
+        end do
+        do m = 1, size(q, 2)
+            call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, m), rf, pf, rt, pt)
+            pm = 0.0_dp
+            pm(1, 1) = 1.0_dp
+            pm(2, 2) = 1.0_dp
+            pm(3, 3) = 1.0_dp
+            pm(:, 4:6) = -skew(matmul(rt, p(:, m) + r))
+            ! every spring's unit columns (point, rotation per unit deflection) and force
+            do s = 1, ns
+                n = spring_ndof(stype(s))
+                call spring_jacobian(stype(s), sidx(s), jaxis, rf, pf, rt, pt, jj)
+                g(1:3, 1:n, s) = matmul(pm, jj(:, 1:n))
+                g(4:6, 1:n, s) = jj(4:6, 1:n)
+                a(1:n, s) = matmul(transpose(jj(:, 1:n)), w(:, m))
+            end do
+            ! 6-dof springs: columns J E_ab J^T w per element (klimchik eq. 12)
+            do t = 1, size(tint, 2)
+                if (tint(1, t) /= term_six) cycle
+                s = tint(2, t)
+                jc = tint(5, t)
+                do k = 1, tint(4, t)
+                    kk = elem(tint(7, t) + k - 1)
+                    call sym_index(kk, ia, ib)
+                    if (ia == ib) then
+                        col = g(:, ia, s)*a(ia, s)
+                    else
+                        col = g(:, ia, s)*a(ib, s) + g(:, ib, s)*a(ia, s)
+                    end if
+                    pred(:, m) = pred(:, m) + col*pv(tint(3, t) + k - 1)
+                    if (want_jac .and. jc > 0) jac(:, m, jc + k - 1) = col
+                end do
+            end do
+            ! joint springs: delta = law(tau) with the posture's linear compliance
+            do s = 1, ns
+                if (stype(s) /= spring_joint) cycle
+                if (.not. any(tint(2, :) == s .and. tint(1, :) <= term_deadzone)) cycle
+                call joint_linear(s, tint, tgeo, pv, q(:, m), ceff, dc, dk)
+                call joint_law(s, tint, tgeo, pv, ceff, a(1, s), delta, dlin, dcub, ddz)
+                pred(:, m) = pred(:, m) + g(:, 1, s)*delta
+                if (.not. want_jac) cycle
+                do t = 1, size(tint, 2)
+                    jc = tint(5, t)
+                    if (tint(2, t) /= s .or. jc == 0) cycle
+                    pp = tint(6, t)
+                    select case (tint(1, t))
+                    case (term_joint)
+                        jac(:, m, jc) = g(:, 1, s)*(dlin*dc)
+                    case (term_profile)
+                        col = g(:, 1, s)*(dlin*dc)
+                        fn = profile_basis(q(pp, m))
+                        do k = 1, 5
+                            jac(:, m, jc + k - 1) = col*fn(k)
+                        end do
+                    case (term_compensator)
+                        jac(:, m, jc) = g(:, 1, s)*(dlin*dk)
+                    case (term_cubic)
+                        jac(:, m, jc) = g(:, 1, s)*dcub
+                    case (term_deadzone)
+                        jac(:, m, jc) = g(:, 1, s)*ddz
+                    end select
+                end do
+            end do
+            ! point offset: d(dt + dphi x R (p + r))/dr = [dphi]x R
+            if (want_jac .and. toff > 0) then
+                jc = tint(5, toff)
+                if (jc > 0) then
+                    do k = 1, 3
+                        jac(1:3, m, jc + k - 1) = cross(pred(4:6, m), rt(:, k))
+                    end do
+                end if
+            end if
+        end do
+        info = sk_ok
+        if (.not. all_finite(pred)) info = sk_err_overflow
+    end subroutine deflection_rows
+
+    !> Compliance cj[ns,np] of every joint spring at postures q[ndof,np]
+    !> from the known values par (tint as deflection_rows, no free terms):
+    !> c_eff at zero load, or with_load: the secant delta(tau)/tau under the
+    !> torques tau[ns,np] (the tangent at zero load where |tau| is below
+    !> 1e-4 of a dead zone's tau0). Non-joint springs get 0.
+    subroutine joint_secant(stype, tint, tgeo, par, q, tau, with_load, cj, info)
+        integer(ip), intent(in) :: stype(:), tint(:, :)
+        real(dp), intent(in) :: tgeo(:, :), par(:), q(:, :), tau(:, :)
+        logical, intent(in) :: with_load
+        real(dp), intent(out) :: cj(:, :)
+        integer(ip), intent(out) :: info
+        real(dp) :: ceff, dc, dk, pv(size(par)), none(0), wpar(nsym), dm(1, 1), dp2(1, nsym), d(1)
+        integer :: m, s, t
+        integer(ip) :: noelem(0)
+        cj = 0.0_dp
+        call check_terms(tint, tgeo, noelem, size(stype, kind=ip), size(par, kind=ip), 0_ip, &
+            size(q, 1, kind=ip), info)
+        if (info /= sk_ok) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(q) .and. all_finite(par) .and. all_finite(tau) .and. all_finite(tgeo))) return
+        call values(tint, par, none, pv)
+        do m = 1, size(q, 2)
+            do s = 1, size(stype)
+                if (stype(s) /= spring_joint) cycle
+                call joint_linear(s, tint, tgeo, pv, q(:, m), ceff, dc, dk)
+                cj(s, m) = ceff
+                if (.not. with_load) cycle
+                ! the secant delta(tau)/tau of each nonlinear term (the tree's laws)
+                do t = 1, size(tint, 2)
+                    if (tint(2, t) /= s) cycle
+                    wpar = 0.0_dp
+                    wpar(2) = pv(tint(3, t))
+                    select case (tint(1, t))
+                    case (term_cubic)
+                        if (tau(s, m) == 0.0_dp) cycle
+                        call law_delta(law_cubic, wpar, 1.0_dp, tau(s:s, m), d)
+                        cj(s, m) = cj(s, m) + d(1)/tau(s, m)
+                    case (term_deadzone)
+                        if (abs(tau(s, m)/tgeo(5, t)) < secant_small) then
+                            ! the tangent at zero load
+                            call law_derivs(law_deadzone, wpar, tgeo(5, t), [0.0_dp], dm, dp2)
+                            cj(s, m) = cj(s, m) + dm(1, 1)
+                        else
+                            call law_delta(law_deadzone, wpar, tgeo(5, t), tau(s:s, m), d)
+                            cj(s, m) = cj(s, m) + d(1)/tau(s, m)
+                        end if
+                    end select
+                end do
+            end do
+        end do
+        info = sk_ok
+    end subroutine joint_secant
+
+end module sk_deflect
