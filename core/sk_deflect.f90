@@ -28,7 +28,8 @@
 module sk_deflect
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: skew, cross, all_finite
+    use sk_linalg, only: all_finite
+    use sk_rotation, only: skew, cross
     use sk_spatial, only: sym_index, nsym
     use sk_chain, only: chain_frames, spring_jacobian, spring_ndof, check_chain, spring_joint
     use sk_tree, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone
