@@ -3,7 +3,7 @@
 !> point deflection and tool rotation of every measurement row and their
 !> analytic Jacobian with respect to the model's free parameters,
 !> including the chain rule through a gravity compensator and a point
-!> offset. The joint laws are the tree's (sk_tree law_delta/law_derivs:
+!> offset. The joint laws are the tree's (sk_laws law_delta/law_derivs:
 !> linear, cubic, dead zone); the posture-dependent compliance of a joint
 !> (profile, compensator) is below.
 !>
@@ -32,7 +32,7 @@ module sk_deflect
     use sk_rotation, only: skew, cross
     use sk_spatial, only: sym_index, nsym
     use sk_chain, only: chain_frames, spring_jacobian, spring_ndof, check_chain, spring_joint
-    use sk_tree, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone
+    use sk_laws, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone
     implicit none
     private
     public :: deflection_rows, joint_secant, compensator_h, profile_basis

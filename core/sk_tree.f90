@@ -137,7 +137,7 @@ module sk_tree
     public :: poses_batch, evaluate, frame_jacobian_batch
     public :: is_rotation, group_by, q_drivers, posture_values, deflected_frames, load_state, apply_laws
     public :: deflection_change, model_fold, fold_for_frames
-    public :: model_body_params, body_effective, law_delta, law_derivs
+    public :: model_body_params, body_effective
 
     public :: vj_fixed, vj_revolute, vj_prismatic, law_linear, law_cubic, law_deadzone, law_spring6
 end module sk_tree
