@@ -105,6 +105,55 @@ def deflection_rows(
     return pred, (J if jac else None)
 
 
+def deflection_lm(
+    chain: dict,
+    enc: dict,
+    q: np.ndarray,
+    w: np.ndarray,
+    p: np.ndarray,
+    y: np.ndarray,
+    wrow: np.ndarray,
+    neg: np.ndarray,
+    nlmask: np.ndarray,
+    inv: np.ndarray,
+    theta: np.ndarray,
+    maxit: int,
+    ftol: float,
+    xtol: float,
+    gtol: float,
+) -> tuple[np.ndarray, int, int]:
+    """The nonlinear fit of the deflection model by the core's
+    Levenberg-Marquardt in one call (core/sk_deflect_fit.f90): the weighted
+    data y (nrows * n,), the row weights wrow (nrows,), the masks (npar,)
+    of parameters not excited, nonlinear and compensated joint compliances,
+    the start theta. Returns (theta, iterations, reason; LM_REASONS)."""
+    th, niter, reason, info = call(
+        _calib.sk_deflection_lm,
+        "sk_deflection_lm",
+        **chain,
+        **enc,
+        q=q,
+        w=w,
+        p=p,
+        y=np.asarray(y, float),
+        wrow=np.asarray(wrow, float),
+        neg=np.asarray(neg, np.int32),
+        nlmask=np.asarray(nlmask, np.int32),
+        inv=np.asarray(inv, np.int32),
+        maxit=int(maxit),
+        ftol=float(ftol),
+        xtol=float(xtol),
+        gtol=float(gtol),
+        theta=np.array(theta, float),
+    )
+    check(
+        info,
+        "deflection fit (sk_deflection_lm)",
+        {1: "the data, weights or masks do not match the model", 6: "the model's terms are inconsistent"},
+    )
+    return th, int(niter), int(reason)
+
+
 def joint_secant(enc: dict, q: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
     """Compliance (ns, N) of every joint spring of a known model at postures
     q (ndof, N): at zero load, or the secant under the torques tau (ns, N)

@@ -6,14 +6,14 @@ parameters, and the core solves the weighted least squares by a
 rank-revealing SVD (eqs. 7-9, 15-20) and partitions the parameters into
 identifiable / non-identifiable / semi-identifiable groups (M4a).
 Nonlinear effects (gravity compensator, point offset) are identified by the
-core's Levenberg-Marquardt (core/sk_lm.f90, by reverse communication): this
-module evaluates the model and chooses the variables; the step, the damping,
-the acceptance of a trial and the stopping are the core's.
+core's Levenberg-Marquardt in one call (core/sk_deflect_fit.f90 on sk_lm and
+sk_deflect: the model, its variables, the step, the damping, the acceptance
+of a trial and the stopping are the core's).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -210,89 +210,34 @@ def as_inputs(model: Model | Path | str, meas: Measurements | Path | str) -> tup
     return model, meas
 
 
-class _Variables:
-    """The variables the core's Levenberg-Marquardt iterates on, u = z / f:
-    z is theta with the compliance c of a compensated joint replaced by its
-    stiffness 1/c once c > 0 (c_eff = 1 / (1/c + k_s h(q)) has a straight
-    valley in 1/c, not a curved one; d/d(1/c) = -c^2 d/dc), f the column
-    equilibration of the nonlinear and reparametrised columns
-    (``equilibrate``: the core floors its Marquardt scales relative to the
-    largest column, which must catch structural zeros only). They stay
-    fixed while the core iterates; once a compensated c turns positive, or
-    a column that was zero when they were set (k_s and the point offset at
-    theta = 0) is not any more, they are ``stale`` and the core starts
-    again in new ones."""
-
-    def __init__(self, theta: np.ndarray, A: np.ndarray, inv: np.ndarray, nlmask: np.ndarray) -> None:
-        self.inv = inv
-        self.use = inv & (theta > 0)
-        Az = self._columns_z(theta, A)
-        self.f = equilibrate(Az, nlmask | self.use)
-        self.pending = (nlmask | self.use) & (np.linalg.norm(Az, axis=0) == 0)
-
-    def _columns_z(self, theta: np.ndarray, A: np.ndarray) -> np.ndarray:
-        Az = A.copy()
-        Az[:, self.use] = A[:, self.use] * (-(theta[self.use] ** 2))
-        return Az
-
-    def jacobian(self, theta: np.ndarray, A: np.ndarray) -> np.ndarray:
-        """The weighted Jacobian A (w.r.t. theta) in these variables."""
-        return self._columns_z(theta, A) * self.f
-
-    def point(self, theta: np.ndarray) -> np.ndarray:
-        z = theta.copy()
-        z[self.use] = 1.0 / theta[self.use]
-        return z / self.f
-
-    def theta(self, u: np.ndarray) -> np.ndarray | None:
-        """theta at u; None outside the domain (a stiffness 1/c <= 0)."""
-        z = u * self.f
-        if np.any(z[self.use] <= 0):
-            return None
-        z[self.use] = 1.0 / z[self.use]
-        return z
-
-    def stale(self, theta: np.ndarray, A: np.ndarray) -> bool:
-        turned = self.inv & (theta > 0) & ~self.use
-        woke = self.pending & (np.linalg.norm(A, axis=0) > 0)
-        return bool(np.any(turned) or np.any(woke))
-
-
 def _levenberg_marquardt(
-    pb: Problem,
-    y: np.ndarray,
-    theta: np.ndarray,
-    weigh: Callable[[np.ndarray], np.ndarray],
-    nlmask: np.ndarray,
-    max_iter: int,
+    pb: Problem, theta: np.ndarray, neg: np.ndarray, nlmask: np.ndarray, max_iter: int
 ) -> tuple[np.ndarray, int, bool]:
-    """The nonlinear fit from theta: the core's Levenberg-Marquardt (reverse
-    communication), Python evaluating the model at the core's trials.
-    Returns (theta, iterations, converged)."""
+    """The nonlinear fit from theta: the core's Levenberg-Marquardt around
+    the core's rows and Jacobian, one call (core/sk_deflect_fit.f90: its
+    variables, 1/c of a compensated joint and the column equilibration,
+    and its restarts). Returns (theta, iterations, converged)."""
     comp = {t.joint for t in pb.terms if t.kind == "gravity_compensator"}
     inv = np.array([t.kind == "joint" and t.joint in comp for t in pb.terms if t.free for _ in t.names], dtype=bool)
-    pred, J = pb.evaluate(theta)
-    A, b = weigh(J), y - pb.weighted(pred)
-    used = 0
-    while True:
-        var = _Variables(theta, A, inv, nlmask)
-        st = core.lm_start(var.jacobian(theta, A), -b, max_iter - used, LM_FTOL, LM_XTOL, LM_GTOL)
-        stale = False
-        while st.running and not stale:
-            u = var.point(theta)
-            trial = var.theta(u + core.lm_step(st, u))
-            if trial is None:
-                core.lm_accept(st, None, None, ok=False)
-                continue
-            p2, J2 = pb.evaluate(trial)
-            A2, b2 = weigh(J2), y - pb.weighted(p2)
-            if core.lm_accept(st, var.jacobian(trial, A2), -b2):
-                theta, A, b = trial, A2, b2
-                stale = st.running and var.stale(theta, A)
-        # a restart factorises the new point again: count it once
-        used += st.niter - int(stale)
-        if not stale:
-            return theta, used, st.converged
+    q, w, p = pb.core_rows
+    theta, used, reason = core.deflection_lm(
+        pb.model.chain.core_arrays(),
+        pb.encoded(),
+        q,
+        w,
+        p,
+        pb.weighted(pb.y),
+        pb.wrow,
+        neg,
+        nlmask,
+        inv,
+        theta,
+        max_iter,
+        LM_FTOL,
+        LM_XTOL,
+        LM_GTOL,
+    )
+    return theta, used, reason in core.LM_CONVERGED
 
 
 def fit(
@@ -354,7 +299,7 @@ def fit(
             theta = theta + delta
             it = 1
         else:
-            theta, it, converged = _levenberg_marquardt(pb, y, theta, weigh, nlmask, max_iter)
+            theta, it, converged = _levenberg_marquardt(pb, theta, neg, nlmask, max_iter)
         pred, J = pb.evaluate(theta)
         A = weigh(J)
         b = y - pb.weighted(pred)

@@ -54,7 +54,7 @@ class Problem:
             if model.chain.qidx[k] > 0 and (SPRING_JOINT, k + 1) not in springs:
                 springs.append((SPRING_JOINT, k + 1))
         self.springs = springs
-        self._rows = (
+        self.core_rows = (
             np.asfortranarray(meas.q.T),
             np.asfortranarray(meas.w.T),
             np.asfortranarray(meas.p.T),
@@ -129,7 +129,7 @@ class Problem:
         jac: bool = True,
     ) -> tuple[np.ndarray, np.ndarray | None]:
         """Predicted rows (6, n) and Jacobian (6, n, npar) at theta (core/sk_deflect.f90)."""
-        q, w, p = self._rows
+        q, w, p = self.core_rows
         return core.deflection_rows(
             self.model.chain.core_arrays(), self.encoded(terms, layout), np.asarray(theta, float), q, w, p, jac
         )

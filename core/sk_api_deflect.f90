@@ -43,3 +43,26 @@ subroutine sk_compensator_h(n, q, a, b, beta, s0, h)
     real(c_double), intent(out) :: h(n)
     h = compensator_h(q, a, b, beta, s0)
 end subroutine sk_compensator_h
+
+!> The nonlinear fit of the deflection model by the core's
+!> Levenberg-Marquardt (sk_deflect_fit): theta[npar] in the start, out the
+!> end; y[nobs] (nobs = nrows nm) the weighted data, wrow[nrows] the row
+!> weights; neg, nlmask, inv[npar] (0/1) the parameters not excited, the
+!> nonlinear ones and the compensated joint compliances.
+subroutine sk_deflection_lm(nj, ndof, ns, nt, ne, npall, npar, nm, nobs, nrows, jrot, jpos, jaxis, qidx, trot, &
+        tpos, stype, sidx, tint, tgeo, elem, par, q, w, p, y, wrow, neg, nlmask, inv, maxit, ftol, xtol, gtol, &
+        theta, niter, reason, info)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_deflect_fit, only: deflection_lm
+    implicit none
+    integer(c_int), intent(in) :: nj, ndof, ns, nt, ne, npall, npar, nm, nobs, nrows, maxit
+    real(c_double), intent(in) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), trot(3, 3), tpos(3)
+    integer(c_int), intent(in) :: qidx(nj), stype(ns), sidx(ns), tint(7, nt), elem(ne)
+    real(c_double), intent(in) :: tgeo(5, nt), par(npall), q(ndof, nm), w(6, nm), p(3, nm), y(nobs), wrow(nrows)
+    integer(c_int), intent(in) :: neg(npar), nlmask(npar), inv(npar)
+    real(c_double), intent(in) :: ftol, xtol, gtol
+    real(c_double), intent(inout) :: theta(npar)
+    integer(c_int), intent(out) :: niter, reason, info
+    call deflection_lm(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, q, w, p, y, &
+        wrow, neg /= 0, nlmask /= 0, inv /= 0, maxit, ftol, xtol, gtol, theta, niter, reason, info)
+end subroutine sk_deflection_lm
