@@ -47,10 +47,6 @@ DEFAULT_CANDIDATES = 2000
 RANDOM_DESIGNS = 20
 #: sigma of a tracker coordinate assumed when the model declares none (m)
 ASSUMED_SIGMA = 1.0e-4
-#: a parameter whose variance is inflated by more than this (against an orthogonal design) is weak
-WEAK_VIF = 10.0
-#: |correlation| above which two parameters are reported as a correlated pair
-CORRELATED = 0.9
 #: columns of a posture file that are not joints
 OTHER_COLUMNS = ("config", "frame", "weight", "x", "y", "z", *WRENCH, *POINT, *DEFL, *ROT)
 
@@ -81,6 +77,10 @@ class PlanSetup:
     sigma_source: str
     not_planned: list[tuple[str, str]] = field(default_factory=list)
     points: np.ndarray | None = None
+    #: the model's free parameters (deflection data: ``stiffkit fit`` needs at least as many observations)
+    free_parameters: int = 0
+    #: observations of the rows already measured (deflection data: positions, and rotations when measured)
+    measured_observations: int = 0
 
     @property
     def has_task(self) -> bool:
@@ -137,6 +137,33 @@ class PlanResult:
         """Expected task error of the plan over the median of the random designs."""
         r = self.random_task_rms
         return self.task_rms / r if math.isfinite(r) and r > 0 else 0.0
+
+    def table(self) -> object:
+        """The chosen measurements, the table of POSTURES.csv (``--out``):
+        a pandas DataFrame when pandas is installed, else a list of dicts;
+        joint values, loads and points as numbers, the columns still to be
+        measured (x y z, or dx dy dz) NaN."""
+        from .plan_report import postures_table
+
+        return postures_table(self)
+
+    def to_json(self) -> dict:
+        """The report as ``--json`` writes it (docs/plan.md section 4)."""
+        from .plan_report import plan_json
+
+        return plan_json(self)
+
+    def text(self) -> str:
+        """The report as the command prints it."""
+        from .plan_report import plan_text
+
+        return plan_text(self)
+
+    def write(self, path: str | Path) -> Path:
+        """Write POSTURES.csv (``--out``) to ``path``."""
+        from .plan_report import write_postures
+
+        return write_postures(path, self)
 
 
 def _rms(trace: float, setup: PlanSetup) -> float:
@@ -340,12 +367,12 @@ def _defl_setup(model: Model, cands: Candidates, task: object, measured: object,
     if not names:
         raise InputError(f"{model.path or 'model'}: no parameter is identifiable from these candidates")
     jc = _defl_rows(model, cmeas, names, sigma).reshape(posture.size, 3 * npt, len(names))
-    m0, nmeas = None, 0
+    m0, nmeas, mobs = None, 0, 0
     if mmeas is not None:
         pb = Problem(model, mmeas, sigma_position=sigma)
         _p, J = pb.evaluate(np.zeros(pb.npar))
         A = pb.weighted(J[:, :, [pb.names.index(n) for n in names]])
-        m0, nmeas = A.T @ A, mmeas.n
+        m0, nmeas, mobs = A.T @ A, mmeas.n, pb.rows * mmeas.n
     if task is None:
         tq, tw, source = cands.q[posture], loads, "the candidates (no --task: the sampled workspace)"
         t_of = posture
@@ -368,6 +395,7 @@ def _defl_setup(model: Model, cands: Candidates, task: object, measured: object,
     return dict(
         names=names, jc=jc, posture=posture, loads=loads, jt=jt, task_q=task_q, task_of=np.repeat(t_of, 3),
         task_source=source, m0=m0, measured_rows=nmeas, not_planned=not_planned, points=pts,
+        free_parameters=len(model.parameter_names), measured_observations=mobs,
     )  # fmt: skip
 
 
@@ -471,6 +499,33 @@ def _cov(setup: PlanSetup, chosen: np.ndarray) -> tuple[np.ndarray | None, desig
         return None, exc
 
 
+def _fit_notes(setup: PlanSetup, k: int) -> list[str]:
+    """Deflection data: how ``stiffkit fit`` takes the planned rows. The plan
+    is for the parameters the fit's reduction keeps (``fit --reduce``), and
+    the fit refuses fewer observations than the model's free parameters."""
+    if setup.kind != "deflection":
+        return []
+    out = []
+    if setup.not_planned:
+        out.append(
+            f"the plan is for the {setup.npar} parameters the fit's reduction keeps: fit the measurements with "
+            f"stiffkit fit {getattr(setup.model, 'path', None) or 'MODEL.toml'} MEAS.csv --reduce"
+        )
+    mobs = setup.measured_observations
+    have = mobs + k * setup.nobs
+    nfree = setup.free_parameters
+    if have < nfree:
+        kmin = math.ceil((nfree - mobs) / setup.nobs)
+        out.append(
+            f"stiffkit fit needs at least as many observations as the model's {nfree} free parameters, and "
+            f"{k} x {setup.nobs}"
+            + (f" + {mobs} measured" if mobs else "")
+            + f" = {have} are fewer: measure at least --select {kmin}, or fix the parameters not planned for "
+            "in the model file"
+        )
+    return out
+
+
 def plan(
     model: TreeModel | Model | str | Path,
     k: int,
@@ -488,8 +543,9 @@ def plan(
     model): the Python face of ``stiffkit plan`` (docs/plan.md).
     ``criterion``: "task" (default with a task file), "D" (default
     without) or "A"; the other arguments as :func:`build_setup` (or a
-    ``setup`` already built). Returns a :class:`PlanResult`; its
-    ``.to_json()`` and ``.text()`` are the command's report."""
+    ``setup`` already built). Returns a :class:`PlanResult`: ``.table()`` the
+    chosen measurements (the rows of POSTURES.csv), ``.write(path)`` that
+    file, ``.to_json()`` and ``.text()`` the command's report."""
     crit = criterion or ("task" if (task is not None if setup is None else setup.has_task) else "D")
     if crit not in design.CRITERIA:
         raise InputError(f"--criterion {crit!r}: choose one of {', '.join(design.CRITERIA)}")
@@ -528,6 +584,7 @@ def plan(
         d = np.where(std > 0, std, 1.0)
         corr = cov / np.outer(d, d)
     per = [_posture_rms(setup, _cov(setup, d)[0]) for d in draws]
+    notes += _fit_notes(setup, k)
     return PlanResult(
         setup=setup,
         k=k,

@@ -6,15 +6,21 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..io.files import atomic_write_text
 from .measure import DEFL, POINT, WRENCH
-from .plan import CORRELATED, WEAK_VIF, PlanResult
+
+if TYPE_CHECKING:  # calib.plan's PlanResult calls this module (its table, report, file)
+    from .plan import PlanResult
 
 __all__ = [
+    "absolute_postures_rows",
     "absolute_postures_text",
+    "postures_rows",
+    "postures_table",
     "weak_parameters",
     "correlated_pairs",
     "postures_text",
@@ -25,6 +31,10 @@ __all__ = [
 
 #: at most this many weak parameters and correlated pairs are reported
 SHOWN = 10
+#: a parameter whose variance is inflated by more than this (against an orthogonal design) is weak
+WEAK_VIF = 10.0
+#: |correlation| above which two parameters are reported as a correlated pair
+CORRELATED = 0.9
 
 
 def correlated_pairs(res: PlanResult, limit: float = CORRELATED) -> list[tuple[str, str, float]]:
@@ -67,12 +77,46 @@ def _labels(res: PlanResult | int) -> list[str]:
     return [f"plan{i + 1:0{width}d}" for i in range(k)]
 
 
+def absolute_postures_rows(Q: np.ndarray, joint_names: list[str], frames: list[str]) -> tuple[list[str], list[list]]:
+    """(header, rows) of POSTURES.csv of tracker data: a row per posture and
+    marker, x y z NaN (to be measured)."""
+    header = ["config", *joint_names, "frame", "x", "y", "z"]
+    rows = [
+        [label, *map(float, q), f, math.nan, math.nan, math.nan] for label, q in zip(_labels(len(Q)), Q) for f in frames
+    ]
+    return header, rows
+
+
+def postures_rows(res: PlanResult) -> tuple[list[str], list[list]]:
+    """(header, rows) of POSTURES.csv (:func:`postures_text`): the chosen
+    postures as numbers (float joint values, loads and points; the columns
+    still to be measured NaN), one row per chosen posture and marker
+    (tracker data) or per chosen (posture, load) and point (deflection data)."""
+    s = res.setup
+    if s.kind == "absolute":
+        return absolute_postures_rows(s.candidates.q[s.posture[res.selected]], s.joint_names, s.model.frames)
+    dof = len(s.joint_names)
+    header = ["config", *[f"q{i + 1}" for i in range(dof)], *WRENCH, *POINT, *DEFL]
+    rows = []
+    for label, c in zip(_labels(res), res.selected):
+        q = s.candidates.q[s.posture[c]]
+        for p in s.points:
+            rows.append([label, *map(float, q), *map(float, s.loads[c]), *map(float, p), math.nan, math.nan, math.nan])
+    return header, rows
+
+
+def _csv(header: list[str], rows: list[list]) -> str:
+    def cell(v: object) -> str:
+        if isinstance(v, str):
+            return v
+        return "" if math.isnan(v) else _num(v)
+
+    return "\n".join([",".join(header)] + [",".join(map(cell, r)) for r in rows]) + "\n"
+
+
 def absolute_postures_text(Q: np.ndarray, joint_names: list[str], frames: list[str]) -> str:
     """POSTURES.csv of tracker data: a row per posture and marker, x y z empty."""
-    rows = [",".join(["config", *joint_names, "frame", "x", "y", "z"])]
-    for label, q in zip(_labels(len(Q)), Q):
-        rows += [",".join([label, *map(_num, q), f, "", "", ""]) for f in frames]
-    return "\n".join(rows) + "\n"
+    return _csv(*absolute_postures_rows(Q, joint_names, frames))
 
 
 def _num(v: float) -> str:
@@ -84,18 +128,18 @@ def postures_text(res: PlanResult) -> str:
     config, the joint names, frame, x y z left empty to be measured) or per
     chosen (posture, load) and point (deflection data: the columns of a
     measurement file, docs/calibration.md section 3, dx dy dz left empty)."""
-    s = res.setup
-    rows = []
-    if s.kind == "absolute":
-        return absolute_postures_text(s.candidates.q[s.posture[res.selected]], s.joint_names, s.model.frames)
-    else:
-        dof = len(s.joint_names)
-        rows.append(",".join(["config", *[f"q{i + 1}" for i in range(dof)], *WRENCH, *POINT, *DEFL]))
-        for label, c in zip(_labels(res), res.selected):
-            q = s.candidates.q[s.posture[c]]
-            for p in s.points:
-                rows.append(",".join([label, *map(_num, q), *map(_num, s.loads[c]), *map(_num, p), "", "", ""]))
-    return "\n".join(rows) + "\n"
+    return _csv(*postures_rows(res))
+
+
+def postures_table(res: PlanResult) -> object:
+    """The table of POSTURES.csv (:func:`postures_rows`): a pandas DataFrame
+    when pandas is installed, else a list of dicts (column -> value)."""
+    header, rows = postures_rows(res)
+    try:
+        import pandas as pd
+    except ImportError:
+        return [dict(zip(header, r)) for r in rows]
+    return pd.DataFrame(rows, columns=header)
 
 
 def write_postures(path: str | Path, res: PlanResult) -> Path:
