@@ -25,7 +25,7 @@ from ..io.tables import read_toml
 from . import catalogue
 from .catalogue import DEADZONE_TAU0_FRACTION
 from .indices import Indices, stiffness_indices_where
-from .model_core import encode
+from .model_core import known_joint_compliances
 from .plan_settings import plan_table
 from .urdf import Chain, load_chain
 
@@ -149,37 +149,7 @@ class Model:
         the secant compliance under that load, dq_j / tau_j, so that the
         tool compliance times the wrench is the deflection."""
         terms = self.terms if terms is None else terms
-        joints: list[int] = []
-        jterms = []
-        for t in terms:
-            if t.kind not in JOINT_KINDS:
-                continue
-            if t.value is None and t.kind == "gravity_compensator":
-                raise InputError(f"gravity_compensator on {t.target!r} has no k_s; identify it first")
-            if t.value is None:
-                raise InputError(
-                    f"{t.kind if t.kind in LOAD_NONLINEAR else 'effect ' + (t.source or t.kind)} on {t.target!r} "
-                    f"has no value; identify it first (stiffkit fit --write-model)"
-                )
-            if t.kind == "joint_deadzone" and wrench is None:
-                raise InputError(
-                    f"joint_deadzone on {t.target!r}: a joint with a dead zone deflects by an amount "
-                    f"that depends on the sign and size of the load, so it has no compliance at a "
-                    f"posture alone; give the load (Model.tool_compliance(Q, wrench=W) is the secant "
-                    f"compliance under W, whose product with W is the deflection)"
-                )
-            if t.kind in ("joint", "joint_profile") or (wrench is not None and t.kind in LOAD_NONLINEAR):
-                if t.joint not in joints:
-                    joints.append(t.joint)
-            jterms.append(t)
-        springs = [(SPRING_JOINT, j + 1) for j in joints]
-        enc = encode(jterms, {}, springs)
-        tau = None
-        if wrench is not None and enc["stype"].size:
-            tq = self.chain.joint_torques(Q, wrench)  # (N, nj)
-            tau = np.asfortranarray(tq[:, enc["sidx"] - 1].T)
-        cjs = core.joint_secant(enc, np.asfortranarray(np.asarray(Q, float).T), tau) if enc["stype"].size else None
-        c = {j: cjs[k].copy() for k, j in enumerate(joints)}
+        c = known_joint_compliances(self.chain, list(terms), Q, wrench)
         for j, cj in c.items():
             bad = ~(cj >= 0)
             if bad.any():

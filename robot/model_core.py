@@ -16,8 +16,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._core import calib as core
+from ..errors import InputError
+
 if TYPE_CHECKING:
     from .model import Term
+    from .urdf import Chain
+
+#: the chain's joint spring type (core/sk_chain.f90 spring_joint; robot.model.SPRING_JOINT)
+_SPRING_JOINT = 1
+_LOAD_NONLINEAR = ("joint_cubic", "joint_deadzone")
 
 #: term kinds of the core (core/sk_deflect.f90 term_*)
 TERM_CODES = {
@@ -82,3 +90,46 @@ def encode(
         "elem": np.array(elem, np.int32),
         "par": np.array(par, float),
     }
+
+
+def known_joint_compliances(
+    chain: Chain, terms: Sequence[Term], Q: np.ndarray, wrench: np.ndarray | None = None
+) -> dict[int, np.ndarray]:
+    """Compliance of every joint spring at postures Q (N, dof) from the known
+    values of the joint kinds among ``terms``, by the core (sk_joint_secant):
+    {chain joint index: (N,)} for the joints with a joint or profile term
+    (with ``wrench`` (N, 6) also the load-nonlinear ones: the secant under
+    that load). InputError for a term without its value, and for a dead
+    zone without a load."""
+    joints: list[int] = []
+    jterms = []
+    for t in terms:
+        if TERM_CODES.get(t.kind, 0) not in range(1, 6):
+            continue
+        if t.value is None and t.kind == "gravity_compensator":
+            raise InputError(f"gravity_compensator on {t.target!r} has no k_s; identify it first")
+        if t.value is None:
+            raise InputError(
+                f"{t.kind if t.kind in _LOAD_NONLINEAR else 'effect ' + (t.source or t.kind)} on {t.target!r} "
+                f"has no value; identify it first (stiffkit fit --write-model)"
+            )
+        if t.kind == "joint_deadzone" and wrench is None:
+            raise InputError(
+                f"joint_deadzone on {t.target!r}: a joint with a dead zone deflects by an amount "
+                f"that depends on the sign and size of the load, so it has no compliance at a "
+                f"posture alone; give the load (Model.tool_compliance(Q, wrench=W) is the secant "
+                f"compliance under W, whose product with W is the deflection)"
+            )
+        if (t.kind in ("joint", "joint_profile") or (wrench is not None and t.kind in _LOAD_NONLINEAR)) and (
+            t.joint not in joints
+        ):
+            joints.append(t.joint)
+        jterms.append(t)
+    enc = encode(jterms, {}, [(_SPRING_JOINT, j + 1) for j in joints])
+    if not enc["stype"].size:
+        return {}
+    tau = None
+    if wrench is not None:
+        tau = np.asfortranarray(chain.joint_torques(Q, wrench)[:, enc["sidx"] - 1].T)
+    cjs = core.joint_secant(enc, np.asfortranarray(np.asarray(Q, float).T), tau)
+    return {j: cjs[k].copy() for k, j in enumerate(joints)}
