@@ -70,7 +70,7 @@ def measured(model, Q: np.ndarray, rng: np.random.Generator) -> AbsoluteData:
         lines=np.arange(n * nm) + 2,
     )
     ev = core.evaluate(
-        model.ne, model.arrays, model.theta0, Q, None, data.posture, data.frame, data.xyz, data.weight,
+        model.packed, model.theta0, Q, None, data.posture, data.frame, data.xyz, data.weight,
         np.zeros(0, int), model.eqit, EQ_TOL,
     )  # fmt: skip
     data.xyz = ev["pred"] + SIGMA * rng.normal(size=ev["pred"].shape)

@@ -20,6 +20,14 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from stiffkit._core import _tree  # noqa: E402
+from stiffkit._core.tree import pack  # noqa: E402
+
+
+def _packed(ne, model):
+    """The model's arrays packed for the core (bindings/tree.py ``pack``): mi, mr."""
+    p = pack(ne, model)
+    return p.mi, p.mr
+
 
 E3 = np.eye(3)
 
@@ -189,7 +197,7 @@ def bench_evaluate(npost=1000, reps=3):
             for _ in range(reps):
                 t0 = time.perf_counter()
                 c0 = time.process_time()
-                out = _tree.sk_tree_evaluate(ne, **model, **common, free=free, eqit=eqit, etol=1e-9)
+                out = _tree.sk_tree_evaluate(*_packed(ne, model), **common, free=free, eqit=eqit, etol=1e-9)
                 cs.append(time.process_time() - c0)
                 ts.append(time.perf_counter() - t0)
             pred, res, jac, delta, nit, eqinfo, info, _errloc = out
@@ -237,7 +245,7 @@ def bench_compensate(nrows=5000, nj=7):
     none = dict(lpost=np.zeros(0, np.int32), lvj=np.zeros(0, np.int32), lw=np.zeros((6, 0), order="F"))
     # targets: the nominal model (no geometric errors, rigid)
     rt, pt, jq, delta, nit, eqinfo, info, _errloc = _tree.sk_tree_frame_jacobian(
-        ne, **model, theta=np.zeros_like(theta), frame=frame, q=q, **none, eqit=0, etol=1e-9
+        *_packed(ne, model), theta=np.zeros_like(theta), frame=frame, q=q, **none, eqit=0, etol=1e-9
     )
     assert info == 0
     print(f"compensation: {nj}-joint chain, {len(t.v)} virtual joints, {ne} elastic coordinates, {nrows} rows")
@@ -251,8 +259,7 @@ def bench_compensate(nrows=5000, nj=7):
             t0 = time.perf_counter()
             c0 = time.process_time()
             qout, resp, resr, nit, rinfo, info, _errloc = _tree.sk_tree_compensate(
-                ne,
-                **model,
+                *_packed(ne, model),
                 theta=theta,
                 frame=frame,
                 qcmd=q,

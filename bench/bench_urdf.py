@@ -79,7 +79,7 @@ def run(n: int, folder: Path) -> dict:
     q = rng.uniform(-3, 3, 20)
     from stiffkit._core import tree as core
 
-    P = core.poses(model.ne, model.arrays, model.theta0, q[:, None], None, 0, 1e-9)
+    P = core.poses(model.packed, model.theta0, q[:, None], None, 0, 1e-9)
     tip = P["pa"][:, model.arrays["mvj"][0] - 1]
     Rt = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     xyz = (tip + [0.01, 0.0, 0.0]) @ Rt.T + [1.0, 2.0, 0.5]

@@ -103,8 +103,7 @@ def one(name: str, text: str, rng: np.random.Generator) -> tuple[str, str]:
         [rng.uniform(-0.05, 0.05, n) if kinds[a] == "prismatic" else rng.uniform(-1.5, 1.5, n) for a in tree.actuated]
     )
     ev = core.evaluate(
-        model.ne,
-        model.arrays,
+        model.packed,
         truth,
         Q,
         None,

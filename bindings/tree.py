@@ -2,13 +2,17 @@
 poses and gravity forces, evaluation of absolute measurements with their
 analytic Jacobian, Levenberg-Marquardt, frame Jacobians and compensation.
 
-``model`` is the dict of arrays ``stiffkit.robot.TreeModel.arrays`` holds
-(the core's 1-based layout). Indices given here are 0-based: postures,
-markers (rows of ``mvj``), free parameters; ``loads`` is (posture (nl,),
-virtual joint (nl,) 1-based, wrench (nl, 6)) or None.
+Every routine takes the model packed: ``pack(ne, arrays)`` with ``arrays``
+the dict of arrays ``stiffkit.robot.TreeModel.arrays`` holds (the core's
+1-based layout; ``TreeModel.packed`` packs its own). Indices given here are
+0-based: postures, markers (rows of ``mvj``), free parameters; ``loads`` is
+(posture (nl,), virtual joint (nl,) 1-based, wrench (nl, 6)) or None.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,6 +28,59 @@ _DETAILS = {
     6: "an argument is out of range (joint type, axis not unit, law type, weight < 0)",
 }
 
+#: layout of the packed model (core/sk_tree_pack.f90, which tests/test_tree_pack.py
+#: checks against these): version, the counts of the header, the integer
+#: and the real arrays in their order
+PACK_VERSION = 1
+PACK_COUNTS = ("nv", "nk", "ne", "nb", "ng", "nm", "nbp")
+PACK_INTS = ("vparent", "vtype", "qcol", "gvj", "gpar", "ktype", "kvj", "kpar", "bvj", "tpar", "mvj", "mpar", "bpar")
+PACK_REALS = ("vaxis", "vrot", "vpos", "qcoef", "qconst", "gcoef", "kw0", "bmass", "bcom", "grav", "rref")
+PACK_HEADER = 1 + len(PACK_COUNTS) + len(PACK_INTS) + 1 + len(PACK_REALS) + 1
+
+
+@dataclass(frozen=True)
+class PackedTree:
+    """A tree model packed for the core: ``mi`` (header: version, counts,
+    offsets; then the integer arrays) and ``mr`` (the real arrays), each
+    array in Fortran order; ``ne`` its elastic coordinates and ``arrays``
+    the arrays it was packed from (their labels name joints and parameters
+    in error messages)."""
+
+    mi: np.ndarray
+    mr: np.ndarray
+    ne: int
+    arrays: Mapping
+
+
+def _flat(a: object, dtype: type) -> np.ndarray:
+    return np.asarray(a, dtype=dtype).ravel(order="F")
+
+
+def pack(ne: int, arrays: Mapping) -> PackedTree:
+    """The model of ``arrays`` (a TreeModel's; ``bpar`` may be absent: no
+    gravity parameters) with ``ne`` elastic coordinates, packed for the
+    core (layout: core/sk_tree_pack.f90). The core checks the arrays
+    (sizes, values) and names the argument and index of an error."""
+    a = dict(arrays)
+    a.setdefault("bpar", np.zeros((3, 0), np.int32))
+    counts = {
+        "nv": len(a["vparent"]),
+        "nk": len(a["ktype"]),
+        "ne": int(ne),
+        "nb": len(a["bvj"]),
+        "ng": len(a["gvj"]),
+        "nm": len(a["mvj"]),
+        "nbp": np.shape(a["bpar"])[1],
+    }
+    ints = [_flat(a[k], np.int32) for k in PACK_INTS]
+    reals = [_flat(a[k], np.float64) for k in PACK_REALS]
+    ioff = PACK_HEADER + 1 + np.concatenate([[0], np.cumsum([x.size for x in ints])])
+    roff = 1 + np.concatenate([[0], np.cumsum([x.size for x in reals])])
+    header = np.concatenate([[PACK_VERSION], [counts[k] for k in PACK_COUNTS], ioff, roff]).astype(np.int32)
+    mi = np.concatenate([header, *ints]).astype(np.int32)
+    mr = np.concatenate(reals).astype(np.float64)
+    return PackedTree(mi=mi, mr=mr, ne=int(ne), arrays=arrays)
+
 
 def _i(a: object) -> np.ndarray:
     return np.asfortranarray(np.asarray(a, dtype=np.int32))
@@ -31,15 +88,6 @@ def _i(a: object) -> np.ndarray:
 
 def _f(a: object) -> np.ndarray:
     return np.asfortranarray(np.asarray(a, dtype=float))
-
-
-def _model(model: dict) -> dict:
-    """The model's arrays with the gravity-parameter entries ``bpar`` (3, nbp)
-    (body, slot, theta index; core/sk_tree_grav.f90) added, empty, when the
-    caller has none."""
-    if "bpar" in model:
-        return model
-    return {**model, "bpar": _i(np.zeros((3, 0)))}
 
 
 def _prior(prior: tuple | None) -> dict:
@@ -73,16 +121,16 @@ def _check(info: int, errloc: object, routine: str, given: dict) -> None:
 
 
 def poses(
-    ne: int, model: dict, theta: np.ndarray, q: np.ndarray, loads: tuple | None, eqit: int, etol: float
+    model: PackedTree, theta: np.ndarray, q: np.ndarray, loads: tuple | None, eqit: int, etol: float
 ) -> dict[str, np.ndarray]:
     """Frames after motion ``ra`` (np, nv, 3, 3), ``pa`` (np, nv, 3), generalised
     gravity forces ``wv`` (np, nv) and per joint coordinate ``tauq`` (np, ndof),
     deflections ``delta`` (np, ne), ``nit``, ``eqinfo`` (np,) at postures q (np, ndof)."""
     args = dict(theta=_f(theta), q=_f(np.asarray(q, float).T), **_loads(loads))
     ra, pa, wv, tauq, delta, nit, eqinfo, info, errloc = _tree.sk_tree_poses(
-        int(ne), **_model(model), **args, eqit=int(eqit), etol=float(etol)
+        model.mi, model.mr, **args, eqit=int(eqit), etol=float(etol)
     )
-    _check(info, errloc, "tree poses (sk_tree_poses)", dict(args, model=model, ne=ne))
+    _check(info, errloc, "tree poses (sk_tree_poses)", dict(args, model=model.arrays, ne=model.ne))
     return {
         "ra": np.transpose(ra, (3, 2, 0, 1)),
         "pa": np.transpose(pa, (2, 1, 0)),
@@ -95,8 +143,7 @@ def poses(
 
 
 def evaluate(
-    ne: int,
-    model: dict,
+    model: PackedTree,
     theta: np.ndarray,
     q: np.ndarray,
     loads: tuple | None,
@@ -120,15 +167,14 @@ def evaluate(
         free=_i(free + 1),
     )
     pred, res, jac, delta, nit, eqinfo, info, errloc = _tree.sk_tree_evaluate(
-        int(ne), **_model(model), **args, eqit=int(eqit), etol=float(etol)
+        model.mi, model.mr, **args, eqit=int(eqit), etol=float(etol)
     )
-    _check(info, errloc, "tree evaluation (sk_tree_evaluate)", dict(args, model=model, ne=ne))
+    _check(info, errloc, "tree evaluation (sk_tree_evaluate)", dict(args, model=model.arrays, ne=model.ne))
     return {"pred": pred.T.copy(), "res": res, "jac": jac, "delta": delta.T.copy(), "nit": nit, "eqinfo": eqinfo}
 
 
 def lm(
-    ne: int,
-    model: dict,
+    model: PackedTree,
     theta0: np.ndarray,
     q: np.ndarray,
     loads: tuple | None,
@@ -166,8 +212,8 @@ def lm(
         **_prior(prior),
     )
     theta, hist, nhist, niter, reason, jac, res, rref, info, errloc = _tree.sk_tree_lm(
-        int(ne),
-        **_model(model),
+        model.mi,
+        model.mr,
         **args,
         eqit=int(eqit),
         etol=float(etol),
@@ -177,7 +223,7 @@ def lm(
         gtol=float(gtol),
     )
     if info != 7:
-        given = dict(args, model=model, ne=ne, theta=args["theta0"])
+        given = dict(args, model=model.arrays, ne=model.ne, theta=args["theta0"])
         _check(info, errloc, "Levenberg-Marquardt (sk_tree_lm)", given)
     return {
         "theta": theta,
@@ -192,8 +238,7 @@ def lm(
 
 
 def frame_jacobian(
-    ne: int,
-    model: dict,
+    model: PackedTree,
     theta: np.ndarray,
     frame: np.ndarray,
     q: np.ndarray,
@@ -206,9 +251,9 @@ def frame_jacobian(
     ``J`` (np, 6, ndof) w.r.t. q (origin velocity, angular velocity)."""
     args = dict(theta=_f(theta), frame=_i(frame), q=_f(np.asarray(q, float).T), **_loads(loads))
     rf, pf, jq, delta, nit, eqinfo, info, errloc = _tree.sk_tree_frame_jacobian(
-        int(ne), **_model(model), **args, eqit=int(eqit), etol=float(etol)
+        model.mi, model.mr, **args, eqit=int(eqit), etol=float(etol)
     )
-    _check(info, errloc, "frame Jacobian (sk_tree_frame_jacobian)", dict(args, model=model, ne=ne))
+    _check(info, errloc, "frame Jacobian (sk_tree_frame_jacobian)", dict(args, model=model.arrays, ne=model.ne))
     return {
         "R": np.transpose(rf, (2, 0, 1)),
         "p": pf.T.copy(),
@@ -220,8 +265,7 @@ def frame_jacobian(
 
 
 def compensate(
-    ne: int,
-    model: dict,
+    model: PackedTree,
     theta: np.ndarray,
     frame: np.ndarray,
     qcmd: np.ndarray,
@@ -258,8 +302,8 @@ def compensate(
         trow=trow,
     )
     qout, resp, resr, nit, rinfo, info, errloc = _tree.sk_tree_compensate(
-        int(ne),
-        **_model(model),
+        model.mi,
+        model.mr,
         **args,
         full6=int(bool(full6)),
         eqit=int(eqit),
@@ -270,5 +314,7 @@ def compensate(
     )
     if info == 7:
         raise ConvergenceError("compensation (sk_tree_compensate): the Newton iteration did not converge")
-    _check(info, errloc, "compensation (sk_tree_compensate)", dict(args, model=model, ne=ne, q=args["qcmd"]))
+    _check(
+        info, errloc, "compensation (sk_tree_compensate)", dict(args, model=model.arrays, ne=model.ne, q=args["qcmd"])
+    )
     return {"q": qout.T.copy(), "resp": resp, "resr": resr, "nit": nit, "rinfo": rinfo}

@@ -61,7 +61,7 @@ def _row(s: Step) -> str:
 def _points(m: TreeModel, Q: np.ndarray, frames: list[str], rigid: bool = False) -> np.ndarray:
     """Positions (n, 3) of the rows' frames (base axes) of the model ``m`` with
     its values, at the commands Q (at equilibrium unless ``rigid``)."""
-    P = core.poses(m.ne, m.arrays, m.theta0, Q, None, 0 if rigid else m.eqit, EQ_TOL)
+    P = core.poses(m.packed, m.theta0, Q, None, 0 if rigid else m.eqit, EQ_TOL)
     vj = np.array([m.vj_of_link[f] for f in frames]) - 1
     return P["pa"][np.arange(Q.shape[0]), vj]
 

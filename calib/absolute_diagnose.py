@@ -160,8 +160,7 @@ def diagnose_absolute(
     cand_cols = [np.array([i for i in params_of(ext, c) if ext.names[i] not in m.names], int) for c in cands]
     allc = np.unique(np.concatenate([base_cols] + [c for c in cand_cols if c.size])).astype(int)
     ev = core.evaluate(
-        ext.ne,
-        ext.arrays,
+        ext.packed,
         th_ext,
         data.Q,
         _loads(ext, data),

@@ -143,8 +143,7 @@ def _observations(model: TreeModel, data: AbsoluteData, theta: np.ndarray) -> tu
     """The leading arguments of the core's evaluate and lm: the model,
     theta, and the data's postures, loads and observed points."""
     return (
-        model.ne,
-        model.arrays,
+        model.packed,
         theta,
         data.Q,
         _loads(model, data),
@@ -163,7 +162,7 @@ def set_deadzone_scales(model: TreeModel, data: AbsoluteData, theta: np.ndarray)
         return
     # the torques at zero deflection do not depend on tau0; the core refuses a dead zone without one
     arrays = {**model.arrays, "kw0": np.where(np.isin(np.arange(len(kw0)), todo), 1.0, kw0)}
-    P = core.poses(model.ne, arrays, theta, data.Q, _loads(model, data), 1 if model.eqit else 0, EQ_TOL)
+    P = core.poses(core.pack(model.ne, arrays), theta, data.Q, _loads(model, data), 1 if model.eqit else 0, EQ_TOL)
     for k in todo:
         vj = model.arrays["kvj"][0, k]
         rms = float(np.sqrt(np.mean(P["wv"][:, vj - 1] ** 2)))

@@ -50,7 +50,7 @@ def absolute_plots(fit: AbsoluteFit, outdir: str | Path, label: str = "fit") -> 
     plt.close(fig)
     # the error against each joint's angle and the gravity torque about it
     m = fit.model
-    P = core.poses(m.ne, m.arrays, fit.theta, d.Q, _loads(m, d), m.eqit, EQ_TOL)
+    P = core.poses(m.packed, fit.theta, d.Q, _loads(m, d), m.eqit, EQ_TOL)
     tau = P["tauq"]
     joints = m.actuated
     n = len(joints)

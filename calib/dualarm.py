@@ -334,7 +334,7 @@ def _tcp_points(Q: np.ndarray) -> np.ndarray:
         eff = [{"kind": "tracker"}] + [{"kind": "marker", "target": f} for f in MARKERS]
         _FK_CACHE["model"] = tree_model_from_tables(tree, eff, GRAVITY, where="dualarm")
     m = _FK_CACHE["model"]
-    P = core.poses(m.ne, m.arrays, m.theta0, Q, None, 0, 1e-9)
+    P = core.poses(m.packed, m.theta0, Q, None, 0, 1e-9)
     return P["pa"][:, m.arrays["mvj"] - 1]
 
 

@@ -190,10 +190,11 @@ class CompensationModel:
         # batches of rows: the time of a row does not grow with their number,
         # and Ctrl-C (SIGTERM) takes effect between two core calls
         R, p = np.empty((n, 3, 3)), np.empty((n, 3))
+        nominal = core.pack(0, self.nominal.arrays)
         for lo in range(0, n, BATCH):
             batch = np.arange(lo, min(n, lo + BATCH))
             # targets: the nominal model (rigid URDF) at the commands
-            P = core.frame_jacobian(0, self.nominal.arrays, self.nominal.theta0, nom_vj[batch], Q[batch], None, 0, ETOL)
+            P = core.frame_jacobian(nominal, self.nominal.theta0, nom_vj[batch], Q[batch], None, 0, ETOL)
             R[batch], p[batch] = P["R"], P["p"]
             for mode in (True, False):
                 rows = batch[full6[batch] == mode]
@@ -224,14 +225,14 @@ class CompensationModel:
                 loads = (hit, lvj[rows][hit], w[hit])
         qk = Q[rows].copy()
         todo = np.arange(rows.size)
+        packed = self.model.packed
         for _pass in range(PASSES if self.varying else 1):
             params = None
             if self.varying:
                 params = (np.array([i for i, _j in self.varying]), self._row_values(qk[todo]))
             sub_loads = _subset_loads(loads, todo)
             r = core.compensate(
-                self.model.ne,
-                self.model.arrays,
+                packed,
                 self.theta,
                 vj[rows][todo],
                 Q[rows][todo],

@@ -102,9 +102,9 @@ def _frames(model: object, links: list[str], Q: np.ndarray) -> tuple[np.ndarray,
     if hasattr(model, "tree"):  # TreeModel: the tree core's frames after motion, rigid (no deflection)
         vj = np.array([model.vj_of_link[ln] for ln in links])
         at = vj > 0
-        theta = model.theta0
+        theta, packed = model.theta0, model.packed
         for sl in _chunks(n, 12 * len(model.arrays["vparent"])):
-            P = tree_poses(model.ne, model.arrays, theta, Q[sl], None, 0, 1e-9)
+            P = tree_poses(packed, theta, Q[sl], None, 0, 1e-9)
             R[sl][:, at], p[sl][:, at] = P["ra"][:, vj[at] - 1], P["pa"][:, vj[at] - 1]
         R[:, ~at], p[:, ~at] = np.eye(3), 0.0
         return R, p

@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._core.tree import CoreArrays
+from .._core.tree import CoreArrays, PackedTree, pack
 from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_toml
@@ -206,6 +206,13 @@ class TreeModel:
     def eqit(self) -> int:
         """The core's equilibrium mode: 0 rigid, 1 first order, >= 2 iterated."""
         return 0 if not self.elastic else self.iterations
+
+    @property
+    def packed(self) -> PackedTree:
+        """The model as every routine of the tree core takes it (bindings/tree.py
+        ``pack``), packed from the current arrays: take it once per batch of
+        calls; a change of the arrays (tracker rotation, tau0) needs a new one."""
+        return pack(self.ne, self.arrays)
 
     def index(self, name: str) -> int:
         try:

@@ -139,10 +139,10 @@ def test_fit_write_model_then_compensate_reaches_the_targets(loop, tmp_path):
     Q0 = np.array([[float(r[j]) for j in joints] for r in tg])
     vj = np.array([truth.vj_of_link[f] for f in frames]) - 1
     idx = np.arange(len(rows))
-    true_at = core.poses(truth.ne, truth.arrays, truth.theta0, Qc, None, truth.eqit, EQ_TOL)["pa"][idx, vj]
+    true_at = core.poses(truth.packed, truth.theta0, Qc, None, truth.eqit, EQ_TOL)["pa"][idx, vj]
     nominal = load_tree_model(out / "model.toml")  # frames only: its rigid URDF is the nominal model
     nom_vj = np.array([nominal.vj_of_link[f] for f in frames]) - 1
-    targets = core.poses(nominal.ne, nominal.arrays, nominal.theta0, Q0, None, 0, EQ_TOL)["pa"][idx, nom_vj]
+    targets = core.poses(nominal.packed, nominal.theta0, Q0, None, 0, EQ_TOL)["pa"][idx, nom_vj]
     err = np.linalg.norm(true_at - targets, axis=1)
     floor = math.sqrt(3) * 1e-4
     assert math.sqrt(np.mean(err**2)) < 2 * floor

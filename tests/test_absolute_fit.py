@@ -77,8 +77,7 @@ def rows(model, Q, theta, etol=1e-9) -> AbsoluteData:
         lines=np.arange(n * nm) + 2,
     )
     ev = core.evaluate(
-        model.ne,
-        model.arrays,
+        model.packed,
         theta,
         Q,
         None,

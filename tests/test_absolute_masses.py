@@ -119,7 +119,7 @@ def _payload_rows(model, Q, kg):
     n = Q.shape[0]
     data.payloads = [(p, f, np.array([0, 0, -9.81 * kg, 0, 0, 0.0])) for p in range(0, n, 2) for f in range(2)]
     ev = core.evaluate(
-        model.ne, model.arrays, model.theta0, Q, _loads(model, data), data.posture, _marker_index(model, data),
+        model.packed, model.theta0, Q, _loads(model, data), data.posture, _marker_index(model, data),
         data.xyz, data.weight, np.zeros(0, int), model.eqit, 1e-14,
     )  # fmt: skip
     data.xyz = ev["pred"]

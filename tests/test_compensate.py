@@ -164,7 +164,7 @@ def simulate(model_path, frames, Q, W=None):
     m = load_tree_model(model_path)
     vj = np.array([m.vj_of_link[f] for f in frames], np.int32)
     loads = None if W is None else (np.arange(len(Q)), vj, W)
-    P = core.frame_jacobian(m.ne, m.arrays, m.theta0, vj, Q, loads, m.eqit, 1e-13)
+    P = core.frame_jacobian(m.packed, m.theta0, vj, Q, loads, m.eqit, 1e-13)
     return P["R"], P["p"], P["J"]
 
 
@@ -431,9 +431,9 @@ def test_row_parameters_must_be_law_parameters(upper):
     m = cm.model
     Q = np.array([CENTRE])
     P = core.frame_jacobian(
-        0, cm.nominal.arrays, cm.nominal.theta0, [cm.nominal.vj_of_link["left_tcp"]], Q, None, 0, 1e-11
+        core.pack(0, cm.nominal.arrays), cm.nominal.theta0, [cm.nominal.vj_of_link["left_tcp"]], Q, None, 0, 1e-11
     )
-    args = (m.ne, m.arrays, cm.theta, [m.vj_of_link["left_tcp"]], Q, P["R"], P["p"], None, False, m.eqit, 1e-11)
+    args = (m.packed, cm.theta, [m.vj_of_link["left_tcp"]], Q, P["R"], P["p"], None, False, m.eqit, 1e-11)
     with pytest.raises(InputError, match="out of range"):
         core.compensate(*args, row_params=([m.index("r4.dz")], [[0.0]]))
     c = m.index("l2.c")

@@ -13,6 +13,7 @@ import pytest
 import stiffkit
 from stiffkit._core import _tree
 from stiffkit._core import errors as _errors
+from stiffkit._core.tree import pack
 
 
 def rot(axis, angle):
@@ -68,12 +69,17 @@ def arm():
     return arrays, theta
 
 
+def _packed(ne, model):
+    """The model's arrays packed for the core (bindings/tree.py ``pack``): mi, mr."""
+    p = pack(ne, model)
+    return p.mi, p.mr
+
+
 def evaluate(model, theta, q, free, eqit=100):
     no = q.shape[1]
     nl = np.zeros(0, np.int32)
     out = _tree.sk_tree_evaluate(
-        2,
-        **model,
+        *_packed(2, model),
         theta=theta,
         q=np.asfortranarray(q),
         lpost=nl,
@@ -131,8 +137,7 @@ def test_lm_recovers_tracker_and_compliance():
     start[3:6] += 0.02
     start[10:12] *= 1.3
     out = _tree.sk_tree_lm(
-        2,
-        **model,
+        *_packed(2, model),
         theta0=start,
         q=np.asfortranarray(q),
         lpost=nl,

@@ -57,17 +57,29 @@ def _call(m, routine, arrays=None, ne=None, theta=None, **over):
         obs.update(over)
         free = obs.pop("free", np.array([0]))
         return core.evaluate(
-            ne, a, th, Q, loads, obs["posture"], obs["marker"], obs["xyz"], obs["weight"], free, 0, etol
+            core.pack(ne, a), th, Q, loads, obs["posture"], obs["marker"], obs["xyz"], obs["weight"], free, 0, etol
         )
     if routine == "lm":
         return core.lm(
-            ne, a, th, Q, loads, np.array([0, 1]), np.array([0, 0]), np.zeros((2, 3)), np.ones(2), [0], 0, etol
+            core.pack(ne, a),
+            th,
+            Q,
+            loads,
+            np.array([0, 1]),
+            np.array([0, 0]),
+            np.zeros((2, 3)),
+            np.ones(2),
+            [0],
+            0,
+            etol,
         )
     if routine == "frame_jacobian":
-        return core.frame_jacobian(ne, a, th, over.get("frame", np.array([4, 4])), Q, loads, 0, etol)
+        return core.frame_jacobian(core.pack(ne, a), th, over.get("frame", np.array([4, 4])), Q, loads, 0, etol)
     rt = over.get("rtarget", np.array([np.eye(3)] * 2))
     pt = over.get("ptarget", np.zeros((2, 3)))
-    return core.compensate(ne, a, th, np.array([4, 4]), Q, rt, pt, loads, False, 0, etol, row_params=over.get("rows"))
+    return core.compensate(
+        core.pack(ne, a), th, np.array([4, 4]), Q, rt, pt, loads, False, 0, etol, row_params=over.get("rows")
+    )
 
 
 def _set(name, index, value):

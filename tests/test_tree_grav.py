@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_tree_core import arm, evaluate
+from test_tree_core import _packed, arm, evaluate
 
 from stiffkit._core import _tree
 from stiffkit._core import errors as _errors
@@ -82,8 +82,7 @@ def test_prior_rows_pull_toward_their_centre():
 
     def lm(start, sw):
         return _tree.sk_tree_lm(
-            2,
-            **model,
+            *_packed(2, model),
             theta0=start,
             q=np.asfortranarray(q),
             lpost=nl,
@@ -131,7 +130,7 @@ def test_frame_jacobian_of_the_folded_model_takes_the_gravity_parameters_at_thet
 
     def frames(m, th):
         out = _tree.sk_tree_frame_jacobian(
-            2, **m, theta=th, frame=np.full(5, 4, np.int32), q=np.asfortranarray(q),
+            *_packed(2, m), theta=th, frame=np.full(5, 4, np.int32), q=np.asfortranarray(q),
             lpost=nl, lvj=nl, lw=np.zeros((6, 0), order="F"), eqit=100, etol=1e-14,
         )  # fmt: skip
         _errors.check(out[-2], "sk_tree_frame_jacobian")
