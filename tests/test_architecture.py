@@ -157,17 +157,46 @@ def test_stages_import_only_the_layers_below():
     assert not bad, "imports against the layering: " + "; ".join(sorted(bad))
 
 
+def _extensions() -> list[str]:
+    """The f2py extensions: one per signature file bindings/_name.pyf."""
+    return sorted(p.stem for p in (ROOT / "bindings").glob("_*.pyf"))
+
+
 def test_only_bindings_call_the_extensions():
+    names = "|".join(e.lstrip("_") for e in _extensions())
     bad = []
     for name, path in _modules().items():
         if name.startswith("stiffkit._core"):
             continue
         text = path.read_text()
-        if re.search(r"\b_(field|sparse|springs|calib|tree)\.sk_", text) or re.search(
-            r"import _(field|sparse|springs|calib|tree)\b", text
-        ):
+        if re.search(rf"\b_({names})\.sk_", text) or re.search(rf"import _({names})\b", text):
             bad.append(name)
     assert not bad, f"modules calling an f2py extension directly: {bad}"
+
+
+def test_every_signature_file_is_one_extension():
+    """bindings/meson.build builds one extension per .pyf, each .pyf names
+    its own module, bindings/__init__.py lists them all, every one imports,
+    and f2py's fortranobject.c is compiled once (a static library linked
+    into each extension), not once per extension."""
+    import importlib
+
+    exts = _extensions()
+    assert {"_calib", "_design", "_field", "_sparse", "_springs", "_tree"} <= set(exts)
+    build = (ROOT / "bindings" / "meson.build").read_text()
+    listed = re.search(r"f2py_exts = \[([^\]]*)\]", build)
+    assert listed and sorted(re.findall(r"'(\w+)'", listed.group(1))) == exts
+    doc = importlib.import_module("stiffkit._core").__doc__
+    for ext in exts:
+        pyf = (ROOT / "bindings" / f"{ext}.pyf").read_text()
+        assert re.findall(r"^python module (\w+)", pyf, flags=re.M) == [ext], f"{ext}.pyf names another module"
+        assert f"``{ext}``" in doc, f"bindings/__init__.py's docstring misses {ext}"
+        mod = importlib.import_module(f"stiffkit._core.{ext}")
+        routines = set(re.findall(r"^\s*subroutine (sk_\w+)", pyf, flags=re.M))
+        assert routines and routines <= set(dir(mod)), f"{ext}: {sorted(routines - set(dir(mod)))} not built"
+    assert build.count("fortranobject_c") == 2, "fortranobject.c: defined once, compiled once"
+    assert re.search(r"static_library\('_fortranobject', fortranobject_c", build)
+    assert re.search(r"extension_module\(ext, \[src\],\s*dependencies: \[[^\]]*fortranobject_dep", build)
 
 
 def _fortran_codes() -> dict[str, int]:
