@@ -22,8 +22,8 @@ def test_help_lists_commands():
         assert cmd in r.stdout
 
 
-def test_demo_detects_zeros_and_trimming_helps():
-    r = run("demo")
+def test_demo_detects_zeros_and_trimming_helps(tmp_path):
+    r = run("demo", cwd=tmp_path)  # its default output folder build/demo is relative
     assert r.returncode == 0, r.stderr
     assert r.stdout.count("zero elements flagged non-significant: 26/26") == 2
     errs = [

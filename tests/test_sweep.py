@@ -423,7 +423,17 @@ def test_scheduler_where_nothing_listens(link, tmp_path):
     assert f"127.0.0.1:{port}" in line and "no Dask scheduler" in line
     assert not list((tmp_path / "c").glob("*.npz"))
     proc = stiffkit_cli(
-        "convergence", link, "--orders", "2", "--sizes", "5", "--scheduler", f"127.0.0.1:{port}", "--png", ""
+        "convergence",
+        link,
+        "--orders",
+        "2",
+        "--sizes",
+        "5",
+        "--scheduler",
+        f"127.0.0.1:{port}",
+        "--png",
+        "",
+        cwd=tmp_path,  # its default cache folder is relative
     )
     assert proc.returncode == 2 and "no Dask scheduler" in one_error_line(proc.stderr)
 
