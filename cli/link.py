@@ -49,6 +49,9 @@ LINK.toml (format: docs/link.md; lengths in geometry.units):
   [field]     region = "face" (the load set) | "cube" | "layer", size (cube edge / layer
               depth), or face selectors (region = "faces": the nodes of those faces)
   [mesh]      mesher = "gmsh" | "tetgen", order = 1 (C3D4) | 2 (C3D10), size,
+              element = "tet10" (default) | "tet4" | "hex20" (C3D20R) | "hex8" (C3D8): hexahedra
+              structured on a built-in box, else Gmsh transfinite + recombine (every volume a
+              topological hexahedron; an error names the volume that is not),
               refine = 0.5 (size factor near the reference point and the clamp), refine_radius,
               optimize = "none" | "netgen" (Netgen optimiser: better tets, e.g. torsion
               error of the paper's beam at C3D10 2 mm -0.22 % -> -0.15 %)

@@ -84,6 +84,8 @@ def cache_key(job: LinkJob, route: str) -> str:
         key["features"] = {"across": job.across, "around": job.around, "prism": PRISM_ARRANGEMENT}
     if route == "matrix" and exact_k():  # K read exactly (binary), not ccx's 14-digit text
         key["stiffness"] = "exact"
+    if job.element.startswith("hex"):  # only then: keys of tetrahedral meshes stay as they were
+        key["element"] = job.element
     if job.support_coupling != "rigid":  # only then: keys of clamped runs stay as they were
         key["support_coupling"] = job.support_coupling
     if job.structured:  # only then: keys of unstructured runs stay as they were

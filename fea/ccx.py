@@ -55,7 +55,15 @@ def _write_mesh(fh: IO[str], nodes: np.ndarray, elements: np.ndarray, ccx_type: 
     np.savetxt(fh, np.column_stack([ids, nodes]), fmt=["%d", "%.12e", "%.12e", "%.12e"], delimiter=", ")
     fh.write(f"*ELEMENT, TYPE={ccx_type}, ELSET=EALL\n")
     eids = np.arange(1, elements.shape[0] + 1)
-    np.savetxt(fh, np.column_stack([eids, elements]), fmt="%d", delimiter=", ")
+    rows = np.column_stack([eids, elements])
+    if rows.shape[1] <= 16:
+        np.savetxt(fh, rows, fmt="%d", delimiter=", ")
+        return
+    # ccx reads at most 16 entries a line: C3D20R goes on two (the first ends with a comma)
+    head, tail = rows[:, :16], rows[:, 16:]
+    fmt_h = ", ".join(["%d"] * 16) + ",\n"
+    fmt_t = ", ".join(["%d"] * tail.shape[1]) + "\n"
+    fh.write("".join(fmt_h % tuple(h) + fmt_t % tuple(t) for h, t in zip(head.tolist(), tail.tolist())))
 
 
 def _write_set(fh: IO[str], kind: str, name: str, items: npt.ArrayLike) -> None:
@@ -110,6 +118,7 @@ def write_static_deck(
     print_all: bool = True,
     held: Sequence[tuple[int, Sequence[int]]] | None = None,
     support_loads: tuple[np.ndarray, np.ndarray] | None = None,
+    load_forces: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> StaticDeck:
     """Six *STATIC steps, one unit-direction wrench each (scaled by
     ``amplitudes``), at a reference node coupled to the load face:
@@ -119,6 +128,9 @@ def write_static_deck(
     or (a distributing support) only the ``held`` (node, dofs) pairs, with
     ``support_loads`` = (nodes, g (6, ns, 3)): nodal forces -g[j] of the
     unit wrench j added to step j (the support's distributed reaction).
+    ``load_forces`` = (nodes, g): a distributing coupling written as these
+    nodal forces instead of *COUPLING (hexahedra: ccx's own weights of
+    quadratic quadrilaterals are not the core's; the REF node is then held).
     """
     path = Path(path)
     amps = np.asarray(amplitudes, dtype=float)
@@ -134,7 +146,9 @@ def write_static_deck(
         if held is None:
             _write_set(fh, "NSET", "NFIX", fixed_nodes)
         _write_set(fh, "NSET", "NLOAD", load_nodes)
-        if coupling == "distributing":
+        if coupling == "distributing" and load_forces is not None:
+            pass  # nodal forces in each step
+        elif coupling == "distributing":
             fh.write("*SURFACE, NAME=SLOAD, TYPE=ELEMENT\n")
             for e, s in load_faces:
                 fh.write(f"{int(e)}, S{int(s)}\n")
@@ -143,13 +157,21 @@ def write_static_deck(
             fh.write(f"*RIGID BODY, NSET=NLOAD, REF NODE={ref}, ROT NODE={rot}\n")
         _write_material(fh, E, nu, None)
         _write_boundary(fh, held)
+        if coupling == "distributing" and load_forces is not None:
+            fh.write(f"{ref}, 1, 3\n")  # the REF node carries nothing
         for j in range(6):
             if j < 3:
                 node, dof = ref, j + 1
             else:
                 node, dof = (ref, j + 1) if rot is None else (rot, j - 2)
             fh.write(f"** load case {j + 1}: {LOAD_LABELS[j]} = {amps[j]:.6g}\n")
-            fh.write(f"*STEP\n*STATIC\n*CLOAD, OP=NEW\n{node}, {dof}, {amps[j]:.12e}\n")
+            fh.write("*STEP\n*STATIC\n*CLOAD, OP=NEW\n")
+            if coupling == "distributing" and load_forces is not None:
+                lnodes, lg = load_forces
+                for i, d in zip(*np.nonzero(lg[j])):
+                    fh.write(f"{int(lnodes[i])}, {int(d) + 1}, {amps[j] * lg[j, i, d]:.12e}\n")
+            else:
+                fh.write(f"{node}, {dof}, {amps[j]:.12e}\n")
             if support_loads is not None:
                 snodes, g = support_loads
                 for i, d in zip(*np.nonzero(g[j])):

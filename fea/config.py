@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..io import validate as V
 from ..io.tables import read_toml
+from ..meshing.mesh import ELEMENT_NODES
 from ..meshing.refine import AROUND, default_across
 from .meshkeys import MAX_NODES, MESH_KEYS, check_mesh_keys
 from .selectors import KINDS, Selector, SelectorError, cad_selectors, parse_set, planes_of
@@ -103,6 +104,8 @@ class LinkJob:
     # "distributing" holds the set's work-conjugate (weighted mean) rigid
     # motion at zero and leaves it free to contract and warp (beam theory's clamp)
     support_coupling: str = "rigid"
+    # [mesh] element: tet4 | tet10 (C3D4, C3D10) | hex8 | hex20 (C3D8, C3D20R)
+    element: str = "tet10"
     raw: dict = field(default_factory=dict)
 
     @property
@@ -121,6 +124,10 @@ class LinkJob:
             if order not in (1, 2) or isinstance(order, bool):
                 raise ConfigError(f"{self.source}: mesh order {order!r}: 1 (C3D4) or 2 (C3D10)")
             job.order = int(order)
+            kind = job.element[:3]
+            job.element = (
+                kind + ("4" if order == 1 else "10") if kind == "tet" else kind + ("8" if order == 1 else "20")
+            )
         if size is not None:
             size = _num(size, f"{self.source}: mesh size", lo=0.0, lo_open=True)
             check_mesh_size(size, job.geometry, job.units, f"{self.source}: mesh size")
@@ -362,7 +369,16 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         _positive(rsize, "field", "size", path)
     me = data.get("mesh", {})
     mesher = _choice(_get(me, "mesher", "mesh", path, str, "gmsh"), ("gmsh", "tetgen"), "mesh", "mesher", path)
-    order = _choice(_get(me, "order", "mesh", path, int, 2), (1, 2), "mesh", "order", path)
+    element = _choice(_get(me, "element", "mesh", path, str, "tet10"), tuple(ELEMENT_NODES), "mesh", "element", path)
+    e_order = 2 if ELEMENT_NODES[element] in (10, 20) else 1
+    order = _choice(_get(me, "order", "mesh", path, int, e_order), (1, 2), "mesh", "order", path)
+    if "element" in me and "order" in me and order != e_order:
+        raise ConfigError(
+            f"{path}: [mesh] order = {order} and element = {element!r} disagree (the element names its order; "
+            "give one of them)"
+        )
+    if "element" not in me:  # the order names the tetrahedron
+        element = "tet10" if order == 2 else "tet4"
     msize = _positive(_get(me, "size", "mesh", path, float), "mesh", "size", path)
     check_mesh_size(msize, geometry, units, f"{path}: [mesh] size")
     refine = _get(me, "refine", "mesh", path, float, None) if "refine" in me else None
@@ -398,6 +414,11 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
             raise ConfigError(
                 f'{path}: [mesh] structured = true needs optimize = "none" (the optimiser would unstructure it)'
             )
+    if element.startswith("hex"):
+        if mesher != "gmsh":
+            raise ConfigError(f'{path}: [mesh] element = {element!r} needs mesher = "gmsh", not {mesher!r}')
+        if refine is not None or optimize != "none":
+            raise ConfigError(f'{path}: [mesh] element = {element!r} is structured: no refine, optimize = "none"')
     mk = check_mesh_keys(
         me,
         path,
@@ -475,6 +496,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         structured=structured,
         across_factor=across,
         support_coupling=sup_coupling,
+        element=element,
         raw=data,
         **mk,
     )

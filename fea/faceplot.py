@@ -10,17 +10,19 @@ import numpy as np
 
 from ..io.files import pyplot, save_figure
 from ..meshing import Mesh
-from ..meshing.mesh import CCX_TET_FACES
 
 
 def boundary_triangles(mesh: Mesh) -> np.ndarray:
     """(m, 3) corner nodes (1-based) of the element faces on the boundary
     (those that belong to one element only)."""
-    corner = mesh.elements[:, :4]
-    tri = np.concatenate([corner[:, list(loc[:3])] for loc in CCX_TET_FACES.values()])
-    key = np.sort(tri, axis=1)
+    k = mesh.face_corners
+    face = np.concatenate([mesh.elements[:, list(loc[:k])] for loc in mesh.face_table.values()])
+    key = np.sort(face, axis=1)
     _u, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return tri[count[inv.ravel()] == 1]
+    face = face[count[inv.ravel()] == 1]
+    if k == 4:  # quadrilaterals: two triangles each
+        face = np.concatenate([face[:, [0, 1, 2]], face[:, [0, 2, 3]]])
+    return face
 
 
 def write_faces_png(

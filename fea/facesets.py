@@ -18,7 +18,6 @@ import numpy as np
 from ..meshing import Mesh, MeshError, faces_on_nodes, plane_nodes
 from ..meshing.faces import CadFace
 from ..meshing.gmsh_mesh import cad_faces
-from ..meshing.mesh import CCX_TET_FACES
 from .config import ConfigError, LinkJob
 from .selectors import SelectorError, cad_selectors, coaxial_axis, describe, planes_of, resolve
 
@@ -81,19 +80,20 @@ def resolve_job_sets(job: LinkJob) -> CadSets | None:
 
 def triangles_to_faces(mesh: Mesh, tri: np.ndarray) -> np.ndarray:
     """(elem, face number) of the element faces whose corners are the
-    triangles ``tri`` (corner nodes, 1-based): (nf, 2)."""
+    triangles ``tri`` (corner nodes, 1-based; quadrilaterals (m, 4) on a
+    hexahedral mesh): (nf, 2). A face is known by its three lowest corners."""
     if tri.size == 0:
         return np.zeros((0, 2), dtype=int)
     n = np.int64(mesh.n_nodes + 1)
 
     def code(c: np.ndarray) -> np.ndarray:
-        c = np.sort(c.astype(np.int64), axis=1)
+        c = np.sort(c.astype(np.int64), axis=1)[:, :3]
         return (c[:, 0] * n + c[:, 1]) * n + c[:, 2]
 
-    corner = mesh.elements[:, :4]
+    k = mesh.face_corners
     codes, owner = [], []
-    for s, loc in CCX_TET_FACES.items():
-        codes.append(code(corner[:, list(loc[:3])]))
+    for s, loc in mesh.face_table.items():
+        codes.append(code(mesh.elements[:, list(loc[:k])]))
         owner.append(np.column_stack([np.arange(1, mesh.n_elements + 1), np.full(mesh.n_elements, s)]))
     codes_a = np.concatenate(codes)
     owner_a = np.concatenate(owner)
@@ -128,8 +128,8 @@ def mesh_set(
         if f.size == 0:
             raise MeshError(f"{job.source}: [{section}] CAD face(s) {ids} carry no element face of the mesh")
         faces.append(f)
-        k = 6 if mesh.order == 2 else 3
-        conn = np.array([mesh.elements[e - 1, list(CCX_TET_FACES[s][:k])] for e, s in f])
+        k = mesh.face_nodes
+        conn = np.array([mesh.elements[e - 1, list(mesh.face_table[s][:k])] for e, s in f])
         nodes.append(conn.ravel())
     fa = np.concatenate(faces)
     fa = np.unique(fa, axis=0) if fa.size else fa

@@ -20,6 +20,7 @@ MESH_KEYS = (
     "around",
     "accuracy",
     "max_nodes",
+    "element",
 )
 #: the default memory limit: nodes of the largest mesh (about 8 GB on the
 #: matrix route: 109,531 nodes took 1.7 GB, 237,423 nodes 4.6 GB)

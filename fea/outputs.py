@@ -218,7 +218,8 @@ class LinkResult:
         import meshio
 
         path = Path(path)
-        cells = [("tetra10" if self.mesh.order == 2 else "tetra", self.mesh.elements - 1)]
+        kind = {4: "tetra", 10: "tetra10", 8: "hexahedron", 20: "hexahedron20"}[self.mesh.elements.shape[1]]
+        cells = [(kind, self.mesh.elements - 1)]
         data = {f"u_{LOAD_NAMES[j]}": self.solution.U[j] for j in range(6)}
         fld = np.zeros(self.mesh.n_nodes)
         fld[self.field_nodes - 1] = 1.0

@@ -101,6 +101,7 @@ def mesh_job(job: LinkJob, cad: CadSets | None = None) -> Mesh:
         structured=job.structured,
         across_factor=job.across_factor,
         source=f"{job.source}: [mesh] size",
+        element=job.element[:3],
         **kw,
     )
     if mesh.n_nodes > job.max_nodes:
@@ -172,7 +173,7 @@ class DistributingSupport:
     def of(cls, job: LinkJob, mesh: Mesh, cad: CadSets | None, p0: np.ndarray) -> DistributingSupport:
         _n, sfaces = mesh_set(job, mesh, "support", cad, job.plane_tolerance)
         w, _area = face_weights(mesh.nodes, face_connectivity(mesh, sfaces))
-        nodes = np.nonzero(w > 0)[0] + 1
+        nodes = np.nonzero(w != 0)[0] + 1
         x = mesh.nodes[nodes - 1]
         g = distributing_loads(x, w[nodes - 1], p0)
         c = (w[nodes - 1, None] * x).sum(axis=0) / w[nodes - 1].sum()
@@ -313,6 +314,7 @@ def _solve_ccx(
         amps,
         held=None if support is None else support.held,
         support_loads=None if support is None else (support.nodes, support.g),
+        load_forces=(coupled, g) if mesh.is_hex else None,
     )
     say(f"ccx: six load cases ({mesh.n_nodes * 3} dofs, {job.coupling} coupling)")
     run = run_ccx(deck.path, job.ccx_timeout, progress=progress)
@@ -346,7 +348,7 @@ def solve_fea(job: LinkJob, workdir: Path, route: str, progress: Callable[[str],
     fixed, load, faces = support_and_load(job, mesh, cad)
     conn = face_connectivity(mesh, faces)
     w, area = face_weights(mesh.nodes, conn)
-    coupled = np.nonzero(w > 0)[0] + 1
+    coupled = np.nonzero(w != 0)[0] + 1  # quadratic quadrilaterals: corners weigh < 0
     if job.reference_point is None:
         p0 = default_reference_point(job, mesh, cad, w)
         job = dataclasses.replace(job, reference_point=[float(v) for v in p0])

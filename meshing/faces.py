@@ -154,16 +154,17 @@ def distances(gmsh: ModuleType, points: list, faces: list[CadFace]) -> np.ndarra
     return out
 
 
-def surface_triangles(gmsh: ModuleType) -> tuple[np.ndarray, np.ndarray]:
+def surface_triangles(gmsh: ModuleType, corners: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """(tri (m, 3) corner node numbers in the mesh's 1-based numbering,
-    tag (m,) the surface each triangle lies on) of the current gmsh mesh.
+    tag (m,) the surface each triangle lies on) of the current gmsh mesh;
+    ``corners = 4``: its quadrilaterals (a hexahedral mesh), (m, 4).
     The numbering is the one :func:`~stiffkit.meshing.gmsh_mesh.mesh_part`
     gives: the nodes of the 3-D elements, in increasing gmsh tag order."""
     used = []
     for _etype, _tags, enodes in zip(*gmsh.model.mesh.getElements(3)):
         used.append(np.asarray(enodes, dtype=np.int64))
     if not used:
-        return np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64)
+        return np.zeros((0, corners), dtype=np.int64), np.zeros(0, dtype=np.int64)
     used_all = np.unique(np.concatenate(used))
     lookup = np.zeros(int(used_all.max()) + 1, dtype=np.int64)
     lookup[used_all] = np.arange(1, used_all.size + 1)
@@ -171,7 +172,7 @@ def surface_triangles(gmsh: ModuleType) -> tuple[np.ndarray, np.ndarray]:
     for _dim, tag in gmsh.model.getEntities(2):
         for etype, _et, enodes in zip(*gmsh.model.mesh.getElements(2, tag)):
             nn = gmsh.model.mesh.getElementProperties(etype)[3]
-            conn = np.asarray(enodes, dtype=np.int64).reshape(-1, nn)[:, :3]
+            conn = np.asarray(enodes, dtype=np.int64).reshape(-1, nn)[:, :corners]
             if conn.size == 0:
                 continue
             if conn.max() >= lookup.size or (lookup[conn] == 0).any():
@@ -179,7 +180,7 @@ def surface_triangles(gmsh: ModuleType) -> tuple[np.ndarray, np.ndarray]:
             tris.append(lookup[conn])
             tags.append(np.full(conn.shape[0], tag, dtype=np.int64))
     if not tris:
-        return np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64)
+        return np.zeros((0, corners), dtype=np.int64), np.zeros(0, dtype=np.int64)
     return np.concatenate(tris), np.concatenate(tags)
 
 

@@ -24,10 +24,11 @@ import numpy as np
 
 from ..errors import InputError, PlausibilityWarning
 from .faces import CadFace, distances, faces_of_model, groups, surface_triangles
-from .mesh import PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
+from .mesh import PERM_GMSH_HEX20, PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
 from .refine import (
     estimate_nodes,
     feature_fields,
+    hex_mesh,
     plane_surfaces,
     prism_across_factor,
     prism_mesh,
@@ -208,9 +209,17 @@ def mesh_part(
     across_factor: float = 1.0,
     source: str | None = None,
     features: dict | None = None,
+    element: str = "tet",
 ) -> Mesh:
     """Mesh one solid with quadratic (order 2, C3D10) or linear (order 1,
     C3D4) tetrahedra of about ``size`` (geometry units).
+
+    ``element = "hex"``: hexahedra instead (C3D20R, order 1: C3D8): a
+    built-in box structured (as ``structured``/``features`` divide it, else
+    ``size`` everywhere); another part through Gmsh's transfinite
+    constraints set automatically and recombined, which needs every volume
+    to be a topological hexahedron (six four-sided faces): a MeshError
+    naming the volume otherwise.
 
     ``mesher = "tetgen"``: Gmsh writes the surface triangulation, TetGen
     fills the volume (``-pq1.414a<V>Y``, ``-o2`` for quadratic) with a
@@ -248,6 +257,10 @@ def mesh_part(
         raise InputError(f"mesh.size = {size!r}: must be positive")
     if mesher not in ("gmsh", "tetgen"):
         raise InputError(f"mesh.mesher = {mesher!r}: gmsh or tetgen")
+    if element not in ("tet", "hex"):
+        raise InputError(f"mesh.element = {element!r}: tet or hex")
+    if element == "hex" and (mesher != "gmsh" or refine or optimize != "none"):
+        raise InputError("mesh.element = hex: needs mesher = 'gmsh', no refine and optimize = 'none'")
     gmsh = _gmsh()
     t0 = time.perf_counter()
     # interruptible=False: gmsh would otherwise reset SIGINT to its default
@@ -275,8 +288,11 @@ def mesh_part(
         gmsh.option.setNumber("Mesh.OptimizeNetgen", 1 if optimize == "netgen" else 0)
         extra: tuple = ()
         prism = bool(features) and _prismatic(geometry, mesher, refine, optimize, structured)
+        hexbox = element == "hex" and geometry.get("shape") == "box"
         if prism:
             structured, across_factor = True, prism_across_factor(geometry["size"], size, features["across"])
+        elif features and element == "hex":
+            pass  # a hexahedral mesh is structured: no size fields
         elif features:
             extra = _feature_fields(gmsh, size, order, features, where)
             if not refine:
@@ -290,10 +306,17 @@ def mesh_part(
                 axis = "xyz".index(name[0])
                 planes.append((axis, lo_hi[axis] if name.endswith("min") else lo_hi[axis + 3]))
             _refinement(gmsh, size, refine, refine_radius or 4 * size, refine_points or [], planes, extra[:2])
-        if structured and not prism:
+        if structured and not prism and not hexbox:
             _structured_box(gmsh, size, across_factor)
         where = geometry.get("step", geometry.get("shape"))
-        if prism:
+        if hexbox:
+            L, b, h = geometry["size"]
+            mesh = hex_mesh(
+                np.array([0.0, -b / 2, -h / 2]), np.array([L, b / 2, h / 2]), size, across_factor, order, scale
+            )
+        elif element == "hex":
+            mesh = _gmsh_hexahedra(gmsh, order, scale, size, where)
+        elif prism:
             L, b, h = geometry["size"]  # exact (OCC pads its bounding box)
             mesh = prism_mesh(
                 np.array([0.0, -b / 2, -h / 2]), np.array([L, b / 2, h / 2]), size, across_factor, order, scale
@@ -331,6 +354,50 @@ def mesh_part(
         mesh.info["across_factor"] = across_factor
     mesh.info["time_s"] = time.perf_counter() - t0
     mesh.info.update(check_geometry(mesh))
+    return mesh
+
+
+def _gmsh_hexahedra(gmsh: ModuleType, order: int, scale: float, size: float, where: object) -> Mesh:
+    """Hexahedra of a CAD part: Gmsh's automatic transfinite constraints
+    (every volume a topological hexahedron), recombined, 20-node serendipity
+    elements for order 2; a MeshError naming each volume it cannot take."""
+    bad = []
+    for _dim, vol in gmsh.model.getEntities(3):
+        _up, faces = gmsh.model.getAdjacencies(3, vol)
+        sides = [len(gmsh.model.getAdjacencies(2, int(f))[1]) for f in faces]
+        if len(faces) != 6 or any(n != 4 for n in sides):
+            bad.append(f"volume {vol} ({len(faces)} faces with {sorted(set(sides))} edges)")
+    if bad:
+        raise MeshError(
+            f"{where}: [mesh] element = hex needs every volume to be a topological hexahedron (six faces of "
+            f"four edges, e.g. a box or a swept quadrilateral) so that Gmsh can mesh it transfinite and "
+            f'recombine it: {", ".join(bad)} is not; use tetrahedra (element = "tet10") or split the part'
+        )
+    gmsh.model.mesh.setTransfiniteAutomatic(recombine=True)
+    gmsh.option.setNumber("Mesh.RecombineAll", 1)
+    gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 1)
+    gmsh.option.setNumber("Mesh.ElementOrder", order)
+    try:
+        gmsh.model.mesh.generate(3)
+    except Exception as exc:
+        raise MeshError(f"{where}: gmsh cannot mesh it with hexahedra at size {size:g} ({exc})") from None
+    etype = 17 if order == 2 else 5
+    other = [vol for _dim, vol in gmsh.model.getEntities(3) if set(gmsh.model.mesh.getElementTypes(3, vol)) - {etype}]
+    if other:
+        raise MeshError(f"{where}: gmsh left elements other than hexahedra in volume(s) {other}")
+    _tags, enodes = gmsh.model.mesh.getElementsByType(etype)
+    ntags, coords, _ = gmsh.model.mesh.getNodes()
+    conn = np.asarray(enodes, dtype=np.int64).reshape(-1, 20 if order == 2 else 8)
+    used = np.unique(conn)
+    lookup = np.zeros(int(max(ntags.max(), used.max())) + 1, dtype=np.int64)
+    lookup[used] = np.arange(1, used.size + 1)
+    xyz = np.zeros((int(ntags.max()) + 1, 3))
+    xyz[ntags] = np.asarray(coords).reshape(-1, 3)
+    elements = lookup[conn]
+    if order == 2:
+        elements = elements[:, PERM_GMSH_HEX20]
+    mesh = Mesh(nodes=xyz[used] * scale, elements=elements.astype(np.int64), mesher="gmsh")
+    mesh.surface_tri, mesh.surface_tag = surface_triangles(gmsh, corners=4)
     return mesh
 
 

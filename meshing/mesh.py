@@ -1,8 +1,10 @@
-"""Tetrahedral meshes in CalculiX's conventions, and face selection.
+"""Tetrahedral and hexahedral meshes in CalculiX's conventions, and face selection.
 
 A :class:`Mesh` holds node coordinates in metres (rows 0..n-1 are nodes
 1..n) and elements as 1-based node numbers in CalculiX order (C3D4 or
-C3D10: corners, then mid-sides 1-2, 2-3, 3-1, 1-4, 2-4, 3-4). Meshers write
+C3D10: corners, then mid-sides 1-2, 2-3, 3-1, 1-4, 2-4, 3-4; C3D8 or
+C3D20R: corners 1-4 of the bottom face, 5-8 above them, then mid-sides
+1-2, 2-3, 3-4, 4-1, 5-6, 6-7, 7-8, 8-5, 1-5, 2-6, 3-7, 4-8). Meshers write
 their own mid-side order; the permutation tables below turn it into
 CalculiX's, and :func:`check_geometry` proves it (every mid-side node at the
 midpoint of its edge, every volume positive).
@@ -23,6 +25,25 @@ PERM_TETGEN_TET10 = np.array([0, 1, 2, 3, 6, 7, 9, 5, 8, 4])
 CCX_TET10_EDGES = np.array([[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]])
 #: CalculiX tet faces S1..S4 (corners; for C3D10 then mid-sides in face order)
 CCX_TET_FACES = {1: (0, 1, 2, 4, 5, 6), 2: (0, 3, 1, 7, 8, 4), 3: (1, 3, 2, 8, 9, 5), 4: (2, 3, 0, 9, 7, 6)}
+#: gmsh's 20-node hexahedron (type 17) -> CalculiX C3D20R
+PERM_GMSH_HEX20 = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 11, 13, 9, 16, 18, 19, 17, 10, 12, 14, 15])
+#: CalculiX C3D20(R) mid-side node k (8..19) sits on the edge between these corners
+CCX_HEX20_EDGES = np.array(
+    [[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4], [0, 4], [1, 5], [2, 6], [3, 7]]
+)
+#: CalculiX hex faces S1..S6 (corners, outward normal; for C3D20R then mid-sides in face order)
+CCX_HEX_FACES = {
+    1: (0, 1, 2, 3, 8, 9, 10, 11),
+    2: (4, 7, 6, 5, 15, 14, 13, 12),
+    3: (0, 4, 5, 1, 16, 12, 17, 8),
+    4: (1, 5, 6, 2, 17, 13, 18, 9),
+    5: (2, 6, 7, 3, 18, 14, 19, 10),
+    6: (3, 7, 4, 0, 19, 15, 16, 11),
+}
+#: nodes per element -> (CalculiX type, order, hexahedron?)
+ELEMENT_KINDS = {4: ("C3D4", 1, False), 10: ("C3D10", 2, False), 8: ("C3D8", 1, True), 20: ("C3D20R", 2, True)}
+#: [mesh] element names -> nodes per element
+ELEMENT_NODES = {"tet4": 4, "tet10": 10, "hex8": 8, "hex20": 20}
 PLANES = ("x-min", "x-max", "y-min", "y-max", "z-min", "z-max")
 
 
@@ -43,11 +64,29 @@ class Mesh:
 
     @property
     def order(self) -> int:
-        return 2 if self.elements.shape[1] == 10 else 1
+        return ELEMENT_KINDS[self.elements.shape[1]][1]
 
     @property
     def ccx_type(self) -> str:
-        return "C3D10" if self.order == 2 else "C3D4"
+        return ELEMENT_KINDS[self.elements.shape[1]][0]
+
+    @property
+    def is_hex(self) -> bool:
+        return ELEMENT_KINDS[self.elements.shape[1]][2]
+
+    @property
+    def face_table(self) -> dict:
+        """CalculiX's faces S1.. of this element kind: local nodes, corners first."""
+        return CCX_HEX_FACES if self.is_hex else CCX_TET_FACES
+
+    @property
+    def face_corners(self) -> int:
+        return 4 if self.is_hex else 3
+
+    @property
+    def face_nodes(self) -> int:
+        """Nodes of one element face: 3 | 6 (triangles), 4 | 8 (quadrilaterals)."""
+        return self.face_corners * self.order
 
     @property
     def n_nodes(self) -> int:
@@ -62,7 +101,11 @@ class Mesh:
 
 
 def tet_volumes(nodes: np.ndarray, elements: np.ndarray) -> np.ndarray:
-    """Signed volumes of the corner tetrahedra (positive = CalculiX orientation)."""
+    """Signed volumes of the corner tetrahedra (positive = CalculiX orientation);
+    of a hexahedron: the sum of its corners' six Kuhn tetrahedra."""
+    if elements.shape[1] in (8, 20):
+        kuhn = ((0, 1, 2, 6), (0, 2, 3, 6), (0, 3, 7, 6), (0, 7, 4, 6), (0, 4, 5, 6), (0, 5, 1, 6))
+        return sum(tet_volumes(nodes, elements[:, list(t)]) for t in kuhn)
     p = nodes[elements[:, :4] - 1]
     a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
     return np.einsum("ij,ij->i", np.cross(a, b), c) / 6.0
@@ -72,10 +115,11 @@ def midside_errors(nodes: np.ndarray, elements: np.ndarray) -> np.ndarray:
     """Distance of each C3D10 mid-side node from its edge midpoint, relative
     to the edge length: (ne, 6). Zero for straight-sided elements."""
     p = nodes[elements - 1]
-    ends = p[:, CCX_TET10_EDGES]  # (ne, 6, 2, 3)
+    edges, first = (CCX_HEX20_EDGES, 8) if elements.shape[1] == 20 else (CCX_TET10_EDGES, 4)
+    ends = p[:, edges]  # (ne, edges, 2, 3)
     mid = ends.mean(axis=2)
     length = np.linalg.norm(ends[:, :, 1] - ends[:, :, 0], axis=2)
-    return np.linalg.norm(p[:, 4:] - mid, axis=2) / length
+    return np.linalg.norm(p[:, first:] - mid, axis=2) / length
 
 
 def check_geometry(mesh: Mesh, curved_tol: float = 0.25) -> dict:
@@ -97,7 +141,7 @@ def check_geometry(mesh: Mesh, curved_tol: float = 0.25) -> dict:
         if err.max() > curved_tol:
             raise MeshError(
                 f"mid-side nodes are not at their edge midpoints (offset up to "
-                f"{err.max():.3g} edge lengths): wrong C3D10 node order"
+                f"{err.max():.3g} edge lengths): wrong {mesh.ccx_type} node order"
             )
     return stats
 
@@ -120,21 +164,21 @@ def plane_nodes(mesh: Mesh, plane: str, tol: float | None = None, what: str = "p
 
 def faces_on_nodes(mesh: Mesh, node_set: np.ndarray) -> np.ndarray:
     """Element faces whose nodes all belong to ``node_set``: (nf, 2) rows of
-    (1-based element, face number 1..4)."""
+    (1-based element, face number 1..4, or 1..6 for hexahedra)."""
     on = np.zeros(mesh.n_nodes + 1, dtype=bool)
     on[np.asarray(node_set)] = True
     out = []
-    corner = mesh.elements[:, :4]
-    for s, loc in CCX_TET_FACES.items():
-        ok = on[corner[:, loc[0]]] & on[corner[:, loc[1]]] & on[corner[:, loc[2]]]
+    for s, loc in mesh.face_table.items():
+        ok = np.logical_and.reduce([on[mesh.elements[:, loc[k]]] for k in range(mesh.face_corners)])
         for e in np.nonzero(ok)[0]:
             out.append((e + 1, s))
     return np.array(sorted(out), dtype=int).reshape(-1, 2)
 
 
 def face_connectivity(mesh: Mesh, faces: np.ndarray) -> np.ndarray:
-    """Node numbers (nf, 3|6) of element faces from :func:`faces_on_nodes`:
-    corners, then for C3D10 the mid-sides 1-2, 2-3, 3-1 of the face."""
-    k = 6 if mesh.order == 2 else 3
-    rows = [mesh.elements[e - 1, list(CCX_TET_FACES[s][:k])] for e, s in faces]
+    """Node numbers (nf, 3|6|4|8) of element faces from :func:`faces_on_nodes`:
+    corners, then for quadratic elements the mid-sides 1-2, 2-3, ... of the face."""
+    k = mesh.face_nodes
+    table = mesh.face_table
+    rows = [mesh.elements[e - 1, list(table[s][:k])] for e, s in faces]
     return np.array(rows, dtype=int).reshape(-1, k)

@@ -272,3 +272,34 @@ def prism_mesh(lo: np.ndarray, hi: np.ndarray, size: float, across_factor: float
         nodes = np.concatenate([corners, mids])
         conn = np.concatenate([conn, corners.shape[0] + 1 + inv.reshape(-1, 6)], axis=1)
     return Mesh(nodes=nodes * scale, elements=conn.astype(np.int64), mesher="gmsh")
+
+
+def hex_mesh(lo: np.ndarray, hi: np.ndarray, size: float, across_factor: float, order: int, scale: float) -> Mesh:
+    """Structured hexahedral mesh of an axis-aligned box, divided as
+    :func:`prism_mesh` divides it (``size`` along the longest side,
+    ``across_factor * size`` across): C3D8 (order 1) or C3D20R (order 2,
+    the mid-side nodes at the edge midpoints), CalculiX order."""
+    from .mesh import CCX_HEX20_EDGES
+
+    ext = hi - lo
+    along = int(np.argmax(ext))
+    n = [max(1, int(np.ceil(ext[a] / (size if a == along else across_factor * size) * (1 - 1e-6)))) for a in range(3)]
+    axes = [np.linspace(lo[a], hi[a], n[a] + 1) for a in range(3)]
+    gx, gy, gz = np.meshgrid(*axes, indexing="ij")
+    corners = np.stack([gx.ravel(), gy.ravel(), gz.ravel()], axis=1)
+    ci, cj, ck = (c.ravel() for c in np.meshgrid(*[np.arange(m) for m in n], indexing="ij"))
+
+    def node(v: int) -> np.ndarray:  # local corner v (bits x, y, z) of every cell
+        bx, by, bz = v & 1, (v >> 1) & 1, (v >> 2) & 1
+        return ((ci + bx) * (n[1] + 1) + (cj + by)) * (n[2] + 1) + (ck + bz)
+
+    # CalculiX: 1-2-3-4 counter-clockwise below 5-6-7-8 (z = bit 2)
+    conn = np.stack([node(v) for v in (0, 1, 3, 2, 4, 5, 7, 6)], axis=1) + 1
+    nodes = corners
+    if order == 2:
+        edges = np.sort(conn[:, CCX_HEX20_EDGES], axis=2).reshape(-1, 2)
+        uniq, inv = np.unique(edges, axis=0, return_inverse=True)
+        mids = 0.5 * (corners[uniq[:, 0] - 1] + corners[uniq[:, 1] - 1])
+        nodes = np.concatenate([corners, mids])
+        conn = np.concatenate([conn, corners.shape[0] + 1 + inv.reshape(-1, 12)], axis=1)
+    return Mesh(nodes=nodes * scale, elements=conn.astype(np.int64), mesher="gmsh")
