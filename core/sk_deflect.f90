@@ -29,9 +29,11 @@ module sk_deflect
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: all_finite
-    use sk_rotation, only: skew, cross
+    use sk_rotation, only: cross
     use sk_spatial, only: sym_index, nsym
-    use sk_chain, only: chain_frames, spring_jacobian, spring_ndof, check_chain, spring_joint
+    use sk_chain, only: check_chain, spring_joint
+    use sk_tree_model, only: tree_model, tree_state, state_init
+    use sk_chain_tree, only: chain_tree_model, chain_tree_rows
     use sk_laws, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone
     implicit none
     private
@@ -203,10 +205,12 @@ contains
         logical, intent(in) :: want_jac
         real(dp), intent(out) :: pred(:, :), jac(:, :, :)
         integer(ip), intent(out) :: info
-        real(dp), allocatable :: rf(:, :, :), pf(:, :), pv(:), g(:, :, :), a(:, :)
-        real(dp) :: rt(3, 3), pt(3), jj(6, 6), pm(3, 6), r(3), col(6), fn(5), ceff, dc, dk, delta, dlin, dcub, ddz
-        integer :: m, s, t, k, kk, ia, ib, nj, ns, jc, pp, toff, n
-        nj = size(qidx)
+        real(dp), allocatable :: pv(:), g(:, :, :), a(:, :)
+        real(dp) :: rt(3, 3), r(3), col(6), fn(5), ceff, dc, dk, delta, dlin, dcub, ddz
+        integer, allocatable :: sv(:)
+        integer :: m, s, t, k, kk, ia, ib, ns, jc, pp, toff, tool
+        type(tree_model) :: tm
+        type(tree_state) :: st
         ns = size(stype)
         pred = 0.0_dp
         if (want_jac) jac = 0.0_dp
@@ -221,7 +225,11 @@ contains
         info = sk_err_nonfinite
         if (.not. (all_finite(q) .and. all_finite(w) .and. all_finite(p) .and. all_finite(par) &
             .and. all_finite(theta) .and. all_finite(tgeo))) return
-        allocate(rf(3, 3, nj), pf(3, nj), pv(size(par)), g(6, 6, ns), a(6, ns))
+        allocate(pv(size(par)), g(6, 6, ns), a(6, ns), sv(ns))
+        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, 1, kind=ip), tm, sv, &
+            tool, info)
+        if (info /= sk_ok) return
+        call state_init(tm, st)
         call values(tint, par, theta, pv)
         r = 0.0_dp
         toff = 0
@@ -232,20 +240,9 @@ contains
             end if
         end do
         do m = 1, size(q, 2)
-            call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, m), rf, pf, rt, pt)
-            pm = 0.0_dp
-            pm(1, 1) = 1.0_dp
-            pm(2, 2) = 1.0_dp
-            pm(3, 3) = 1.0_dp
-            pm(:, 4:6) = -skew(matmul(rt, p(:, m) + r))
-            ! every spring's unit columns (point, rotation per unit deflection) and force
-            do s = 1, ns
-                n = spring_ndof(stype(s))
-                call spring_jacobian(stype(s), sidx(s), jaxis, rf, pf, rt, pt, jj)
-                g(1:3, 1:n, s) = matmul(pm, jj(:, 1:n))
-                g(4:6, 1:n, s) = jj(4:6, 1:n)
-                a(1:n, s) = matmul(transpose(jj(:, 1:n)), w(:, m))
-            end do
+            ! every spring's unit columns (point, rotation per unit deflection)
+            ! and generalised force, on the chain's tree model
+            call chain_tree_rows(tm, st, sv, stype, tool, q(:, m), w(:, m), p(:, m) + r, g, a, rt)
             ! 6-dof springs: columns J E_ab J^T w per element (klimchik eq. 12)
             do t = 1, size(tint, 2)
                 if (tint(1, t) /= term_six) cycle
