@@ -21,13 +21,14 @@ sampled workspace).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .._core import design
-from ..errors import InputError
+from ..errors import InputError, StiffkitWarning
 from ..io import validate as V
 from ..io.tables import read_table
 from ..robot.model import Model, load_model
@@ -47,6 +48,8 @@ DEFAULT_CANDIDATES = 2000
 RANDOM_DESIGNS = 20
 #: sigma of a tracker coordinate assumed when the model declares none (m)
 ASSUMED_SIGMA = 1.0e-4
+#: postures of a --from list left out that the warning names
+FAILED_SHOWN = 3
 #: columns of a posture file that are not joints
 OTHER_COLUMNS = ("config", "frame", "weight", "x", "y", "z", *WRENCH, *POINT, *DEFL, *ROT)
 
@@ -81,6 +84,8 @@ class PlanSetup:
     free_parameters: int = 0
     #: observations of the rows already measured (deflection data: positions, and rotations when measured)
     measured_observations: int = 0
+    #: deflection data: where ``points`` come from
+    points_source: str = ""
 
     @property
     def has_task(self) -> bool:
@@ -209,6 +214,46 @@ def read_postures(
     if not len(t):
         raise InputError(f"{path}: no rows")
     return t.numbers(cols, "angle"), t
+
+
+def user_candidates(model: object, postures: object, settings: object) -> Candidates:
+    """``--from``: the user's postures (a CSV path, rows of one posture
+    counted once, or an array (m, nq)) through the candidate checks. The
+    postures left out are named in one warning (the file's row and line, and
+    why); none feasible: InputError naming the first and why."""
+    joints = model.actuated if isinstance(model, TreeModel) else model.chain.actuated
+    where, lines = "postures", None
+    if isinstance(postures, (str, Path)):
+        where = str(postures)
+        Q, tab = read_postures(postures, joints, "postures", _mimics(model))
+        keep = _distinct(Q)
+        Q, lines = Q[keep], np.asarray(tab.lines)[keep]
+    else:
+        Q = np.atleast_2d(np.asarray(postures, float))
+    cands = feasible(model, Q, settings, where)
+
+    def at(i: int) -> str:
+        return f"row {i + 1}" if lines is None else f"row {lines[i] - 1} (line {lines[i]})"
+
+    failed = sorted(cands.failed.items())
+    if not len(cands):
+        why = f": {at(failed[0][0])}: {failed[0][1]}" if failed else ""
+        raise InputError(f"{where}: no feasible candidate among {Q.shape[0]} postures{why}")
+    if failed:
+        shown = "; ".join(f"{at(i)}: {w}" for i, w in failed[:FAILED_SHOWN])
+        more = f"; ... and {len(failed) - FAILED_SHOWN} more" if len(failed) > FAILED_SHOWN else ""
+        warnings.warn(
+            StiffkitWarning(f"{where}: {len(failed)} of {Q.shape[0]} postures left out (not feasible): {shown}{more}"),
+            stacklevel=3,
+        )
+    return cands
+
+
+def _more(cands: Candidates) -> str:
+    """What gives more candidates: more postures in the user's list, or more sampled."""
+    if cands.rows is not None:
+        return "add postures to the --from list or loosen [plan]"
+    return "sample more (--candidates) or loosen [plan]"
 
 
 def _distinct(Q: np.ndarray) -> np.ndarray:
@@ -340,6 +385,21 @@ def _defl_rows(model: Model, meas: Measurements, names: list[str], sigma: float)
     return J[:3][:, :, cols].transpose(1, 0, 2) / sigma
 
 
+def _points(points: object, cands: Candidates, mmeas: Measurements | None, measured: object) -> tuple[np.ndarray, str]:
+    """The points measured on the tool in each candidate (tool frame, m) and
+    where they come from: ``points`` (the API), else [plan] points, else the
+    distinct points of the rows already measured, else the tool origin."""
+    if points is not None:
+        return V.array(points, "points", (None, 3), "position"), "given"
+    s = cands.settings
+    if s is not None and s.points is not None:
+        return np.array(s.points, float), f"{s.where} points"
+    if mmeas is not None:
+        _u, first = np.unique(mmeas.p, axis=0, return_index=True)
+        return mmeas.p[np.sort(first)], f"the points of {measured}"
+    return np.zeros((1, 3)), "the tool origin (no [plan] points)"
+
+
 def _defl_setup(model: Model, cands: Candidates, task: object, measured: object, sigma: float, points: object) -> dict:
     nonlinear = [t.kind for t in model.terms if t.free and t.nonlinear]
     if nonlinear:
@@ -352,16 +412,25 @@ def _defl_setup(model: Model, cands: Candidates, task: object, measured: object,
             f"{model.path or 'model'}: [plan] loads missing: deflection data need the loads you can apply, "
             "e.g. [plan] loads = [[0, 0, -2500, 0, 0, 0], [2500, 0, 0, 0, 0, 0]] (N, N m, at the tool frame)"
         )
-    pts = np.zeros((1, 3)) if points is None else V.array(points, "points", (None, 3), "position")
+    mmeas = read_measurements(measured, model.chain.dof) if measured is not None else None
+    pts, psource = _points(points, cands, mmeas, measured)
     nl, npt = cands.loads.shape[0], pts.shape[0]
     posture = np.repeat(np.arange(len(cands)), nl)
     loads = np.tile(cands.loads, (len(cands), 1))
     cmeas = _defl_meas(cands.q[posture], loads, pts, "plan candidates")
-    mmeas = read_measurements(measured, model.chain.dof) if measured is not None else None
     both = cmeas
     if mmeas is not None:
         both = _defl_meas(np.vstack([mmeas.q, cmeas.q]), np.vstack([mmeas.w, cmeas.w]), np.zeros((1, 3)), "plan")
         both.p = np.vstack([mmeas.p, cmeas.p])
+    nfree, nrows = len(model.parameter_names), 3 * both.n
+    if nrows < nfree:  # the fit's reduction is a fit of every free parameter to all the rows
+        src = "the --from postures" if cands.rows is not None else "the sampled postures"
+        had = f" and {mmeas.n} measured rows" if mmeas is not None else ""
+        raise InputError(
+            f"{model.path or 'model'}: {len(cands)} candidate postures x {nl} [plan] loads x {npt} point(s){had} "
+            f"give {nrows} observations for the model's {nfree} free parameters: too few to tell which are "
+            f"identifiable; give more postures ({src}) or loads"
+        )
     red = reduce_model(model, both, sigma_position=sigma)
     names = list(red.selected)
     if not names:
@@ -395,7 +464,7 @@ def _defl_setup(model: Model, cands: Candidates, task: object, measured: object,
     return dict(
         names=names, jc=jc, posture=posture, loads=loads, jt=jt, task_q=task_q, task_of=np.repeat(t_of, 3),
         task_source=source, m0=m0, measured_rows=nmeas, not_planned=not_planned, points=pts,
-        free_parameters=len(model.parameter_names), measured_observations=mobs,
+        free_parameters=len(model.parameter_names), measured_observations=mobs, points_source=psource,
     )  # fmt: skip
 
 
@@ -422,20 +491,8 @@ def build_setup(
         model = load_plan_model(model)
     settings = plan_settings(model)
     absolute = isinstance(model, TreeModel)
-    joints = model.actuated if absolute else model.chain.actuated
     if postures is not None:
-        where = "postures"
-        if isinstance(postures, (str, Path)):
-            where = str(postures)
-            Q, _t = read_postures(postures, joints, "postures", _mimics(model))
-            Q = Q[_distinct(Q)]
-        else:
-            Q = np.atleast_2d(np.asarray(postures, float))
-        cands = feasible(model, Q, settings, where)
-        if not len(cands):
-            first = next(iter(cands.failed.items()), None)
-            why = f": row {first[0] + 1}: {first[1]}" if first else ""
-            raise InputError(f"{where}: no feasible candidate among {Q.shape[0]} postures{why}")
+        cands = user_candidates(model, postures, settings)
     else:
         n = DEFAULT_CANDIDATES if candidates is None else V.count(candidates, "candidates", 1, 10**6)
         cands = sample_postures(model, n, seed, settings)
@@ -465,9 +522,7 @@ def _check_k(setup: PlanSetup, k: int) -> int:
     what = "(posture, load) candidates" if setup.kind == "deflection" else "feasible candidates"
     if k > ncand:
         c = setup.candidates
-        raise InputError(
-            f"--select {k}: only {ncand} {what} ({c.summary()}); sample more (--candidates) or loosen [plan]"
-        )
+        raise InputError(f"--select {k}: only {ncand} {what} ({c.summary()}); {_more(c)}")
     known = 0 if setup.m0 is None else int(np.linalg.matrix_rank(setup.m0))
     need = max(0, setup.npar - known)
     if setup.nobs * k < need:
@@ -642,12 +697,11 @@ def discriminate(
         tied = dg.ties[0]
     settings = plan_settings(model)
     if postures is not None:
-        Q, _t = read_postures(postures, model.actuated, "postures", _mimics(model))
-        cands = feasible(model, Q[_distinct(Q)], settings, str(postures))
+        cands = user_candidates(model, postures, settings)
     else:
         n = DEFAULT_CANDIDATES if candidates is None else V.count(candidates, "candidates", 1, 10**6)
         cands = sample_postures(model, n, seed, settings)
     k = V.count(k, "--select", 1)
     if k > len(cands):
-        raise InputError(f"--select {k}: only {len(cands)} feasible candidates ({cands.summary()})")
+        raise InputError(f"--select {k}: only {len(cands)} feasible candidates ({cands.summary()}); {_more(cands)}")
     return plan_discriminate(model, data, tied, cands, k, settings), cands, model

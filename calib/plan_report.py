@@ -202,6 +202,7 @@ def plan_json(res: PlanResult) -> dict:
             "observations_each": s.nobs,
         },
         "measured_rows": s.measured_rows,
+        **({"points": s.points.tolist(), "points_source": s.points_source} if s.points is not None else {}),
         "identifiable": s.npar,
         "parameters": [
             {"name": n, "expected_std": _finite(sd), "variance_inflation": _finite(v)}
@@ -231,6 +232,8 @@ def plan_text(res: PlanResult) -> str:
         f"{s.npar} identifiable parameters, {s.nobs} observations per candidate",
         f"  sigma_position {s.sigma:.3g} m ({s.sigma_source})",
     ]
+    if s.points is not None:
+        lines.append(f"  {len(s.points)} point(s) measured on the tool in each ({s.points_source})")
     if s.measured_rows:
         lines.append(f"  augmenting {s.measured_rows} rows already measured")
     nsing = int(np.sum(~np.isfinite(res.random_values)))

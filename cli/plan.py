@@ -25,9 +25,11 @@ HELP = """\
 inputs:
   MODEL.toml     a model whose parameters are to be identified (absolute: [measurements] kind = "absolute";
                  deflection: the loads you can apply in [plan] loads = [[fx, fy, fz, mx, my, mz], ...]);
-                 its optional [plan] table also sets limits, capsule radius, margin, floor_z, tracker
+                 its optional [plan] table also sets limits, capsule radius, margin, floor_z, tracker,
+                 and (deflection data) the points measured on the tool: points = [[x, y, z], ...]
   --from P.csv   your own candidate postures: a column per actuated joint (or q1..qN), other columns
-                 (config, frame, x, y, z, fx..mz, ...) ignored; rows of one posture count once
+                 (config, frame, x, y, z, fx..mz, ...) ignored; rows of one posture count once; the
+                 postures that fail a check are left out, named in a warning
   --task T.csv   the postures where the robot works: a column per actuated joint (optional frame: that
                  marker only; deflection data: optional fx..mz, the task load, else every [plan] load)
   --measured M.csv   rows already measured (the fit's measurement file): plan what adds most to them

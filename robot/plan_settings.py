@@ -10,6 +10,7 @@ margin = 0.01                         # m: least clearance between capsules (and
 floor_z = 0.0                         # m, base frame: no capsule below floor_z + margin
 tracker = { position = [3.0, 0.0, 1.1], direction = [-1.0, 0.0, -0.2], cone_deg = 40 }  # absolute data
 loads = [[0, 0, -2500, 0, 0, 0], [2500, 0, 0, 0, 0, 0]]   # deflection data: N and N m at the tool
+points = [[0, 0, 0.25], [0.12, 0, 0.2]]   # deflection data: the points measured on the tool (tool frame, m)
 ```
 
 ``tracker``: base-frame position (m) and viewing direction of the tracker;
@@ -17,7 +18,9 @@ a marker is in view when the angle between the direction and the line from
 the tracker to the marker is at most ``cone_deg`` (the cone's half-angle,
 in (0, 180) degrees). ``loads`` (deflection data): the wrenches the user
 can apply (force, moment; tool-frame origin, base axes), each candidate a
-(posture, load) pair. Every number is checked (finite, in range, units
+(posture, load) pair; ``points`` (deflection data): the points whose
+deflection is measured in each, in the tool frame (default: those of
+``--measured``, else the tool origin). Every number is checked (finite, in range, units
 plausible: a radius or margin of 1 m or more is taken for mm); an error
 names the file, the table and the key.
 """
@@ -36,7 +39,7 @@ from ..io import validate as V
 __all__ = ["PlanSettings", "plan_table", "parse_plan", "cone_cos", "PLAN_KEYS"]
 
 #: the keys of [plan]; tracker only for absolute data, loads only for deflection data
-PLAN_KEYS = ("limits", "radius", "default_radius", "margin", "floor_z", "tracker", "loads")
+PLAN_KEYS = ("limits", "radius", "default_radius", "margin", "floor_z", "tracker", "loads", "points")
 TRACKER_KEYS = ("position", "direction", "cone_deg")
 DEFAULT_RADIUS, DEFAULT_MARGIN = 0.05, 0.01
 #: a capsule radius or margin at least this large (m) is a value in mm
@@ -55,6 +58,8 @@ class PlanSettings:
     #: {"position": (3,), "direction": (3,) unit, "cone_deg": float} or None
     tracker: dict | None = None
     loads: list[list[float]] | None = None
+    #: (n, 3) the points measured on the tool (deflection data, tool frame, m) or None
+    points: np.ndarray | None = None
     #: the model file the settings came from (for messages)
     path: str = ""
 
@@ -144,8 +149,21 @@ def _loads(v: object, where: str) -> list[list[float]]:
         row = [V.number(x, f"{key}[{k}]", "force" if k < 3 else "moment") for k, x in enumerate(w)]
         if not any(row):
             raise InputError(f"{key} is all zero: a load that deflects nothing tells nothing")
+        if row in out:
+            raise InputError(f"{key} = {w!r} repeats {where} loads[{out.index(row)}]: give each load once")
         out.append(row)
     return out
+
+
+def _points(v: object, where: str) -> np.ndarray:
+    if not isinstance(v, list) or not v or not all(isinstance(x, list) for x in v):
+        raise InputError(f"{where} points must be a list of [x, y, z] (tool frame, m), got {v!r}")
+    pts = np.array([_vector(x, f"{where} points[{i}]", "position") for i, x in enumerate(v)])
+    for i in range(1, len(pts)):
+        same = np.flatnonzero(np.all(pts[:i] == pts[i], axis=1))
+        if same.size:
+            raise InputError(f"{where} points[{i}] = {v[i]!r} repeats points[{int(same[0])}]: give each point once")
+    return pts
 
 
 def parse_plan(table: dict, path: Path | str, model: object) -> PlanSettings:
@@ -192,6 +210,13 @@ def parse_plan(table: dict, path: Path | str, model: object) -> PlanSettings:
                 "(the robot's own weight loads it)"
             )
         s.loads = _loads(table["loads"], where)
+    if "points" in table:
+        if absolute:
+            raise InputError(
+                f"{where} points: points are for deflection data; on absolute data the markers of the model's "
+                '[[effect]] kind = "marker" tables are measured'
+            )
+        s.points = _points(table["points"], where)
     return s
 
 

@@ -133,3 +133,106 @@ def test_deflection_plan_says_how_fit_takes_it(ws):
     assert "the model's 30 free parameters, and 8 x 3 = 24 are fewer: measure at least --select 10" in notes[1]
     assert len(P.plan(None, 10, "D", setup=setup).notes) == 1
     assert P.plan(None, 10, "D", setup=setup).to_json()["notes"] == notes[:1]
+
+
+def test_from_list_names_the_postures_left_out(ws, tmp_path):
+    """--from: a posture outside the [plan] limits is left out, named in one
+    warning by the file's row and line; rows of one posture count once; K
+    beyond the feasible ones says to add postures (not --candidates)."""
+    folder = tmp_path / "kr"
+    kr_files(folder, extra="limits = { joint_a2 = [-1.5, -0.2] }\n")
+    head = "config,q1,q2,q3,q4,q5,q6,fx,fy,fz,mx,my,mz"
+    rows = [
+        "a,0.1,-0.6,0.4,0.0,1.1,0.0,0,0,-100,0,0,0",
+        "a,0.1,-0.6,0.4,0.0,1.1,0.0,100,0,0,0,0,0",  # the same posture under another load
+        "b,0.3,0.1,0.2,0.5,1.0,0.3,0,0,-100,0,0,0",  # q2 above -0.2
+        "c,-0.4,-0.8,0.6,-0.5,0.9,-0.3,0,0,-100,0,0,0",
+        "d,0.2,-1.7,0.1,0.2,0.3,0.4,0,0,-100,0,0,0",  # q2 below -1.5
+        "e,0.5,-1.1,0.9,0.7,-0.6,0.2,0,0,-100,0,0,0",
+    ]
+    (tmp_path / "mine.csv").write_text("\n".join([head, *rows]) + "\n")
+    with pytest.warns(stiffkit.StiffkitWarning) as rec:
+        setup = P.build_setup(folder / "model.toml", postures=tmp_path / "mine.csv")
+    msgs = [str(w.message) for w in rec]
+    assert len(msgs) == 1, msgs
+    assert (
+        "mine.csv: 2 of 5 postures left out (not feasible): row 3 (line 4): joint limit (joint joint_a2 = 0.1"
+        in msgs[0]
+    )
+    assert "row 5 (line 6): joint limit (joint joint_a2 = -1.7" in msgs[0]
+    kept = [[0.1, -0.6, 0.4, 0.0, 1.1, 0.0], [-0.4, -0.8, 0.6, -0.5, 0.9, -0.3], [0.5, -1.1, 0.9, 0.7, -0.6, 0.2]]
+    np.testing.assert_array_equal(setup.candidates.q, kept)
+    assert setup.jc.shape[0] == 3 * 4  # each posture under the 4 [plan] loads
+    with pytest.raises(stiffkit.InputError, match=r"--select 13: only 12 \(posture, load\) candidates .*; add "
+                       r"postures to the --from list or loosen \[plan\]$"):  # fmt: skip
+        P.plan(None, 13, "D", setup=setup)
+    # two postures x 4 loads x 3 coordinates = 24 < the 30 free parameters: no reduction can tell
+    with pytest.warns(stiffkit.StiffkitWarning), pytest.raises(
+        stiffkit.InputError, match=r"2 candidate postures x 4 \[plan\] loads x 1 point\(s\) give 24 observations for "
+        r"the model's 30 free parameters: too few to tell which are identifiable; give more postures \(the --from"
+    ):  # fmt: skip
+        P.build_setup(folder / "model.toml", postures=np.array(kept[:2] + [[0.2, -1.7, 0.1, 0.2, 0.3, 0.4]]))
+
+
+PTS = [[0.0, 0.0, 0.25], [0.12, 0.0, 0.2]]
+
+
+def test_points_from_the_plan_table_or_the_measured_rows(ws, tmp_path):
+    """Deflection data: the points measured on the tool come from [plan]
+    points, else from the rows already measured (--measured), else the tool
+    origin; each candidate then has 3 rows per point, and POSTURES.csv a row
+    per (posture, load) and point that fit reads back with those points."""
+    from stiffkit.calib.measure import read_measurements
+
+    folder = tmp_path / "kr"
+    kr_files(folder, extra=f"points = {PTS}\n")
+    res = stiffkit.plan(folder / "model.toml", 5, "D", candidates=60, seed=1)
+    s = res.setup
+    assert s.nobs == 6 and s.points.tolist() == PTS and s.points_source.endswith("[plan] points")
+    assert "2 point(s) measured on the tool in each" in res.text() and res.to_json()["points"] == PTS
+    res.write(tmp_path / "p.csv")
+    lines = (tmp_path / "p.csv").read_text().splitlines()
+    (tmp_path / "m.csv").write_text("\n".join([lines[0]] + [ln[:-3] + ",0,0,0" for ln in lines[1:]]) + "\n")
+    meas = read_measurements(tmp_path / "m.csv", 6)
+    assert meas.n == 5 * 2 and meas.p.tolist() == PTS * 5
+    np.testing.assert_array_equal(meas.q, np.repeat(s.candidates.q[s.posture[res.selected]], 2, axis=0))
+    # no [plan] points: those of the measured rows (here the plan's own file), in their order
+    s2 = P.build_setup(ws / "kr" / "model.toml", candidates=60, seed=1, measured=tmp_path / "m.csv")
+    assert s2.points.tolist() == PTS and s2.nobs == 6 and s2.points_source == f"the points of {tmp_path / 'm.csv'}"
+    s3 = P.build_setup(ws / "kr" / "model.toml", candidates=60, seed=1)
+    assert s3.points.tolist() == [[0.0, 0.0, 0.0]] and s3.nobs == 3
+
+
+@pytest.mark.parametrize(
+    ("kind", "line", "match"),
+    [
+        ("kr", "points = [[0, 0, 0.25], [0, 0, 0.25]]", r"\[plan\] points\[1\] = \[0, 0, 0.25\] repeats points\[0\]"),
+        ("kr", "points = [0, 0, 0.25]", r"\[plan\] points must be a list of \[x, y, z\]"),
+        ("kr", "points = [[0, 0]]", r"\[plan\] points\[0\] must have shape \(3,\)"),
+        ("kr", "points = [[0, nan, 0]]", r"\[plan\] points\[0\]\[1\] is nan"),
+        ("da", "points = [[0, 0, 0.25]]", r"\[plan\] points: points are for deflection data"),
+    ],
+)
+def test_bad_points_are_named(ws, tmp_path, kind, line, match):
+    folder = tmp_path / kind
+    if kind == "kr":
+        kr_files(folder, extra=line + "\n")
+    else:
+        folder.mkdir()
+        for f in ("robot.urdf", "model.toml"):
+            (folder / f).write_text((ws / "da" / f).read_text())
+        with open(folder / "model.toml", "a") as fh:
+            fh.write(f"\n[plan]\n{line}\n")
+    with pytest.raises(stiffkit.InputError, match=match):
+        P.build_setup(folder / "model.toml", candidates=20)
+
+
+def test_a_load_given_twice_is_named(tmp_path):
+    from _plan_robots import KR_MODEL
+
+    text = KR_MODEL.format(extra="").replace("[0, 0, 0, 300, 0, 0]]", "[0, 0, 0, 300, 0, 0], [2500, 0, 0, 0, 0, 0]]")
+    kr_files(tmp_path)
+    (tmp_path / "model.toml").write_text(text)
+    with pytest.raises(stiffkit.InputError, match=r"\[plan\] loads\[4\] = \[2500, 0, 0, 0, 0, 0\] repeats "
+                       r"\S+ \[plan\] loads\[1\]: give each load once"):  # fmt: skip
+        P.build_setup(tmp_path / "model.toml", candidates=20)
