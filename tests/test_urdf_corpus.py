@@ -214,10 +214,12 @@ def test_non_unit_axes(tmp_path, text, ok):
 
 
 def test_a_unit_axis_written_in_decimals_is_not_warned(tmp_path):
-    """0.48 0.6 0.64 has norm 1 only to round-off (0.9999999999999999):
-    normalised without the warning that used to read 'axis norm 1 is not 1'."""
-    text = "0.48 0.6 0.64"
-    assert np.linalg.norm([0.48, 0.6, 0.64]) != 1.0
+    """1/sqrt(2) written to 16 digits, truncated (an exporter's rounding), has
+    norm 1 only to round-off (1 - 1.1e-16; 0.48 0.6 0.64 did with numpy < 2.4,
+    whose norm now rounds it to exactly 1): normalised without the warning
+    that used to read 'axis norm 1 is not 1'."""
+    text = "0.7071067811865475 0.7071067811865475 0"
+    assert np.linalg.norm([float(v) for v in text.split()]) != 1.0
     p = _write(tmp_path, [C.J("j1", "revolute", "base_link", "a", axis_text=text)])
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
