@@ -50,11 +50,12 @@ SCHEMA: dict[str, dict[str, str]] = {
         "inner_diameter": "float",
     },
     "material": {"E": "float", "nu": "float", "density": "float"},
-    "support": {"plane": "str", "tolerance": "float"},
+    "support": {"plane": "str", "tolerance": "float", "coupling": "str"},
     "load": {"plane": "str", "reference_point": "list3", "coupling": "str", "amplitudes": "amplitudes"},
     "field": {"region": "str", "size": "float"},
     "mesh": {
         "mesher": "str",
+        "element": "str",
         "order": "int",
         "size": "float",
         "refine": "float",
