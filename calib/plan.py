@@ -127,6 +127,8 @@ class PlanResult:
     seed: int = 0
     notes: list[str] = field(default_factory=list)
     discrimination: dict | None = None
+    #: --measured: the task trace of the rows already measured alone (+inf: they do not identify every parameter)
+    measured_task_trace: float | None = None
 
     @property
     def task_rms(self) -> float:
@@ -136,6 +138,11 @@ class PlanResult:
     @property
     def random_task_rms(self) -> float:
         return _rms(float(np.median(self.random_task_traces)), self.setup)
+
+    @property
+    def measured_task_rms(self) -> float | None:
+        """--measured: the expected task error of the rows already measured alone (m; inf: not identified)."""
+        return None if self.measured_task_trace is None else _rms(self.measured_task_trace, self.setup)
 
     @property
     def ratio(self) -> float:
@@ -617,6 +624,9 @@ def plan(
     rt = np.array([design.criterion(setup.jc, d, "task", m0=setup.m0, jt=jt) for d in draws])
     rv = rt if crit == "task" else np.array([design.criterion(setup.jc, d, crit, m0=setup.m0) for d in draws])
     trace = float(res.value) if crit == "task" else design.criterion(setup.jc, chosen, "task", m0=setup.m0, jt=jt)
+    before = None
+    if setup.m0 is not None and setup.measured_rows:
+        before = design.criterion(setup.jc, np.zeros(0, int), "task", m0=setup.m0, jt=jt)
     cov, exc = _cov(setup, chosen)
     # the information's diagonal (variance inflation = diag(M^-1) diag(M))
     info_diag = np.einsum("cij,cij->j", setup.jc[chosen], setup.jc[chosen])
@@ -659,6 +669,7 @@ def plan(
         random_posture_rms=np.median(np.array(per), axis=0),
         seed=seed,
         notes=notes,
+        measured_task_trace=before,
     )
 
 

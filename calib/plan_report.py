@@ -189,6 +189,11 @@ def plan_json(res: PlanResult) -> dict:
             "random_median_rms_position_m": _finite(res.random_task_rms),
             "random_median_rms_position_mm": _finite(res.random_task_rms * 1e3),
             "ratio": _finite(res.ratio),
+            **(
+                {"measured_alone_rms_position_m": _finite(res.measured_task_rms)}
+                if res.measured_task_rms is not None
+                else {}
+            ),
             "per_posture_m": [_finite(v) for v in res.task_posture_rms],
             "random_per_posture_m": [_finite(v) for v in res.random_posture_rms],
         },
@@ -244,6 +249,17 @@ def plan_text(res: PlanResult) -> str:
         f"expected task error (RMS position over {s.jt.shape[0] // 3} points of {s.task_source}): plan "
         f"{_mm(res.task_rms)} ({res.task_rms:.4g} m), random median {_mm(res.random_task_rms)} "
         f"({res.random_task_rms:.4g} m): ratio {res.ratio:.3f}",
+    ]
+    if res.measured_task_rms is not None:
+        lines.append(
+            f"  the {s.measured_rows} rows already measured alone: {_mm(res.measured_task_rms)}"
+            + (
+                " (they do not identify every parameter planned for)"
+                if not math.isfinite(res.measured_task_rms)
+                else ""
+            )
+        )
+    lines += [
         "expected standard deviation of each parameter:",
     ]
     width = max(len(n) for n in s.names)

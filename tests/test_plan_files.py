@@ -236,3 +236,36 @@ def test_a_load_given_twice_is_named(tmp_path):
     with pytest.raises(stiffkit.InputError, match=r"\[plan\] loads\[4\] = \[2500, 0, 0, 0, 0, 0\] repeats "
                        r"\S+ \[plan\] loads\[1\]: give each load once"):  # fmt: skip
         P.build_setup(tmp_path / "model.toml", candidates=20)
+
+
+def test_measured_alone_is_reported(ws, tmp_path):
+    """--measured: the report gives the expected task error of the rows
+    already measured alone, sqrt(trace(Jt M0^-1 Jt^T) / points) (numpy
+    here), above the plan's that adds to them."""
+    model = ws / "kr" / "model.toml"
+    first = stiffkit.plan(model, 12, "D", candidates=80, seed=2)
+    lines = postures_text(first).splitlines()
+    (tmp_path / "m.csv").write_text("\n".join([lines[0]] + [ln[:-3] + ",0,0,0" for ln in lines[1:]]) + "\n")
+    res = stiffkit.plan(model, 3, "D", candidates=80, seed=2, measured=tmp_path / "m.csv")
+    s = res.setup
+    assert s.measured_rows == 12 and first.measured_task_rms is None
+    want = math.sqrt(np.trace(s.jt @ np.linalg.solve(s.m0, s.jt.T)) / (s.jt.shape[0] / 3))
+    assert res.measured_task_rms == pytest.approx(want, rel=1e-9)
+    assert res.task_rms < res.measured_task_rms
+    assert f"the 12 rows already measured alone: {want * 1e3:.4g} mm" in res.text()
+    assert res.to_json()["task"]["measured_alone_rms_position_m"] == pytest.approx(want, rel=1e-9)
+
+
+def test_k_too_small_gives_the_minimum(ws):
+    """observations per candidate x K < identifiable parameters: the message
+    gives the minimum K = ceil(identifiable / observations), which plans."""
+    setup = P.build_setup(ws / "kr" / "model.toml", candidates=60, seed=3)
+    kmin = math.ceil(setup.npar / setup.nobs)
+    assert setup.nobs == 3 and kmin >= 5
+    with pytest.raises(stiffkit.InputError) as exc:
+        P.plan(None, kmin - 1, "D", setup=setup)
+    assert str(exc.value) == (
+        f"--select {kmin - 1}: {kmin - 1} x 3 observations per candidate = {3 * (kmin - 1)} < {setup.npar} "
+        f"identifiable parameters: the minimum is --select {kmin}"
+    )
+    assert P.plan(None, kmin, "D", setup=setup).k == kmin
