@@ -5,7 +5,9 @@
 !> including the chain rule through a gravity compensator and a point
 !> offset. The joint laws are the tree's (sk_laws law_delta/law_derivs:
 !> linear, cubic, dead zone); the posture-dependent compliance of a joint
-!> (profile, compensator) is below.
+!> (profile, compensator) is below. The frames, the springs' screws and
+!> their generalised forces come from the chain's tree model
+!> (sk_chain_tree): a chain is a tree.
 !>
 !> Model (terms t = 1..nt, tint[7,nt], tgeo[5,nt]):
 !>   tint(1,t) kind: 1 joint (c), 2 joint_profile (c0..c4 on 1, cos q,
