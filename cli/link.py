@@ -36,7 +36,8 @@ LINK.toml (format: docs/link.md; lengths in geometry.units):
                                       the bore or pin hole whose surface lies on this cylinder
                 point = [x, y, z]     the face through the point (nearest within tolerance)
                 box = [xmin, ymin, zmin, xmax, ymax, zmax]   the faces inside the box
-                group = "name"        a .geo physical group or a STEP face label
+                group = "name"        a .geo/.msh physical group or a STEP face label
+                                      ([geometry] step = "part.msh": a mesh used as it is)
               tolerance = default of the CAD selectors: 1e-4 of the bounding-box diagonal
               coupling = "rigid" (default: every node held in x, y, z) | "distributing"
                                       (only the set's weighted mean motion held: the face

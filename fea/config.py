@@ -379,8 +379,34 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         )
     if "element" not in me:  # the order names the tetrahedron
         element = "tet10" if order == 2 else "tet4"
-    msize = _positive(_get(me, "size", "mesh", path, float), "mesh", "size", path)
-    check_mesh_size(msize, geometry, units, f"{path}: [mesh] size")
+    msh = str(geometry.get("step", "")).lower().endswith(".msh")
+    if msh:  # a mesh already: used as it is
+        given = sorted(
+            set(me)
+            & {
+                "size",
+                "refine",
+                "refine_radius",
+                "optimize",
+                "structured",
+                "across_factor",
+                "features",
+                "across",
+                "around",
+                "accuracy",
+            }
+        )
+        if given:
+            raise ConfigError(
+                f"{path}: [mesh] {', '.join(given)}: [geometry] step is a .msh, a mesh used as it is "
+                "(only element or order, and max_nodes, apply)"
+            )
+        if _get(me, "mesher", "mesh", path, str, "gmsh") != "gmsh":
+            raise ConfigError(f'{path}: [mesh] mesher: a .msh is read by Gmsh (mesher = "gmsh")')
+        msize = 1.0  # not used: the mesh's own size is reported
+    else:
+        msize = _positive(_get(me, "size", "mesh", path, float), "mesh", "size", path)
+        check_mesh_size(msize, geometry, units, f"{path}: [mesh] size")
     refine = _get(me, "refine", "mesh", path, float, None) if "refine" in me else None
     if refine is not None and not 0 < refine < 1:
         raise ConfigError(f"{path}: [mesh] refine = {refine!r}: a size factor in (0, 1)")
@@ -423,7 +449,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         me,
         path,
         ConfigError,
-        features=_get(me, "features", "mesh", path, bool, True),
+        features=_get(me, "features", "mesh", path, bool, not msh),
         across=_get(me, "across", "mesh", path, int, default_across(geometry)),
         around=_get(me, "around", "mesh", path, int, AROUND),
         accuracy=_get(me, "accuracy", "mesh", path, float, None),

@@ -113,7 +113,8 @@ def mesh_job(job: LinkJob, cad: CadSets | None = None) -> Mesh:
     if "step" in job.geometry:  # a CAD part's size is known once it is read
         extent = mesh.info.get("extent") or list((mesh.bbox()[1] - mesh.bbox()[0]) / job.scale)
         check_extent(max(extent) * job.scale, job.units, f"{job.source}: [geometry] step")
-        check_mesh_size(job.size, job.geometry, job.units, f"{job.source}: [mesh] size", dims=list(extent))
+        if not str(job.geometry["step"]).lower().endswith(".msh"):
+            check_mesh_size(job.size, job.geometry, job.units, f"{job.source}: [mesh] size", dims=list(extent))
     return mesh
 
 

@@ -134,9 +134,51 @@ def groups(gmsh: ModuleType) -> dict[str, list[int]]:
     return out
 
 
+def _discrete_face(gmsh: ModuleType, tag: int) -> CadFace | None:
+    """A surface of a .msh (no CAD behind it) from its mesh: area, centre
+    and bounding box of its elements' corner triangles (a quadrilateral:
+    two), a plane's normal when its nodes lie on one (1e-9 of its size);
+    None when the file holds no element on it."""
+    tris = []
+    ntags, coords, _p = gmsh.model.mesh.getNodes(2, tag, includeBoundary=True)
+    if len(ntags) == 0:
+        return None
+    xyz = dict(zip((int(t) for t in ntags), np.asarray(coords, dtype=float).reshape(-1, 3)))
+    for etype, _et, enodes in zip(*gmsh.model.mesh.getElements(2, tag)):
+        props = gmsh.model.mesh.getElementProperties(etype)
+        nn, corners = props[3], props[5]
+        conn = np.asarray(enodes, dtype=np.int64).reshape(-1, nn)[:, :corners]
+        tris += [conn[:, :3]] + ([conn[:, [0, 2, 3]]] if corners == 4 else [])
+    if not tris:
+        return None
+    t = np.concatenate(tris)
+    p = np.array([[xyz[int(v)] for v in row] for row in t])
+    cr = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    a = 0.5 * np.linalg.norm(cr, axis=1)
+    area = float(a.sum())
+    centre = (a[:, None] * p.mean(axis=1)).sum(axis=0) / area
+    pts = p.reshape(-1, 3)
+    bbox = [float(v) for v in np.concatenate([pts.min(axis=0), pts.max(axis=0)])]
+    face = CadFace(id=int(tag), type="Discrete", area=area, centre=[float(v) for v in centre], bbox=bbox)
+    _u, sv, vt = np.linalg.svd(pts - centre, full_matrices=False)
+    if sv[-1] <= 1e-9 * max(sv[0], 1e-300) * np.sqrt(len(pts)):
+        face.type = "Plane"
+        face.axis = [float(v) for v in _canonical(vt[-1])]
+    return face
+
+
 def faces_of_model(gmsh: ModuleType) -> list[CadFace]:
-    """Every surface of the current (synchronised) model."""
-    return [_face(gmsh, tag) for _dim, tag in gmsh.model.getEntities(2)]
+    """Every surface of the current (synchronised) model; of a .msh (discrete
+    surfaces), every surface that carries elements, measured on its mesh."""
+    out = []
+    for _dim, tag in gmsh.model.getEntities(2):
+        if gmsh.model.getType(2, tag) == "Discrete surface":
+            f = _discrete_face(gmsh, tag)
+            if f is not None:
+                out.append(f)
+        else:
+            out.append(_face(gmsh, tag))
+    return out
 
 
 def distances(gmsh: ModuleType, points: list, faces: list[CadFace]) -> np.ndarray:
@@ -144,6 +186,14 @@ def distances(gmsh: ModuleType, points: list, faces: list[CadFace]) -> np.ndarra
     (trimmed) face, in the geometry's unit (OpenCASCADE)."""
     occ = gmsh.model.occ
     out = np.zeros((len(points), len(faces)))
+    if faces and all(f.type in ("Discrete", "Plane") for f in faces) and not gmsh.model.occ.getEntities(2):
+        # a .msh: the distance to the nearest node of each surface's mesh
+        for j, f in enumerate(faces):
+            _t, c, _p = gmsh.model.mesh.getNodes(2, f.id, includeBoundary=True)
+            xyz = np.asarray(c, dtype=float).reshape(-1, 3)
+            for i, p in enumerate(points):
+                out[i, j] = float(np.min(np.linalg.norm(xyz - np.asarray(p, dtype=float), axis=1)))
+        return out
     for i, p in enumerate(points):
         pt = occ.addPoint(float(p[0]), float(p[1]), float(p[2]))
         occ.synchronize()

@@ -45,6 +45,7 @@ CAD_SUFFIXES = {
     ".iges": "IGES",
     ".igs": "IGES",
     ".geo": "Gmsh .geo",
+    ".msh": "Gmsh .msh",
 }
 #: geometry unit -> OpenCASCADE target unit of STEP/IGES import
 OCC_UNITS = {"mm": "MM", "m": "M", "cm": "CM", "in": "INCH"}
@@ -119,7 +120,7 @@ def _add_geometry(gmsh: ModuleType, geometry: dict, units: str) -> None:
             raise InputError(f"{path}: CAD file not found")
         gmsh.option.setString("Geometry.OCCTargetUnit", OCC_UNITS.get(units, "MM"))
         try:
-            if kind == "Gmsh .geo":  # a script: its physical groups name faces
+            if kind in ("Gmsh .geo", "Gmsh .msh"):  # its physical groups name faces
                 gmsh.merge(str(path))
             else:
                 occ.importShapes(str(path))
@@ -127,7 +128,8 @@ def _add_geometry(gmsh: ModuleType, geometry: dict, units: str) -> None:
             raise MeshError(f"{path}: OpenCASCADE cannot read this {kind} file ({exc})") from None
     else:
         raise InputError("geometry: give `step` (a CAD file) or `shape` = box | tube | rod")
-    occ.synchronize()
+    if not is_msh(geometry):  # a .msh holds discrete entities only
+        occ.synchronize()
     vols = gmsh.model.getEntities(3)
     where = geometry.get("step", geometry.get("shape"))
     if not vols:
@@ -191,6 +193,67 @@ def _structured_box(gmsh: ModuleType, size: float, across_factor: float) -> None
         gmsh.model.mesh.setTransfiniteVolume(tag)
 
 
+def is_msh(geometry: dict) -> bool:
+    """True for a Gmsh .msh given as the part: a mesh, used as it is."""
+    return str(geometry.get("step", "")).lower().endswith(".msh")
+
+
+#: gmsh element type -> (nodes, CalculiX type)
+_MSH_SOLIDS = {4: (4, "C3D4"), 11: (10, "C3D10"), 5: (8, "C3D8"), 17: (20, "C3D20R")}
+
+
+def _mesh_from_msh(geometry: dict, units: str, scale: float, order: int, element: str) -> Mesh:
+    """The mesh of a Gmsh .msh file as it is (no meshing): its solid
+    elements (one kind: C3D4, C3D10, C3D8 or C3D20R, matching [mesh]
+    element/order), and its surface elements with the entity each lies on
+    (the faces its physical groups name)."""
+    path = geometry["step"]
+    want = {("tet", 1): 4, ("tet", 2): 10, ("hex", 1): 8, ("hex", 2): 20}[element, order]
+    gmsh = _gmsh()
+    t0 = time.perf_counter()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    _python_signals()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("msh")
+        _add_geometry(gmsh, geometry, units)
+        kinds = {int(t) for _d, v in gmsh.model.getEntities(3) for t in gmsh.model.mesh.getElementTypes(3, v)}
+        solid = [t for t in kinds if t in _MSH_SOLIDS]
+        names = ", ".join(_MSH_SOLIDS[t][1] for t in sorted(solid)) or "none"
+        if len(solid) != 1 or kinds - set(solid):
+            raise MeshError(
+                f"{path}: the .msh must hold one kind of solid element (C3D4, C3D10, C3D8 or C3D20R); it holds "
+                f"{names}{' and others' if kinds - set(solid) else ''} (save the volume's physical group, or "
+                "Mesh.SaveAll = 1)"
+            )
+        etype = solid[0]
+        if _MSH_SOLIDS[etype][0] != want:
+            el = {4: "tet4", 10: "tet10", 8: "hex8", 20: "hex20"}[_MSH_SOLIDS[etype][0]]
+            raise MeshError(f'{path}: the .msh holds {_MSH_SOLIDS[etype][1]} elements: set [mesh] element = "{el}"')
+        if etype in (5, 17):
+            mesh = _collect_hex(gmsh, 2 if etype == 17 else 1, scale)
+        else:
+            mesh = _collect_gmsh(gmsh, 2 if etype == 11 else 1, scale)
+            mesh.surface_tri, mesh.surface_tag = surface_triangles(gmsh)
+        if mesh.surface_tri is None or mesh.surface_tri.size == 0:
+            warnings.warn(
+                f"{path}: the .msh holds no surface elements on the part's boundary: only plane selectors work",
+                PlausibilityWarning,
+                stacklevel=2,
+            )
+    finally:
+        gmsh.finalize()
+    p = mesh.nodes[mesh.elements[:, :2] - 1]
+    mesh.size_m = float(np.median(np.linalg.norm(p[:, 1] - p[:, 0], axis=1)))
+    mesh.mesher = "gmsh"
+    lo, hi = mesh.bbox()
+    mesh.info["extent"] = [float(v) for v in (hi - lo) / scale]
+    mesh.info["msh"] = str(path)
+    mesh.info["time_s"] = time.perf_counter() - t0
+    mesh.info.update(check_geometry(mesh))
+    return mesh
+
+
 def mesh_part(
     geometry: dict,
     units: str,
@@ -239,6 +302,8 @@ def mesh_part(
     the selected faces (:mod:`.refine`); a built-in box gets a structured
     mesh with ``across`` elements over its section instead.
     """
+    if is_msh(geometry):
+        return _mesh_from_msh(geometry, units, scale, order, element)
     if optimize not in ("none", "netgen"):
         raise InputError(f"mesh.optimize = {optimize!r}: none or netgen")
     if structured:
@@ -385,6 +450,13 @@ def _gmsh_hexahedra(gmsh: ModuleType, order: int, scale: float, size: float, whe
     other = [vol for _dim, vol in gmsh.model.getEntities(3) if set(gmsh.model.mesh.getElementTypes(3, vol)) - {etype}]
     if other:
         raise MeshError(f"{where}: gmsh left elements other than hexahedra in volume(s) {other}")
+    return _collect_hex(gmsh, order, scale)
+
+
+def _collect_hex(gmsh: ModuleType, order: int, scale: float) -> Mesh:
+    """The hexahedra (C3D8, C3D20R in ccx order) of the current gmsh mesh
+    and its quadrilateral surfaces."""
+    etype = 17 if order == 2 else 5
     _tags, enodes = gmsh.model.mesh.getElementsByType(etype)
     ntags, coords, _ = gmsh.model.mesh.getNodes()
     conn = np.asarray(enodes, dtype=np.int64).reshape(-1, 20 if order == 2 else 8)
