@@ -67,8 +67,8 @@ def _subtree(model: TreeModel, link: str) -> set[str]:
     return out
 
 
-#: kinds whose target is a joint and whose effect moves the links below it
-JOINT_TARGET_KINDS = JOINT_KINDS + ("joint_cubic", "joint_deadzone")
+#: kinds whose target is a joint and whose effect moves the links below it (robot/catalogue.py)
+JOINT_TARGET_KINDS = tuple(e.name for e in catalogue.ENTRIES if e.per_joint and catalogue.ABSOLUTE in e.data)
 
 
 def moved_links(model: TreeModel, cand: dict) -> set[str] | None:

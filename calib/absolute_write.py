@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from ..io import tomlw
 from ..io.files import atomic_write_text
+from ..robot import catalogue
 from ..robot.model import SYM
 from ..robot.model_bodies import BODY_KINDS, body_table
 from ..robot.tree import TreeJoint
@@ -169,10 +170,6 @@ def model_effects(
                 tab["xyz"] = [vals[c] for c in "xyz"]
                 if src.get("fixed"):
                     tab["fixed"] = True
-            elif kind == "joint_offset":
-                tab["value"] = vals["dq0"]
-            elif kind == "frame":
-                tab["value"] = [vals[n] for n in FRAME_NAMES]
             elif kind in ("joint", "lateral"):
                 names = ["c"] if kind == "joint" else ["cx", "cy"]
                 v = [vals.get(n, 0.0) for n in names]  # a joint may have no cy (section 6.12)
@@ -186,11 +183,6 @@ def model_effects(
                         )
                 v = [max(x, 0.0) for x in v]
                 tab["value"] = v[0] if kind == "joint" else v
-            elif kind == "joint_cubic":
-                tab["value"] = vals["cubic"]
-            elif kind == "joint_deadzone":
-                tab["value"] = vals["backlash"]
-                tab["tau0"] = _tau0(model, target)
             elif kind in ("link", "base"):
                 C = np.zeros((6, 6))
                 for a, b in SYM:
@@ -200,6 +192,11 @@ def model_effects(
                 val, clipped = body_table(kind, target, vals)
                 tab.update(val)
                 notes += clipped
+            elif catalogue.KIND[kind].params:  # the key(s) the reader takes the values from (robot/catalogue.py)
+                e = catalogue.KIND[kind]
+                tab.update(catalogue.value_table(kind, [vals[n] for n in e.names]))
+                if e.w0_key:
+                    tab[e.w0_key] = _tau0(model, target)
             else:  # pragma: no cover - every kind of ABS_KINDS is handled above
                 raise InputError(f"cannot write an effect of kind {kind!r}")
             extra = [f"{HELD_NOTE}: " + ", ".join(said)] if said else []

@@ -21,7 +21,7 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
-from ..robot.model import LOAD_NONLINEAR, SYM, Model
+from ..robot.model import SYM, Model
 from .fit import coupling_groups, fit, solve_wls
 
 if TYPE_CHECKING:
@@ -177,7 +177,7 @@ def reduced_model(model: Model, red: Reduction) -> Model:
     comp = {t.joint for t in model.terms if t.kind == "gravity_compensator"}
     terms = []
     for t in model.terms:
-        if not t.free or t.kind in ("joint_profile", "gravity_compensator", "point_offset", *LOAD_NONLINEAR):
+        if not t.free or t.kind not in ("joint", "six"):  # every other kind whole
             terms.append(t)
         elif t.kind == "joint":
             if t.names[0] in keep or t.joint in comp:

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..io import tomlw
 from ..io.files import atomic_write_text
+from ..robot import catalogue
 from ..robot.model import JOINT_KINDS, SYM, Model, model_from_tables
 from ..robot.model_file import effects_toml
 from .problem import Problem
@@ -246,17 +247,11 @@ def written_tables(res: FitResult) -> tuple[list[dict], list[str]]:
                 said.append(below_zero(t.names[0], float(val[0])) + ": a spring is >= 0")
                 notes.append(said[-1])
                 val[0] = 0.0
-            if t.kind in ("joint", "joint_cubic", "joint_deadzone"):
-                tab["value"] = float(val[0])
-                if t.kind == "joint_deadzone":
-                    tab["tau0"] = res.problem.tau0(t)
-            elif t.kind == "joint_profile":
-                tab["value"] = [float(v) for v in val]
-            elif t.kind == "gravity_compensator":
-                tab["k_s"] = float(val[0])
-            elif t.kind == "point_offset":
-                tab["r"] = [float(v) for v in val]
-            else:
+            if t.kind in catalogue.KIND:  # the key(s) the reader takes the values from (robot/catalogue.py)
+                tab.update(catalogue.value_table(t.kind, val))
+                if catalogue.KIND[t.kind].w0_key:
+                    tab[catalogue.KIND[t.kind].w0_key] = res.problem.tau0(t)
+            else:  # a 6x6 spring (link, base, tool)
                 C = np.zeros((6, 6))
                 for e, v in zip(t.elements, val):
                     a, b = SYM[e]

@@ -50,16 +50,29 @@ from ..calib.robust import format_checks, robust_fit
 from ..errors import InputError
 from ..io import validate as V
 from ..io.files import check_plots_folder, model_inputs, write_json
-from ..robot.model import load_model
+from ..robot.model import KINDS, load_model
 from ..robot.tree_model import model_kind
 from . import args as A
+
+
+def _kinds_text() -> str:
+    """The deflection model's kinds (robot/catalogue.py), wrapped to the help's column."""
+    lines, line = [], ""
+    for k in KINDS:
+        word = k if not line else f" | {k}"
+        if len(line) + len(word) > 62:
+            lines.append(line + " |")
+            line = k
+        else:
+            line += word
+    return ("\n" + " " * 15).join(lines + [line])
+
 
 HELP = """\
 inputs:
   MODEL.toml   [robot] urdf/base_link/tool_frame, optional [measurements]
-               sigma_position (m), and [[effect]] tables: kind = joint | link |
-               base | tool | joint_profile | gravity_compensator | point_offset
-               | joint_cubic | joint_deadzone
+               sigma_position (m), and [[effect]] tables, kind = one of
+               {kinds}
   MEAS.csv     config, q1..qN, fx fy fz mx my mz, [px py pz], dx dy dz, [rx ry rz]
                (wrench at the tool-frame origin in base axes; point in tool
                coordinates; deflection in base axes; SI units)
@@ -78,6 +91,7 @@ effects (where each virtual spring acts; parameter names as printed):
                     rotation, tau the torque of the row's wrench about the joint -> J.cubic (rad/(N m)^3)
   joint_deadzone    (extension) backlash: adds b tanh(tau / tau0) (b in rad; tau0 in N m, default 5 % of
                     the RMS torque about the joint in the data, written back) -> J.backlash
+  every kind of both data kinds, its parameters and law: docs/calibration.md section 8
   a parameter that the loads do not excite (its joint's torque, or its spring column, below 1e-6 of
   the best-excited of its kind) is non-identifiable: value 0 (a placeholder) and a reason
   any effect with value = ... is known, not identified (docs/calibration.md §5)
@@ -117,7 +131,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "fit",
         help="identify a robot's elastostatic parameters from measurements",
         description=__doc__,
-        epilog=HELP,
+        epilog=HELP.replace("{kinds}", _kinds_text()),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("model", help="model TOML")

@@ -152,13 +152,13 @@ contains
         integer(ip), intent(in) :: tint(:, :)
         real(dp), intent(in) :: tgeo(:, :), pv(:), ceff, tau
         real(dp), intent(out) :: delta, dlin, dcub, ddz
-        real(dp) :: par(nsym), d(1), dm(1, 1), dp2(1, nsym), w(1)
+        real(dp) :: par(nsym), d(1), dm(1, 1), dp2(1, nsym), dv(1), w(1)
         integer :: t
         w(1) = tau
         par = 0.0_dp
         par(1) = ceff
-        call law_delta(law_linear, par, 1.0_dp, w, d)
-        call law_derivs(law_linear, par, 1.0_dp, w, dm, dp2)
+        call law_delta(law_linear, par, 1.0_dp, 0.0_dp, w, d)
+        call law_derivs(law_linear, par, 1.0_dp, 0.0_dp, w, dm, dp2, dv)
         delta = d(1)
         dlin = dp2(1, 1)
         dcub = 0.0_dp
@@ -169,13 +169,13 @@ contains
             par(2) = pv(tint(3, t))
             select case (tint(1, t))
             case (term_cubic)
-                call law_delta(law_cubic, par, 1.0_dp, w, d)
-                call law_derivs(law_cubic, par, 1.0_dp, w, dm, dp2)
+                call law_delta(law_cubic, par, 1.0_dp, 0.0_dp, w, d)
+                call law_derivs(law_cubic, par, 1.0_dp, 0.0_dp, w, dm, dp2, dv)
                 delta = delta + d(1)
                 dcub = dp2(1, 2)
             case (term_deadzone)
-                call law_delta(law_deadzone, par, tgeo(5, t), w, d)
-                call law_derivs(law_deadzone, par, tgeo(5, t), w, dm, dp2)
+                call law_delta(law_deadzone, par, tgeo(5, t), 0.0_dp, w, d)
+                call law_derivs(law_deadzone, par, tgeo(5, t), 0.0_dp, w, dm, dp2, dv)
                 delta = delta + d(1)
                 ddz = dp2(1, 2)
             end select
@@ -317,7 +317,7 @@ contains
         logical, intent(in) :: with_load
         real(dp), intent(out) :: cj(:, :)
         integer(ip), intent(out) :: info
-        real(dp) :: ceff, dc, dk, pv(size(par)), none(0), wpar(nsym), dm(1, 1), dp2(1, nsym), d(1)
+        real(dp) :: ceff, dc, dk, pv(size(par)), none(0), wpar(nsym), dm(1, 1), dp2(1, nsym), dv(1), d(1)
         integer :: m, s, t
         integer(ip) :: noelem(0)
         cj = 0.0_dp
@@ -341,15 +341,15 @@ contains
                     select case (tint(1, t))
                     case (term_cubic)
                         if (tau(s, m) == 0.0_dp) cycle
-                        call law_delta(law_cubic, wpar, 1.0_dp, tau(s:s, m), d)
+                        call law_delta(law_cubic, wpar, 1.0_dp, 0.0_dp, tau(s:s, m), d)
                         cj(s, m) = cj(s, m) + d(1)/tau(s, m)
                     case (term_deadzone)
                         if (abs(tau(s, m)/tgeo(5, t)) < secant_small) then
                             ! the tangent at zero load
-                            call law_derivs(law_deadzone, wpar, tgeo(5, t), [0.0_dp], dm, dp2)
+                            call law_derivs(law_deadzone, wpar, tgeo(5, t), 0.0_dp, [0.0_dp], dm, dp2, dv)
                             cj(s, m) = cj(s, m) + dm(1, 1)
                         else
-                            call law_delta(law_deadzone, wpar, tgeo(5, t), tau(s:s, m), d)
+                            call law_delta(law_deadzone, wpar, tgeo(5, t), 0.0_dp, tau(s:s, m), d)
                             cj(s, m) = cj(s, m) + d(1)/tau(s, m)
                         end if
                     end select

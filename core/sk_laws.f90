@@ -28,13 +28,17 @@
 !> entries):
 !>   law_ndof(ktype)                          coordinates of a block (1 or 6)
 !>   law_nslot(ktype)                         parameter slots (1, 2, 2, 21)
-!>   law_delta(ktype, par, w0, w, d)          the deflection d = law(w)
-!>   law_derivs(ktype, par, w0, w, dmat, dpar)  D = d delta/dw [n,n] and
-!>                                            d delta/d(slot) [n,nslot]
+!>   law_delta(ktype, par, w0, v, w, d)       the deflection d = law(w)
+!>   law_derivs(ktype, par, w0, v, w, dmat, dpar, dval)  D = d delta/dw
+!>                                            [n,n], d delta/d(slot)
+!>                                            [n,nslot], d delta/dv [n]
+!> v is the value of the block's (first) joint without its deflection (the
+!> joint angle, plus any zero offset): a law may depend on it; the callers
+!> take dval through every driver that moves that joint.
 !>   law_sym6(par)                            the 6x6 compliance of law_spring6
-!> Adding a law: a new code here (and in robot/tree_model.py), its cases in
-!> law_ndof, law_nslot, law_delta and law_derivs, and its parameter checks
-!> in sk_tree_check%model_check; nothing else of the core changes.
+!> Adding a law: a new code here (nlaw the largest; the catalogue of kinds
+!> robot/catalogue.py LAWS the same numbers), its cases in law_ndof,
+!> law_nslot, law_delta and law_derivs; nothing else of the core changes.
 module sk_laws
     use sk_kinds, only: dp
     use sk_spatial, only: sym_index, nsym
@@ -44,6 +48,8 @@ module sk_laws
 
     !> law codes (ktype of an elastic block)
     integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
+    !> the largest law code (sk_tree_check refuses a ktype beyond it)
+    integer, parameter, public :: nlaw = 4
 
 contains
 
@@ -68,10 +74,11 @@ contains
 
     !> Deflection d(1:n) of a block for its generalised forces w(1:n)
     !> (n = law_ndof(ktype)); par: the block's 21 parameter slots, w0 the
-    !> dead zone's width (unused by the other laws).
-    pure subroutine law_delta(ktype, par, w0, w, d)
+    !> dead zone's width (unused by the other laws), v the joint's value
+    !> (module header; unused by these laws).
+    pure subroutine law_delta(ktype, par, w0, v, w, d)
         integer, intent(in) :: ktype
-        real(dp), intent(in) :: par(nsym), w0, w(:)
+        real(dp), intent(in) :: par(nsym), w0, v, w(:)
         real(dp), intent(out) :: d(:)
         select case (ktype)
         case (law_linear)
@@ -100,13 +107,15 @@ contains
 
     !> Derivatives of a block's law at w(1:n): dmat[n,n] = d delta/dw (the
     !> block of D in the sensitivity (I - D G) Z = ...), dpar[n,:] =
-    !> d delta/d(parameter slot), slots 1..law_nslot(ktype) set.
-    pure subroutine law_derivs(ktype, par, w0, w, dmat, dpar)
+    !> d delta/d(parameter slot), slots 1..law_nslot(ktype) set, dval[n] =
+    !> d delta/dv (zero for a law that does not depend on its joint's value).
+    pure subroutine law_derivs(ktype, par, w0, v, w, dmat, dpar, dval)
         integer, intent(in) :: ktype
-        real(dp), intent(in) :: par(nsym), w0, w(:)
-        real(dp), intent(out) :: dmat(:, :), dpar(:, :)
+        real(dp), intent(in) :: par(nsym), w0, v, w(:)
+        real(dp), intent(out) :: dmat(:, :), dpar(:, :), dval(:)
         real(dp) :: t
         integer :: k, i, j
+        dval = 0.0_dp
         select case (ktype)
         case (law_linear)
             dmat(1, 1) = par(1)

@@ -195,7 +195,7 @@ contains
             do i = 1, n
                 w(i) = st%wv(m%evj(e0 + i - 1))
             end do
-            call law_delta(m%ktype(k), st%par(:, k), m%kw0(k), w(1:n), dn(e0:e0 + n - 1))
+            call law_delta(m%ktype(k), st%par(:, k), m%kw0(k), st%val(m%evj(e0)), w(1:n), dn(e0:e0 + n - 1))
         end do
     end subroutine apply_laws
 
@@ -310,7 +310,7 @@ contains
         logical, intent(in), optional :: reuse, adjoint
         !> Z columns of the gravity-parameter entries [nbp] (problem_setup)
         integer, intent(in), optional :: bodycol(:)
-        real(dp) :: dmat(6, 6), dpar(6, nsym), w(6)
+        real(dp) :: dmat(6, 6), dpar(6, nsym), dval(6), w(6)
         integer :: ne, ncol, nc, e, k, n, e0, j, a, c, i, d
         logical :: factor
         ne = m%ne
@@ -367,7 +367,8 @@ contains
             do i = 1, n
                 w(i) = st%wv(m%evj(e0 + i - 1))
             end do
-            call law_derivs(m%ktype(k), st%par(:, k), m%kw0(k), w(1:n), dmat(1:n, 1:n), dpar(1:n, :))
+            call law_derivs(m%ktype(k), st%par(:, k), m%kw0(k), st%val(m%evj(e0)), w(1:n), dmat(1:n, 1:n), &
+                dpar(1:n, :), dval(1:n))
             if (n == 1) then
                 z(e0, :) = dmat(1, 1)*st%rhs(e0, 1:ncol)
                 if (factor) st%amat(e0, :) = -dmat(1, 1)*st%gee(e0, :)
@@ -379,6 +380,13 @@ contains
                 c = lawcol(j, k)
                 if (c > 0) z(e0:e0 + n - 1, c) = z(e0:e0 + n - 1, c) + dpar(1:n, j)
             end do
+            if (any(dval(1:n) /= 0.0_dp)) then
+                ! a law that depends on its joint's value: every driver that moves that joint
+                do j = 1, size(ent_vj)
+                    if (ent_vj(j) == m%evj(e0)) z(e0:e0 + n - 1, ent_col(j)) = z(e0:e0 + n - 1, ent_col(j)) &
+                        + ent_coef(j)*dval(1:n)
+                end do
+            end if
         end do
         if (factor) then
             do e = 1, ne

@@ -6,7 +6,8 @@ deflections under known loads, sections 2-5; ``absolute``: tracker
 positions, section 6), what its target is, the keys its ``[[effect]]``
 table may carry, its parameters (name suffix, unit, bounds, start value),
 the core law of its elastic block (tree model, ``LAW_*`` = the core's
-``law_*`` codes), its compliance basis in the joint angle (serial model),
+``law_*`` codes) and of its term in the serial chain's evaluator
+(core/sk_deflect.f90 ``term_*``, robot/model_core.py),
 whether it needs a ``joint`` effect on its joint, how the diagnosis
 generates its candidates, the key its values are written back under, and
 its row of the docs table. The readers (robot/model.py, robot/tree_model.py)
@@ -85,16 +86,6 @@ class Param:
         return f"`{self.suffix}` ({self.unit}{bounds})"
 
 
-def _ones(q: np.ndarray) -> np.ndarray:
-    return np.ones((np.size(q), 1))
-
-
-def profile_basis(q: np.ndarray) -> np.ndarray:
-    """(N, 5): 1, cos q, sin q, cos 2q, sin 2q (joint_profile)."""
-    q = np.asarray(q, float)
-    return np.column_stack([np.ones_like(q), np.cos(q), np.sin(q), np.cos(2 * q), np.sin(2 * q)])
-
-
 @dataclass(frozen=True)
 class Kind:
     """One effect kind (module docstring)."""
@@ -111,8 +102,12 @@ class Kind:
     params_text: str = ""
     #: the core law of its block on absolute data ("" none)
     law: str = ""
-    #: serial model: the basis of a joint compliance linear in the parameters, c(q) = basis(q) @ value
-    basis: Callable[[np.ndarray], np.ndarray] | None = None
+    #: serial model: the code of its term in core/sk_deflect.f90 (term_*; 0: none)
+    term: int = 0
+    #: serial model: a term of the joint's linear compliance c(q) (at zero load)
+    compliance: bool = False
+    #: serial model: the joint's compliance depends on the posture (compensation takes it per row)
+    posture_dependent: bool = False
     #: serial model: a deflection not linear in the joint torque (secant factor in robot/model.py)
     load_nonlinear: bool = False
     #: data kinds in which it needs a ``joint`` effect on the same joint
@@ -282,7 +277,8 @@ ENTRIES: tuple[Kind, ...] = (
         (Param("c", C_UNIT, lo=0.0),),
         "dq = c tau",
         law="LAW_LINEAR",
-        basis=_ones,
+        term=1,
+        compliance=True,
         per_joint=True,
         scalar=True,
         candidates=_joint_candidates,
@@ -295,7 +291,9 @@ ENTRIES: tuple[Kind, ...] = (
         {DEFLECTION: frozenset({"target", "value"})},
         tuple(Param(f"c{m}", C_UNIT) for m in range(5)),
         "c(q) = c0 + c1 cos q + c2 sin q + c3 cos 2q + c4 sin 2q",
-        basis=profile_basis,
+        term=2,
+        compliance=True,
+        posture_dependent=True,
         per_joint=True,
         candidates=_joint_candidates,
         candidates_text="every actuated joint lacking it",
@@ -308,6 +306,8 @@ ENTRIES: tuple[Kind, ...] = (
         (Param("k_s", "N/m", lo=0.0),),
         "stiffness 1/c + k_s (s'^2 + (s - s0) s''), s = sqrt(a^2 + b^2 - 2ab cos(q + beta))",
         needs_joint=(DEFLECTION,),
+        term=3,
+        posture_dependent=True,
         per_joint=True,
         value_key="k_s",
         scalar=True,
@@ -333,6 +333,7 @@ ENTRIES: tuple[Kind, ...] = (
         (Param("cubic", "rad/(N m)^3"),),
         "dq = c tau + c3 tau^3",
         law="LAW_CUBIC",
+        term=4,
         load_nonlinear=True,
         needs_joint=(ABSOLUTE,),
         per_joint=True,
@@ -348,6 +349,7 @@ ENTRIES: tuple[Kind, ...] = (
         (Param("backlash", "rad"),),
         "dq = c tau + b tanh(tau / tau0)",
         law="LAW_DEADZONE",
+        term=5,
         load_nonlinear=True,
         needs_joint=(ABSOLUTE,),
         per_joint=True,
@@ -401,6 +403,7 @@ ENTRIES: tuple[Kind, ...] = (
         (Param("rx", "m"), Param("ry", "m"), Param("rz", "m")),
         "the measured points sit at p + r (tool frame)",
         value_key="r",
+        term=7,
         candidates=_offset_candidates,
         candidates_text="one, when the model lacks it",
     ),
@@ -434,6 +437,11 @@ ENTRIES: tuple[Kind, ...] = (
 )
 
 KIND: dict[str, Kind] = {e.name: e for e in ENTRIES}
+#: serial model: kinds whose joint compliance depends on the posture
+POSTURE_DEPENDENT = tuple(e.name for e in ENTRIES if e.posture_dependent)
+#: serial model: the term codes of core/sk_deflect.f90 (a 6-dof spring, of any kind, is "six")
+TERM_SIX = 6
+TERMS = {**{e.name: e.term for e in ENTRIES if e.term}, "six": TERM_SIX}
 #: kinds whose law replaces the joint's linear one on absolute data (one per joint)
 LAW_KINDS = tuple(e.name for e in ENTRIES if e.per_joint and e.law and e.name != "joint" and ABSOLUTE in e.needs_joint)
 

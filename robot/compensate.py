@@ -56,6 +56,7 @@ from ..errors import InputError, StiffkitWarning
 from ..io import validate as V
 from ..io.files import model_inputs
 from ..io.tables import read_toml
+from . import catalogue
 from .compensate_files import ADDED_COLUMNS, WRENCH, Targets, commands_text, read_targets, write_commands
 from .model import LOAD_NONLINEAR, SPRING_BASE, SPRING_FRAME, SPRING_TOOL, Model, load_model
 from .tree import Tree, load_tree
@@ -86,7 +87,7 @@ PASSES, PASS_TOL = 8, 1e-11
 #: rows per call of the core: an interrupt waits for one batch at most (~0.05-0.2 s)
 BATCH = 128
 #: kinds of a relative model whose joint compliance depends on the joint angle
-VARYING = ("joint_profile", "gravity_compensator")
+VARYING = catalogue.POSTURE_DEPENDENT
 
 
 @dataclass

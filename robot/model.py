@@ -34,6 +34,8 @@ KINDS = catalogue.kinds(catalogue.DEFLECTION)
 JOINT_KINDS = tuple(k for k in KINDS if catalogue.KIND[k].per_joint)
 #: joint kinds whose deflection is not linear in the joint torque (docs/calibration.md section 7.1)
 LOAD_NONLINEAR = tuple(k for k in KINDS if catalogue.KIND[k].load_nonlinear)
+#: joint kinds that need a `joint` effect on the same joint
+NEEDS_JOINT = tuple(k for k in KINDS if catalogue.DEFLECTION in catalogue.KIND[k].needs_joint)
 TEMPLATES = ("full", "beam", "diagonal")
 AXES = "xyz"
 SPRING_JOINT, SPRING_FRAME, SPRING_BASE, SPRING_TOOL = 1, 2, 3, 4
@@ -384,12 +386,13 @@ def expand_effect(
                 t.names = [f"{jn}.c"]
                 if "value" in table:
                     t.value = np.array([_number(table, "value", where, "joint_compliance", lo=0.0)])
-            elif kind == "joint_profile":
-                t.names = [f"{jn}.c{m}" for m in range(5)]
+            elif catalogue.KIND[kind].compliance:  # c(q) linear in its values (robot/catalogue.py)
+                names = catalogue.KIND[kind].names
+                t.names = [f"{jn}.{n}" for n in names]
                 if "value" in table:
-                    if not isinstance(table["value"], list) or len(table["value"]) != 5:
-                        raise InputError(f"{where}: value must be [c0, c1, c2, c3, c4]")
-                    t.value = V.array(table["value"], f"{where}: value", (5,), "matrix6")
+                    if not isinstance(table["value"], list) or len(table["value"]) != len(names):
+                        raise InputError(f"{where}: value must be [{', '.join(names)}]")
+                    t.value = V.array(table["value"], f"{where}: value", (len(names),), "matrix6")
             elif kind in LOAD_NONLINEAR:
                 t.names = [f"{jn}.cubic" if kind == "joint_cubic" else f"{jn}.backlash"]
                 if "value" in table:
@@ -477,12 +480,11 @@ def check_terms(terms: list[Term], where: str) -> None:
                 "one effect per spring (its parameters would be counted twice)"
             )
         seen[key] = t
-    comp = [t for t in terms if t.kind == "gravity_compensator"]
-    for t in comp:
+    needs = [t for t in terms if t.kind in NEEDS_JOINT]
+    for t in needs:
         if not any(u.kind == "joint" and u.joint == t.joint for u in terms):
             raise InputError(
-                f"{where}: gravity_compensator on {t.target!r} needs a 'joint' effect on the "
-                f"same joint (its compliance c_j)"
+                f"{where}: {t.kind} on {t.target!r} needs a 'joint' effect on the same joint (its compliance c_j)"
             )
     if sum(t.kind == "point_offset" for t in terms) > 1:
         raise InputError(f"{where}: more than one point_offset effect")

@@ -18,6 +18,7 @@ import numpy as np
 
 from .._core import calib as core
 from ..errors import InputError
+from . import catalogue
 
 if TYPE_CHECKING:
     from .model import Term
@@ -25,18 +26,12 @@ if TYPE_CHECKING:
 
 #: the chain's joint spring type (core/sk_chain.f90 spring_joint; robot.model.SPRING_JOINT)
 _SPRING_JOINT = 1
-_LOAD_NONLINEAR = ("joint_cubic", "joint_deadzone")
+_LOAD_NONLINEAR = tuple(e.name for e in catalogue.ENTRIES if e.load_nonlinear)
+#: the kinds of a joint spring (robot.model.JOINT_KINDS)
+JOINT_KINDS = tuple(e.name for e in catalogue.ENTRIES if e.per_joint and catalogue.DEFLECTION in e.data)
 
-#: term kinds of the core (core/sk_deflect.f90 term_*)
-TERM_CODES = {
-    "joint": 1,
-    "joint_profile": 2,
-    "gravity_compensator": 3,
-    "joint_cubic": 4,
-    "joint_deadzone": 5,
-    "six": 6,
-    "point_offset": 7,
-}
+#: term kinds of the core (core/sk_deflect.f90 term_*), from the catalogue of kinds
+TERM_CODES = catalogue.TERMS
 
 
 def spring_list(terms: Sequence[Term], springs: Sequence[tuple[int, int]] = ()) -> list[tuple[int, int]]:
@@ -97,14 +92,14 @@ def known_joint_compliances(
 ) -> dict[int, np.ndarray]:
     """Compliance of every joint spring at postures Q (N, dof) from the known
     values of the joint kinds among ``terms``, by the core (sk_joint_secant):
-    {chain joint index: (N,)} for the joints with a joint or profile term
+    {chain joint index: (N,)} for the joints with a term of their compliance (joint, profile)
     (with ``wrench`` (N, 6) also the load-nonlinear ones: the secant under
     that load). InputError for a term without its value, and for a dead
     zone without a load."""
     joints: list[int] = []
     jterms = []
     for t in terms:
-        if TERM_CODES.get(t.kind, 0) not in range(1, 6):
+        if t.kind not in JOINT_KINDS:
             continue
         if t.value is None and t.kind == "gravity_compensator":
             raise InputError(f"gravity_compensator on {t.target!r} has no k_s; identify it first")
@@ -120,7 +115,7 @@ def known_joint_compliances(
                 f"posture alone; give the load (Model.tool_compliance(Q, wrench=W) is the secant "
                 f"compliance under W, whose product with W is the deflection)"
             )
-        if (t.kind in ("joint", "joint_profile") or (wrench is not None and t.kind in _LOAD_NONLINEAR)) and (
+        if (catalogue.KIND[t.kind].compliance or (wrench is not None and t.kind in _LOAD_NONLINEAR)) and (
             t.joint not in joints
         ):
             joints.append(t.joint)
