@@ -13,7 +13,8 @@
 !>   tint(1,t) kind: 1 joint (c), 2 joint_profile (c0..c4 on 1, cos q,
 !>             sin q, cos 2q, sin 2q), 3 gravity_compensator (k_s),
 !>             4 joint_cubic (c3), 5 joint_deadzone (b, tau0 = tgeo(5,t)),
-!>             6 six-dof spring (elements), 7 point offset (r, tool frame)
+!>             6 six-dof spring (elements), 7 point offset (r, tool frame),
+!>             8 joint_harmonic (c1, s1 on cos q, sin q: sk_laws law_harmonic)
 !>   tint(2,t) the term's spring (1-based into stype/sidx; 0 for kind 7)
 !>   tint(3,t) its first value in par, tint(4,t) its number of values
 !>   tint(5,t) its first Jacobian column (1-based), 0 when known
@@ -36,13 +37,13 @@ module sk_deflect
     use sk_chain, only: check_chain, spring_joint
     use sk_tree_model, only: tree_model, tree_state, state_init
     use sk_chain_tree, only: chain_tree_model, chain_tree_rows
-    use sk_laws, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone
+    use sk_laws, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone, law_harmonic
     implicit none
     private
     public :: deflection_rows, joint_secant, compensator_h, profile_basis
     !> term kinds (robot/model_core.py TERM_* mirrors them)
     integer, parameter, public :: term_joint = 1, term_profile = 2, term_compensator = 3, term_cubic = 4, &
-        term_deadzone = 5, term_six = 6, term_offset = 7
+        term_deadzone = 5, term_six = 6, term_offset = 7, term_harmonic = 8
     !> |tau / tau0| below which the dead zone's secant is its tangent at zero
     real(dp), parameter :: secant_small = 1.0e-4_dp
 
@@ -68,6 +69,22 @@ contains
         f = [1.0_dp, cos(q), sin(q), cos(2.0_dp*q), sin(2.0_dp*q)]
     end function profile_basis
 
+    !> The joint_harmonic basis at q: the law_harmonic compliance per unit
+    !> c1 and s1 (sk_laws), cos q and sin q.
+    pure function harmonic_basis(q) result(f)
+        real(dp), intent(in) :: q
+        real(dp) :: f(2), par(nsym), dm(1, 1), dp2(1, nsym), dv(1)
+        par = 0.0_dp
+        call law_derivs(law_harmonic, par, 1.0_dp, q, [1.0_dp], dm, dp2, dv)
+        f = dp2(1, 2:3)
+    end function harmonic_basis
+
+    !> Whether a term kind belongs to a joint spring (its q column is set).
+    elemental logical function joint_term(k)
+        integer(ip), intent(in) :: k
+        joint_term = k <= term_deadzone .or. k == term_harmonic
+    end function joint_term
+
     !> Check the term tables against the springs, the values and the rows.
     pure subroutine check_terms(tint, tgeo, elem, ns, npall, npar, ndof, info)
         integer(ip), intent(in) :: tint(:, :), elem(:), ns, npall, npar, ndof
@@ -79,7 +96,7 @@ contains
         do t = 1, size(tint, 2)
             k = tint(1, t)
             n = tint(4, t)
-            if (k < term_joint .or. k > term_offset) return
+            if (k < term_joint .or. k > term_harmonic) return
             if (k /= term_offset .and. (tint(2, t) < 1 .or. tint(2, t) > ns)) return
             if (tint(3, t) < 1 .or. tint(3, t) + n - 1 > npall) return
             if (tint(5, t) < 0) return
@@ -91,12 +108,14 @@ contains
                 if (n /= 5) return
             case (term_offset)
                 if (n /= 3) return
+            case (term_harmonic)
+                if (n /= 2) return
             case default
                 if (tint(7, t) < 1 .or. tint(7, t) + n - 1 > size(elem)) return
                 if (any(elem(tint(7, t):tint(7, t) + n - 1) < 1) .or. any(elem(tint(7, t):tint(7, t) + n - 1) > nsym)) &
                     return
             end select
-            if (k <= term_deadzone .and. (tint(6, t) < 1 .or. tint(6, t) > ndof)) return
+            if (joint_term(k) .and. (tint(6, t) < 1 .or. tint(6, t) > ndof)) return
             if (k == term_deadzone .and. .not. tgeo(5, t) > 0.0_dp) return
             if (k == term_compensator .and. .not. (tgeo(1, t) > 0.0_dp .and. tgeo(2, t) > 0.0_dp)) return
         end do
@@ -126,6 +145,8 @@ contains
                 c = c + pv(p)
             case (term_profile)
                 c = c + dot_product(profile_basis(q(tint(6, t))), pv(p:p + 4))
+            case (term_harmonic)
+                c = c + dot_product(harmonic_basis(q(tint(6, t))), pv(p:p + 1))
             case (term_compensator)
                 comp = .true.
                 ks = pv(p)
@@ -265,7 +286,7 @@ contains
             ! joint springs: delta = law(tau) with the posture's linear compliance
             do s = 1, ns
                 if (stype(s) /= spring_joint) cycle
-                if (.not. any(tint(2, :) == s .and. tint(1, :) <= term_deadzone)) cycle
+                if (.not. any(tint(2, :) == s .and. joint_term(tint(1, :)))) cycle
                 call joint_linear(s, tint, tgeo, pv, q(:, m), ceff, dc, dk)
                 call joint_law(s, tint, tgeo, pv, ceff, a(1, s), delta, dlin, dcub, ddz)
                 pred(:, m) = pred(:, m) + g(:, 1, s)*delta
@@ -283,6 +304,11 @@ contains
                         do k = 1, 5
                             jac(:, m, jc + k - 1) = col*fn(k)
                         end do
+                    case (term_harmonic)
+                        col = g(:, 1, s)*(dlin*dc)
+                        fn(1:2) = harmonic_basis(q(pp, m))
+                        jac(:, m, jc) = col*fn(1)
+                        jac(:, m, jc + 1) = col*fn(2)
                     case (term_compensator)
                         jac(:, m, jc) = g(:, 1, s)*(dlin*dk)
                     case (term_cubic)

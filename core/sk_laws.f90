@@ -13,6 +13,8 @@
 !>   law_cubic    2  1 coordinate,  delta = c w + c3 w^3             par = (c, c3)
 !>   law_deadzone 3  1 coordinate,  delta = c w + b tanh(w / w0)     par = (c, b)
 !>                   (w0 > 0 a fixed smoothing width, N m or N: the block's kw0)
+!>   law_harmonic 5  1 coordinate,  delta = (c + c1 cos v + s1 sin v) w  par = (c, c1, s1)
+!>                   (v the joint's value: cogging, gear eccentricity)
 !>   law_spring6  4  6 coordinates, delta(6) = C w(6), C symmetric from 21
 !>                   parameters, the upper triangle row by row (sk_spatial
 !>                   sym_index order); a 6-dof spring's coordinates are
@@ -47,9 +49,10 @@ module sk_laws
     public :: law_ndof, law_nslot, law_delta, law_derivs, law_sym6
 
     !> law codes (ktype of an elastic block)
-    integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4
+    integer, parameter, public :: law_linear = 1, law_cubic = 2, law_deadzone = 3, law_spring6 = 4, &
+        law_harmonic = 5
     !> the largest law code (sk_tree_check refuses a ktype beyond it)
-    integer, parameter, public :: nlaw = 4
+    integer, parameter, public :: nlaw = 5
 
 contains
 
@@ -75,7 +78,7 @@ contains
     !> Deflection d(1:n) of a block for its generalised forces w(1:n)
     !> (n = law_ndof(ktype)); par: the block's 21 parameter slots, w0 the
     !> dead zone's width (unused by the other laws), v the joint's value
-    !> (module header; unused by these laws).
+    !> (module header; the harmonic law's angle).
     pure subroutine law_delta(ktype, par, w0, v, w, d)
         integer, intent(in) :: ktype
         real(dp), intent(in) :: par(nsym), w0, v, w(:)
@@ -87,12 +90,14 @@ contains
             d(1) = par(1)*w(1) + par(2)*w(1)**3
         case (law_deadzone)
             d(1) = par(1)*w(1) + par(2)*tanh(w(1)/w0)
+        case (law_harmonic)
+            d(1) = (par(1) + par(2)*cos(v) + par(3)*sin(v))*w(1)
         case default
             d(1:6) = matmul(law_sym6(par), w(1:6))
         end select
     end subroutine law_delta
 
-    !> Number of parameter slots of a law type (1, 2, 2, 21).
+    !> Number of parameter slots of a law type (1, 2, 2, 21, 3).
     pure integer function law_nslot(ktype)
         integer, intent(in) :: ktype
         select case (ktype)
@@ -100,6 +105,8 @@ contains
             law_nslot = 1
         case (law_cubic, law_deadzone)
             law_nslot = 2
+        case (law_harmonic)
+            law_nslot = 3
         case default
             law_nslot = nsym
         end select
@@ -108,7 +115,7 @@ contains
     !> Derivatives of a block's law at w(1:n): dmat[n,n] = d delta/dw (the
     !> block of D in the sensitivity (I - D G) Z = ...), dpar[n,:] =
     !> d delta/d(parameter slot), slots 1..law_nslot(ktype) set, dval[n] =
-    !> d delta/dv (zero for a law that does not depend on its joint's value).
+    !> d delta/dv (zero but for the harmonic law).
     pure subroutine law_derivs(ktype, par, w0, v, w, dmat, dpar, dval)
         integer, intent(in) :: ktype
         real(dp), intent(in) :: par(nsym), w0, v, w(:)
@@ -129,6 +136,12 @@ contains
             dmat(1, 1) = par(1) + par(2)*(1.0_dp - t*t)/w0
             dpar(1, 1) = w(1)
             dpar(1, 2) = t
+        case (law_harmonic)
+            dmat(1, 1) = par(1) + par(2)*cos(v) + par(3)*sin(v)
+            dpar(1, 1) = w(1)
+            dpar(1, 2) = cos(v)*w(1)
+            dpar(1, 3) = sin(v)*w(1)
+            dval(1) = (par(3)*cos(v) - par(2)*sin(v))*w(1)
         case default
             dmat(1:6, 1:6) = law_sym6(par)
             dpar(1:6, 1:nsym) = 0.0_dp

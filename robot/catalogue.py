@@ -58,8 +58,14 @@ DATA_KINDS = (DEFLECTION, ABSOLUTE)
 BOTH = DATA_KINDS
 
 #: the law codes of the tree core's elastic blocks (core/sk_tree_check.f90 law_*)
-LAW_LINEAR, LAW_CUBIC, LAW_DEADZONE, LAW_SPRING6 = 1, 2, 3, 4
-LAWS = {"LAW_LINEAR": LAW_LINEAR, "LAW_CUBIC": LAW_CUBIC, "LAW_DEADZONE": LAW_DEADZONE, "LAW_SPRING6": LAW_SPRING6}
+LAW_LINEAR, LAW_CUBIC, LAW_DEADZONE, LAW_SPRING6, LAW_HARMONIC = 1, 2, 3, 4, 5
+LAWS = {
+    "LAW_LINEAR": LAW_LINEAR,
+    "LAW_CUBIC": LAW_CUBIC,
+    "LAW_DEADZONE": LAW_DEADZONE,
+    "LAW_SPRING6": LAW_SPRING6,
+    "LAW_HARMONIC": LAW_HARMONIC,
+}
 #: default smoothing of joint_deadzone: tau0 = this fraction of the RMS torque about the joint in the data
 DEADZONE_TAU0_FRACTION = 0.05
 
@@ -139,7 +145,7 @@ def _joint_candidates(model: Model | TreeModel, data: str, ctx: dict, kind: Kind
     if data == DEFLECTION:
         out = []
         for j in model.chain.actuated:
-            if model.has(kind.name, j):
+            if model.has(kind.name, j) or (DEFLECTION in kind.needs_joint and not model.has("joint", j)):
                 continue
             table = {"kind": kind.name, "target": j}
             if kind.w0_key:
@@ -358,6 +364,22 @@ ENTRIES: tuple[Kind, ...] = (
         candidates=lambda m, d, ctx, k: _joint_candidates(m, d, ctx, k) if d == DEFLECTION else [],
         candidates_text=f"deflection data: every actuated joint lacking it (tau0 {DEADZONE_TAU0_FRACTION:.0%} "
         "of the RMS torque)",
+    ),
+    Kind(
+        "joint_harmonic",
+        BOTH,
+        "actuated joint",
+        {DEFLECTION: frozenset({"target", "value"}), ABSOLUTE: frozenset({"target", "value"})},
+        (Param("cos1", C_UNIT), Param("sin1", C_UNIT)),
+        "dq = (c + c1 cos q + s1 sin q) tau, value = [c1, s1] (cogging, gear eccentricity)",
+        law="LAW_HARMONIC",
+        term=8,
+        compliance=True,
+        posture_dependent=True,
+        needs_joint=BOTH,
+        per_joint=True,
+        candidates=_joint_candidates,
+        candidates_text="every actuated joint with a `joint` effect and no other law on it",
     ),
     Kind(
         "link",

@@ -7,18 +7,26 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
+from _profiles import examples
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from stiffkit.calib.absolute_candidates import absolute_candidates
+from stiffkit.calib.absolute_write import model_effects, model_text
 from stiffkit.calib.diagnose_candidates import candidate_tables
+from stiffkit.calib.dualarm import synth_dualarm
 from stiffkit.robot import catalogue, model, tree_model
+from stiffkit.robot.model_file import model_toml
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _core_laws() -> dict[str, int]:
     """The ``law_*`` integer parameters of the core (wherever they are declared)."""
-    lines = [ln for p in sorted((ROOT / "core").glob("*.f90")) for ln in p.read_text().splitlines()]
+    text = "".join(re.sub(r"&\s*\n\s*", " ", p.read_text()) for p in sorted((ROOT / "core").glob("*.f90")))
+    lines = text.splitlines()  # continuation lines joined
     decl = "\n".join(ln for ln in lines if re.match(r"\s*integer.*\bparameter\b", ln))
     found = re.findall(r"\b(law_[a-z0-9]+)\s*=\s*(\d+)\b", decl)
     return {name.upper(): int(v) for name, v in found}
@@ -32,6 +40,18 @@ def test_law_codes_are_the_cores():
     for e in catalogue.ENTRIES:
         if e.law:
             assert e.law in core, e.name
+
+
+def test_term_codes_are_the_serial_cores():
+    """The serial chain's term codes (core/sk_deflect.f90 term_*) are the
+    catalogue's: the same numbers, each named after its kind."""
+    text = re.sub(r"&\s*\n\s*", " ", (ROOT / "core" / "sk_deflect.f90").read_text())
+    decl = "\n".join(ln for ln in text.splitlines() if re.match(r"\s*integer.*\bparameter\b", ln))
+    core = {name: int(v) for name, v in re.findall(r"\bterm_([a-z0-9]+)\s*=\s*(\d+)\b", decl)}
+    assert sorted(core.values()) == sorted(catalogue.TERMS.values())
+    by_code = {v: k for k, v in catalogue.TERMS.items()}
+    for name, code in core.items():
+        assert name in by_code[code], (name, by_code[code])
 
 
 def test_docs_table_is_the_catalogue():
@@ -109,3 +129,119 @@ def test_value_table_reads_back():
     for e in catalogue.ENTRIES:
         for data in e.data:
             assert e.value_key in e.keys[data], (e.name, data)
+
+
+# ------------------------------------------------------------------ every catalogued kind reads back
+
+SETTINGS = settings(
+    max_examples=examples(20),
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+MAG = st.floats(min_value=1e-12, max_value=1e-3, allow_nan=False, allow_subnormal=False)
+SIGN = st.sampled_from([-1.0, 1.0])
+
+
+def _draw_values(draw, e: catalogue.Kind) -> list[float]:
+    """Values of every parameter of kind ``e`` within its catalogue bounds."""
+    out = []
+    for p in e.params:
+        v = draw(MAG) * (1.0 if p.lo >= 0 else draw(SIGN))
+        out.append(min(v, p.hi))
+    return out
+
+
+@st.composite
+def deflection_tables(draw, chain):
+    """Random [[effect]] tables with values of every per-joint kind of the
+    catalogue for deflection data (a joint effect where a kind needs one),
+    6x6 springs and a point offset."""
+    per_joint = [k for k in model.JOINT_KINDS if catalogue.KIND[k].params and k != "gravity_compensator"]
+    out = []
+    for j in draw(st.lists(st.sampled_from(chain.actuated), unique=True, min_size=1, max_size=6)):
+        kind = draw(st.sampled_from(per_joint))
+        e = catalogue.KIND[kind]
+        if "deflection" in e.needs_joint or kind != "joint" and draw(st.booleans()):
+            out.append({"kind": "joint", "target": j, **catalogue.value_table("joint", [draw(MAG)])})
+        if kind != "joint":
+            tab = {"kind": kind, "target": j, **catalogue.value_table(kind, _draw_values(draw, e))}
+            if e.w0_key:
+                tab[e.w0_key] = 1.0 + 1e3 * draw(MAG)
+            out.append(tab)
+    if draw(st.booleans()):
+        out.append(
+            {
+                "kind": "point_offset",
+                **catalogue.value_table("point_offset", _draw_values(draw, catalogue.KIND["point_offset"])),
+            }
+        )
+    if draw(st.booleans()):
+        out.append({"kind": "base", "value": (draw(MAG) * np.eye(6)).tolist()})
+    return out
+
+
+@pytest.fixture(scope="module")
+def kr_chain():
+    return model.load_chain(ROOT / "examples" / "kr270" / "robot.urdf", "base_link", "tool0")
+
+
+@SETTINGS
+@given(data=st.data())
+def test_every_deflection_kind_reads_back_exactly(kr_chain, tmp_path_factory, data):
+    """A model file of random catalogued kinds with values, written by the
+    one writer (robot/model_file.py on stiffkit.io.tomlw), reads back with
+    the same numbers, and every term's value is the written one."""
+    effects = data.draw(deflection_tables(kr_chain))
+    path = tmp_path_factory.mktemp("c") / "model.toml"
+    text = model_toml(effects, urdf=str(ROOT / "examples" / "kr270" / "robot.urdf"))
+    path.write_text(text)
+    back = model.load_model(path)
+    assert back.effects == effects
+    for t in back.terms:
+        e = catalogue.KIND.get(t.kind)
+        if e is not None:
+            src = effects[t.effect][e.value_key]
+            np.testing.assert_array_equal(np.ravel(t.value), np.ravel(src))
+
+
+@pytest.fixture(scope="module")
+def dual_truth(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cat_dual")
+    synth_dualarm(d, configs=6, seed=2)
+    tree = tree_model.load_tree(d / "robot.urdf", "base_link")
+    return d, tree, tree_model.load_tree_model(d / "truth.toml").effects
+
+
+@SETTINGS
+@given(data=st.data())
+def test_every_absolute_kind_reads_back_exactly(dual_truth, tmp_path_factory, data):
+    """The dual-arm truth plus a random law of the catalogue (cubic, dead
+    zone, harmonic) on random joints, every parameter at a random value
+    within its bounds: the absolute writer's tables (calib/absolute_write)
+    read back with every value exactly."""
+    d, tree, truth = dual_truth
+    moving = [j.name for j in tree.joints if j.moving]
+    extra = []
+    for j in data.draw(st.lists(st.sampled_from(moving), unique=True, min_size=1, max_size=4)):
+        kind = data.draw(st.sampled_from(catalogue.LAW_KINDS))
+        tab = {"kind": kind, "target": j}
+        if catalogue.KIND[kind].w0_key:
+            tab[catalogue.KIND[kind].w0_key] = 1.0 + data.draw(MAG) * 1e3
+        extra.append(tab)
+    m = tree_model.tree_model_from_tables(tree, truth + extra, (0.0, 0.0, -9.81))
+    theta = m.theta0.copy()
+    for i, p in enumerate(m.params):
+        e = catalogue.KIND[p.kind]
+        par = {q.suffix: q for q in e.params}.get(p.name.rsplit(".", 1)[-1])
+        if p.kind in ("tracker", "link", "base") or par is None:
+            continue
+        theta[i] = data.draw(MAG) * (1.0 if par.lo >= 0 else data.draw(SIGN))
+    tables, notes = model_effects(m, theta)
+    assert notes == []
+    path = tmp_path_factory.mktemp("a") / "model.toml"
+    path.write_text(model_text(tables, urdf=str(d / "robot.urdf"), gravity=m.gravity))
+    back = tree_model.load_tree_model(path)
+    assert back.names == m.names
+    rest = [i for i, p in enumerate(m.params) if p.kind != "tracker"]
+    np.testing.assert_array_equal(back.theta0[rest], theta[rest])
+    assert [int(k) for k in back.arrays["ktype"]] == [int(k) for k in m.arrays["ktype"]]
