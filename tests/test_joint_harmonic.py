@@ -101,7 +101,7 @@ def test_tree_jacobian_matches_central_differences(dualarm):
     etol = 1e-14  # the equilibrium far below the differences' step
 
     def pose(Qx):
-        return core.frame_jacobian(m.ne, m.arrays, theta, frame, Qx, None, m.eqit, etol)
+        return core.frame_jacobian(m.packed, theta, frame, Qx, None, m.eqit, etol)
 
     fj = pose(Q)
     big = np.linalg.norm(fj["J"][:, 0:3, :])
