@@ -190,16 +190,16 @@ def _jt(routine: str, jt: object, crit: int, npar: int) -> np.ndarray:
     return a
 
 
-def _chosen(routine: str, chosen: object, ncand: int) -> np.ndarray:
+def _chosen(routine: str, chosen: object, ncand: int, name: str = "chosen") -> np.ndarray:
     a = np.asarray(chosen)
     if a.ndim != 1 or (a.size and not np.issubdtype(a.dtype, np.integer)):
-        raise _fail(routine, f"chosen must be a 1-d array of candidate indices, not {a.dtype} shape {a.shape}")
+        raise _fail(routine, f"{name} must be a 1-d array of candidate indices, not {a.dtype} shape {a.shape}")
     seen: dict[int, int] = {}
     for i, c in enumerate(int(v) for v in a):
         if not 0 <= c < ncand:
-            raise _fail(routine, f"chosen[{i}] = {c} is not a candidate (0..{ncand - 1})")
+            raise _fail(routine, f"{name}[{i}] = {c} is not a candidate (0..{ncand - 1})")
         if c in seen:
-            raise _fail(routine, f"chosen[{i}] = {c} repeats chosen[{seen[c]}]")
+            raise _fail(routine, f"{name}[{i}] = {c} repeats {name}[{seen[c]}]")
         seen[c] = i
     return a.astype(np.int32) + 1
 
@@ -227,11 +227,14 @@ def select(
     m0: np.ndarray | None = None,
     jt: np.ndarray | None = None,
     max_passes: int = 100,
+    start: np.ndarray | None = None,
 ) -> DesignResult:
     """Choose ``k`` of the candidates ``jc`` (ncand, nobs, npar) minimising
     ``criterion`` ('D', 'A' or 'task'; task needs ``jt`` (nt, npar)) given
     the prior information ``m0`` (npar, npar): greedy, then exchange passes
-    (at most ``max_passes``) while a swap strictly improves."""
+    (at most ``max_passes``) while a swap strictly improves. ``start`` (k,)
+    0-based distinct candidates: the exchange starts from them instead of
+    the greedy selection (``greedy_value`` and ``path`` are then the start's)."""
     routine = "design.select"
     a = _jc(routine, jc)
     ncand, _, npar = a.shape
@@ -240,8 +243,13 @@ def select(
     m = _m0(routine, m0, npar)
     t = _jt(routine, jt, crit, npar)
     passes_max = _count(routine, "max_passes", max_passes, 0)
+    st = np.zeros(0, np.int32)
+    if start is not None:
+        st = _chosen(routine, start, ncand, "start")
+        if st.size != kk:
+            raise _fail(routine, f"start has {st.size} candidates, not k = {kk}")
     sel, value, gvalue, path, passes, swaps, scale, singular, ridged, info, errloc = call(
-        _design.sk_design_select, routine, a.T, kk, crit, m, t.T, passes_max
+        _design.sk_design_select, routine, a.T, kk, crit, m, t.T, passes_max, st
     )
     _check(routine, info, errloc)
     return DesignResult(

@@ -173,7 +173,7 @@ def plan_json(res: PlanResult) -> dict:
         if scaled
         else "m^2",
         "greedy_value": _finite(res.greedy_value),
-        "exchange": {"passes": res.passes, "swaps": res.swaps},
+        "exchange": {"passes": res.passes, "swaps": res.swaps, "start": res.start},
         "random": {
             "designs": int(rv.size),
             "seed": res.seed + 1,
@@ -243,9 +243,10 @@ def plan_text(res: PlanResult) -> str:
         lines.append(f"  augmenting {s.measured_rows} rows already measured")
     nsing = int(np.sum(~np.isfinite(res.random_values)))
     lines += [
-        f"criterion {res.criterion}: plan {res.value:.6g}{unit} (greedy {res.greedy_value:.6g}, {res.swaps} swaps in "
-        f"{res.passes} passes); median of {res.random_values.size} random feasible designs {med:.6g}"
-        + (f" ({nsing} singular)" if nsing else ""),
+        f"criterion {res.criterion}: plan {res.value:.6g}{unit} (greedy {res.greedy_value:.6g}; "
+        + ("" if res.start == "greedy" else f"exchange from {res.start}: ")
+        + f"{res.swaps} swaps in {res.passes} passes); median of {res.random_values.size} random feasible designs "
+        f"{med:.6g}" + (f" ({nsing} singular)" if nsing else ""),
         f"expected task error (RMS position over {s.jt.shape[0] // 3} points of {s.task_source}): plan "
         f"{_mm(res.task_rms)} ({res.task_rms:.4g} m), random median {_mm(res.random_task_rms)} "
         f"({res.random_task_rms:.4g} m): ratio {res.ratio:.3f}",

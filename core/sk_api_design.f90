@@ -15,17 +15,16 @@
 !> sel[k], value (huge when M stays singular: singular = 1), gvalue (the
 !> greedy selection's), path[k] (with the ridge when ridged = 1), passes, swaps,
 !> scale[npar].
-subroutine sk_design_select(npar, nobs, ncand, nt, jc, k, crit, m0, jt, max_passes, sel, value, gvalue, path, &
-        passes, swaps, scale, singular, ridged, info, errloc)
+subroutine sk_design_select(npar, nobs, ncand, nt, nst, jc, k, crit, m0, jt, max_passes, start, sel, value, &
+        gvalue, path, passes, swaps, scale, singular, ridged, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok, sk_err_argument
     use sk_design, only: design_check, design_select, darg_k, darg_max_passes
     implicit none
-    integer(c_int), intent(in) :: npar, nobs, ncand, nt, k, crit, max_passes
+    integer(c_int), intent(in) :: npar, nobs, ncand, nt, nst, k, crit, max_passes, start(nst)
     real(c_double), intent(in) :: jc(npar, nobs, ncand), m0(npar, npar), jt(npar, nt)
     integer(c_int), intent(out) :: sel(k), passes, swaps, singular, ridged, info, errloc(2)
     real(c_double), intent(out) :: value, gvalue, path(k), scale(npar)
-    integer(c_int) :: none(0)
     sel = 0
     path = 0
     scale = 0
@@ -35,9 +34,9 @@ subroutine sk_design_select(npar, nobs, ncand, nt, jc, k, crit, m0, jt, max_pass
     swaps = 0
     singular = 0
     ridged = 0
-    call design_check(jc, m0, jt, crit, none, info, errloc)
+    call design_check(jc, m0, jt, crit, start, info, errloc)
     if (info /= sk_ok) return
-    if (k < 1 .or. k > ncand) then
+    if (k < 1 .or. k > ncand .or. (nst /= 0 .and. nst /= k)) then
         info = sk_err_argument
         errloc = [darg_k, 0_c_int]
         return
@@ -47,7 +46,8 @@ subroutine sk_design_select(npar, nobs, ncand, nt, jc, k, crit, m0, jt, max_pass
         errloc = [darg_max_passes, 0_c_int]
         return
     end if
-    call design_select(jc, k, crit, m0, jt, max_passes, sel, value, gvalue, path, passes, swaps, scale, singular, ridged, info)
+    call design_select(jc, k, crit, m0, jt, max_passes, sel, value, gvalue, path, passes, swaps, scale, singular, &
+        ridged, info, start)
 end subroutine sk_design_select
 
 !> Direct criterion of chosen[nch] (Cholesky from scratch): value (huge and

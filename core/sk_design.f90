@@ -453,10 +453,14 @@ contains
     !> order, value (+huge when M stays singular, singular = 1), the greedy
     !> selection's value gvalue, path[k] the criterion after each greedy step
     !> (with the ridge when m0 is singular: ridged = 1), passes, swaps, scales s[npar].
+    !> With start[k] (distinct, checked by the caller) the exchange starts from
+    !> that selection instead of the greedy one (added in its order, the same
+    !> updates; gvalue and path are then the start's).
     subroutine design_select(jc, k, crit, m0, jt, max_passes, sel, value, gvalue, path, passes, swaps, &
-            s, singular, ridged, info)
+            s, singular, ridged, info, start)
         real(dp), intent(in) :: jc(:, :, :), m0(:, :), jt(:, :)
         integer(ip), intent(in) :: k, crit, max_passes
+        integer(ip), intent(in), optional :: start(:)
         integer(ip), intent(out) :: sel(:), passes, swaps, singular, ridged
         real(dp), intent(out) :: value, gvalue, path(:), s(:)
         integer(ip), intent(out) :: info
@@ -499,6 +503,12 @@ contains
                 end if
             end do
             if (best == 0) best = findloc(st%chosen, .false., 1)
+            if (present(start)) then
+                if (size(start) == k) then
+                    best = int(start(step))
+                    dbest = st%dadd(best)
+                end if
+            end if
             call state_update(st, jc, best, 1.0_dp, info)
             if (info /= sk_ok) return
             st%value = st%value + dbest
