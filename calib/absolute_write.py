@@ -44,9 +44,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
-from ..io import tomlw
 from ..io.files import atomic_write_text
-from ..robot import catalogue
+from ..robot import catalogue, model_file
 from ..robot.model import SYM
 from ..robot.model_bodies import BODY_KINDS, body_table
 from ..robot.tree import TreeJoint
@@ -84,20 +83,20 @@ def model_text(
     [gravity] when given, the [plan] table (``stiffkit plan``) when given,
     and the [[effect]] tables; ``header``: comment lines at the top."""
     rob = {k: v for k, v in (robot or {}).items() if k not in ("urdf", "base_link")}
-    doc: dict = {"robot": {"urdf": str(urdf), "base_link": base_link, **rob}}
-    doc["measurements"] = {"kind": "absolute"}
-    if sigma_position is not None:
-        doc["measurements"]["sigma_position"] = float(sigma_position)
-    if gravity is not None or iterations is not None:
-        g: dict = {}
-        if gravity is not None:
-            g["vector"] = [float(v) for v in gravity]
-        if iterations is not None:
-            g["iterations"] = int(iterations)
-        doc["gravity"] = g
-    if plan:
-        doc["plan"] = plan
-    return tomlw.dumps(doc, header) + tomlw.effect_tables(effects)
+    g: dict = {}
+    if gravity is not None:
+        g["vector"] = [float(v) for v in gravity]
+    if iterations is not None:
+        g["iterations"] = int(iterations)
+    return model_file.model_text(
+        effects,
+        {"urdf": str(urdf), "base_link": base_link, **rob},
+        kind="absolute",
+        sigma_position=sigma_position,
+        gravity=g,
+        plan=plan,
+        header=header,
+    )
 
 
 def _by_target(model: TreeModel, theta: np.ndarray, effect: int) -> dict[str, dict[str, float]]:

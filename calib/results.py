@@ -11,11 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import tomlw
 from ..io.files import atomic_write_text
 from ..robot import catalogue
 from ..robot.model import JOINT_KINDS, SYM, Model, model_from_tables
-from ..robot.model_file import effects_toml
+from ..robot.model_file import model_text
 from .problem import Problem
 
 __all__ = [
@@ -306,21 +305,13 @@ def write_model(res: FitResult, path: Path | str) -> list[str]:
         robot["urdf"] = os.path.relpath(urdf, path.resolve().parent)
     except ValueError:
         robot["urdf"] = str(urdf)
-    doc = {"robot": robot}
-    meas = {}
-    if model.sigma_position is not None:
-        meas["sigma_position"] = model.sigma_position
-    if model.sigma_rotation is not None:
-        meas["sigma_rotation"] = model.sigma_rotation
-    if meas:
-        doc["measurements"] = meas
-    if model.plan:
-        doc["plan"] = model.plan  # the [plan] table as read (stiffkit plan)
     tables, notes = written_tables(res)
     head = (
         f"# identified by stiffkit fit from {res.problem.meas.path}: positional RMS "
         f"{res.rms_position:.4g} m, rank {res.rank} of {len(res.names)} parameters\n"
         f"# semi-identifiable parameters hold the minimum-norm solution; non-identifiable ones 0 (see the notes)\n"
     )
-    atomic_write_text(path, tomlw.dumps(doc, head) + effects_toml(tables))
+    # the [plan] table as read (stiffkit plan)
+    text = model_text(tables, robot, None, model.sigma_position, model.sigma_rotation, plan=model.plan, header=head)
+    atomic_write_text(path, text)
     return notes
