@@ -107,6 +107,12 @@ def test_candidates_follow_the_catalogue():
     assert sum(t["kind"] == "joint_profile" for t, _ in cands) == n
     assert sum(t["kind"] == "link" for t, _ in cands) == 3 * sum(not ch.is_tool_spring(ln) for ln in ch.links)
 
+    # a law on a joint's compliance: only where the model has that joint's compliance
+    m2 = model.model_from_tables(ch, [{"kind": "joint", "target": ch.actuated[1]}])
+    harm = [t["target"] for t, _ in catalogue.candidates(m2, "deflection") if t["kind"] == "joint_harmonic"]
+    assert harm == [ch.actuated[1]]
+    assert sum(t["kind"] == "joint_harmonic" for t, _ in cands) == n
+
     tree = tree_model.load_tree(urdf, "base_link")
     tm = tree_model.tree_model_from_tables(
         tree, [{"kind": "tracker"}, {"kind": "marker", "target": "tool0"}, {"kind": "joint", "target": "all"}]
@@ -118,6 +124,7 @@ def test_candidates_follow_the_catalogue():
     assert acands[0] == {"kind": "joint_offset", "target": "all"}
     assert [t["target"] for t in acands if t["kind"] == "joint_offset"] == ["all"] + moving
     assert not any(t["kind"] == "joint" for t in acands)
+    assert [t["target"] for t in acands if t["kind"] == "joint_harmonic"] == moving  # every joint has its c
 
 
 def test_value_table_reads_back():
