@@ -80,8 +80,11 @@ class DesignResult:
     the low-rank updates carried it (``ridge``: m0 was singular, and until M
     became regular the steps carry the ridged criterion, evaluated from
     scratch); ``scaled``: the value is in scaled units (D, A), not the
-    caller's (task). ``value`` is the updates' value too (a direct
-    evaluation only when M stayed singular through the exchange)."""
+    caller's (task). ``value`` and ``greedy_value`` are the updates'
+    value, checked against a direct evaluation (Cholesky of M) after the
+    greedy steps, at every exchange pass and at the end, and replaced by it
+    beyond 1e-9 relative (the updates lose digits when M is ill-conditioned,
+    as just after it became regular)."""
 
     selected: np.ndarray
     value: float

@@ -280,6 +280,15 @@ def _distinct(Q: np.ndarray) -> np.ndarray:
     return np.sort(first)
 
 
+def _by_posture(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(the distinct postures of Q's rows in the order they first appear,
+    the index among them of each row): rows of one posture (one per marker
+    or per load) are one task posture."""
+    _u, first, inv = np.unique(np.round(Q, 12), axis=0, return_index=True, return_inverse=True)
+    rank = np.argsort(np.argsort(first))
+    return Q[np.sort(first)], rank[np.ravel(inv)]
+
+
 def _mimics(model: object) -> dict:
     tree = getattr(model, "tree", None)
     return {} if tree is None else {j.name: tree.leader(j.name)[0] for j in tree.joints if j.mimic is not None}
@@ -369,9 +378,10 @@ def _abs_setup(model: TreeModel, cands: Candidates, task: object, measured: obje
     tracker = [k for k, i in enumerate(red.kept) if model.params[i].kind == "tracker"]
     jt[:, tracker] = 0.0  # the tracker's pose does not move the robot
     not_planned = red.dropped + red.merged
+    tq, of = _by_posture(tq)
     return dict(
         names=names, jc=jc, posture=np.arange(len(cands)), loads=None, jt=jt, task_q=tq,
-        task_of=np.repeat(tdata.posture, 3), task_source=source, m0=m0, measured_rows=nmeas,
+        task_of=np.repeat(of[tdata.posture], 3), task_source=source, m0=m0, measured_rows=nmeas,
         not_planned=not_planned,
     )  # fmt: skip
 
@@ -475,7 +485,10 @@ def _defl_setup(model: Model, cands: Candidates, task: object, measured: object,
         source = str(task)
     tmeas = _defl_meas(tq, tw, np.zeros((1, 3)), "task")
     jt = (_defl_rows(model, tmeas, names, sigma) * sigma).reshape(-1, len(names))
-    task_q = cands.q if task is None else q
+    task_q = cands.q
+    if task is not None:  # rows of one task posture (under several loads) count as one posture
+        task_q, of = _by_posture(q)
+        t_of = of[t_of]
     not_planned = [(n, "no influence on the data (G2)") for n in red.g2]
     not_planned += [(n, "merged into its link spring (M3)") for n in red.aggregated]
     not_planned += [(n, "coupled with the selected parameters (M5c: fixed)") for n in red.fixed]

@@ -455,7 +455,8 @@ contains
     !> (with the ridge when m0 is singular: ridged = 1), passes, swaps, scales s[npar].
     !> With start[k] (distinct, checked by the caller) the exchange starts from
     !> that selection instead of the greedy one (added in its order, the same
-    !> updates; gvalue and path are then the start's).
+    !> updates; gvalue and path are then the start's). value and gvalue: the
+    !> updates' value, replaced by criterion_direct's beyond design_drift.
     subroutine design_select(jc, k, crit, m0, jt, max_passes, sel, value, gvalue, path, passes, swaps, &
             s, singular, ridged, info, start)
         real(dp), intent(in) :: jc(:, :, :), m0(:, :), jt(:, :)
@@ -467,7 +468,7 @@ contains
         type(design_state) :: st
         real(dp) :: ridge, d, dbest
         real(dp), allocatable :: mu(:, :), mt(:, :)
-        integer :: bad, step, c, best, nswap
+        integer :: bad, step, c, best, nswap, b3
         call state_alloc(st, jc, m0, jt, crit)
         s = st%s
         sel = 0
@@ -522,15 +523,26 @@ contains
             call state_init(st, jc, m0, ridge, bad)
             if (bad > 0) return
         end if
-        if (ridge == 0.0_dp) gvalue = st%value
-        if (ridge > 0.0_dp) call criterion_direct(jc, m0, jt, sel, crit, gvalue, bad, s)
+        ! the greedy selection's value checked from scratch: the updates lose
+        ! digits when M is ill-conditioned (just after it became regular, say)
+        call criterion_direct(jc, m0, jt, sel, crit, d, b3, s)
+        if (ridge == 0.0_dp) then
+            call refresh(d, b3)
+            gvalue = st%value
+        else
+            gvalue = d
+        end if
         do while (passes < max_passes)
             passes = passes + 1
-            ! fresh blocks (bounded round-off); the value stays incremental
+            ! fresh blocks and, without the ridge, a fresh value (bounded round-off)
             d = st%value
             call state_init(st, jc, m0, ridge, bad)
             if (bad > 0) exit
             st%value = d
+            if (ridge == 0.0_dp) then
+                call criterion_direct(jc, m0, jt, sel, crit, d, b3, s)
+                call refresh(d, b3)
+            end if
             call swap_pass(st, jc, sel, nswap, info)
             if (info /= sk_ok) return
             swaps = swaps + int(nswap, ip)
@@ -540,16 +552,27 @@ contains
         ! the final M without the ridge: singular -> +huge; when the ridge
         ! stayed, the final criterion is this direct one
         call criterion_direct(jc, m0, jt, sel, crit, d, bad, s)
-        if (ridge > 0.0_dp .or. bad > 0) st%value = d
+        if (ridge > 0.0_dp .or. bad > 0) then
+            st%value = d
+        else
+            call refresh(d, bad)
+        end if
         value = st%value
         if (value >= huge(1.0_dp)) singular = 1
     contains
+        !> The running value replaced by the direct one dv (its Cholesky's
+        !> flag b) when they differ beyond design_drift relative.
+        subroutine refresh(dv, b)
+            real(dp), intent(in) :: dv
+            integer, intent(in) :: b
+            if (b == 0 .and. abs(st%value - dv) > design_drift * max(abs(dv), tiny(1.0_dp))) st%value = dv
+        end subroutine refresh
         !> While the ridge is on: the ridged criterion from scratch (cheap:
         !> npar^3, keeps the huge ridged values from drifting) and, as soon as
         !> M is regular without the ridge, the state rebuilt without it.
         subroutine unridge()
-            real(dp) :: u(st%npar, st%nobs)
-            integer :: j, b2
+            real(dp) :: u(st%npar, st%nobs), f0
+            integer :: j, b2, b3
             do j = 1, st%nobs
                 u(:, j) = st%s * jc(:, j, best)
             end do
@@ -562,9 +585,20 @@ contains
             mt = mu
             call chol_checked(mt, b2, absolute=.true.)
             if (b2 > 0) return
+            ! the criterion without the ridge, from scratch: the updates carry
+            ! it from here on (the ridged value can differ much when M has
+            ! only just become regular); while M is singular to the relative
+            ! test the ridge stays
+            mt = mu
+            call value_of(mt, crit, st%q, f0, b3)
+            if (b3 > 0) return
             call state_init(st, jc, m0, 0.0_dp, b2)
-            if (b2 == 0) ridge = 0.0_dp
-            if (b2 > 0) call state_init(st, jc, m0, ridge, b2)
+            if (b2 > 0) then
+                call state_init(st, jc, m0, ridge, b2)
+                return
+            end if
+            ridge = 0.0_dp
+            st%value = f0
         end subroutine unridge
     end subroutine design_select
 

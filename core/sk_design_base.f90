@@ -23,6 +23,8 @@ module sk_design_base
         darg_nobs = 11
     !> ridge (scaled units) added to a singular m0 for the greedy start
     real(dp), parameter, public :: design_ridge = 1.0e-8_dp
+    !> the running criterion is replaced by a direct evaluation beyond this relative difference
+    real(dp), parameter, public :: design_drift = 1.0e-9_dp
     !> a Cholesky pivot^2 at or below this times its column's diagonal is a
     !> singular direction (1 - R^2 of the column on the ones before it)
     real(dp), parameter, public :: design_singular = 1.0e-12_dp

@@ -269,3 +269,56 @@ def test_k_too_small_gives_the_minimum(ws):
         f"identifiable parameters: the minimum is --select {kmin}"
     )
     assert P.plan(None, kmin, "D", setup=setup).k == kmin
+
+
+def test_task_rows_of_one_posture_are_one_task_posture(ws, tmp_path):
+    """A task file with a row per posture and marker (targets.csv of the
+    dual-arm: 50 postures x 2 markers) or per posture and load (deflection):
+    the expected error per task posture (report, --png) is over the distinct
+    postures, sqrt of the mean of their points' variances (numpy here)."""
+    res = stiffkit.plan(ws / "da" / "model.toml", 6, candidates=80, seed=5, task=ws / "da" / "targets.csv")
+    s = res.setup
+    assert s.task_q.shape[0] == 50 and s.jt.shape[0] == 3 * 100 and res.task_posture_rms.size == 50
+    A = s.jc[res.selected].reshape(-1, s.npar)
+    var = np.einsum("ij,ji->i", s.jt, np.linalg.solve(A.T @ A, s.jt.T)).reshape(100, 3).sum(axis=1)
+    per = np.sqrt(var.reshape(50, 2).mean(axis=1))  # the file's rows: posture-major, both markers
+    np.testing.assert_allclose(res.task_posture_rms, per, rtol=1e-8)
+    assert res.to_json()["task"]["postures"] == 50 and res.to_json()["task"]["points"] == 100
+    # deflection: two postures, each under two task loads
+    head = "joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6,fx,fy,fz,mx,my,mz"
+    q1, q2 = "0.1,-0.6,0.4,0.0,1.1,0.0", "-0.4,-0.8,0.6,-0.5,0.9,-0.3"
+    rows = [f"{q1},0,0,-2000,0,0,0", f"{q1},1000,0,0,0,0,0", f"{q2},0,0,-2000,0,0,0", f"{q2},1000,0,0,0,0,0"]
+    (tmp_path / "task.csv").write_text("\n".join([head, *rows]) + "\n")
+    r2 = stiffkit.plan(ws / "kr" / "model.toml", 10, candidates=60, seed=1, task=tmp_path / "task.csv")
+    assert r2.setup.task_q.shape == (2, 6) and r2.task_posture_rms.size == 2
+    pts = np.bincount(r2.setup.task_of) / 3
+    assert pts.tolist() == [2.0, 2.0]
+    assert np.sum(r2.task_posture_rms**2 * pts) == pytest.approx(r2.task_trace, rel=1e-9)
+
+
+@pytest.mark.parametrize("criterion", ["D", "A", "task"])
+def test_reported_values_are_the_direct_ones_on_an_ill_conditioned_problem(ws, tmp_path, criterion):
+    """KR-270-like, 60 postures x 4 loads, no prior: M is ill-conditioned
+    when it just becomes regular and the low-rank updates lose digits (the
+    task plan from the D start drifted 34 % before the core checked its
+    value); the values the core returns and the plan reports are a direct
+    evaluation's to 1e-9."""
+    from stiffkit._core import design
+
+    head = "joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6,fx,fy,fz,mx,my,mz"
+    q1, q2 = "0.1,-0.6,0.4,0.0,1.1,0.0", "-0.4,-0.8,0.6,-0.5,0.9,-0.3"
+    rows = [f"{q1},0,0,-2000,0,0,0", f"{q1},1000,0,0,0,0,0", f"{q2},0,0,-2000,0,0,0", f"{q2},1000,0,0,0,0,0"]
+    (tmp_path / "task.csv").write_text("\n".join([head, *rows]) + "\n")
+    setup = P.build_setup(ws / "kr" / "model.toml", candidates=60, seed=1, task=tmp_path / "task.csv")
+    jt = setup.jt if criterion == "task" else None
+    d = design.select(setup.jc, 10, "D")
+    for start in (None, d.selected):
+        res = design.select(setup.jc, 10, criterion, jt=jt, start=start)
+        direct = design.criterion(setup.jc, res.selected, criterion, jt=jt)
+        assert res.value == pytest.approx(direct, rel=1e-9)
+        if start is not None:
+            assert res.greedy_value == pytest.approx(design.criterion(setup.jc, start, criterion, jt=jt), rel=1e-9)
+    plan = P.plan(None, 10, criterion, setup=setup)
+    assert plan.value == pytest.approx(design.criterion(setup.jc, plan.selected, criterion, jt=jt), rel=1e-9)
+    A = setup.jc[plan.selected].reshape(-1, setup.npar)
+    assert plan.task_trace == pytest.approx(np.trace(setup.jt @ np.linalg.solve(A.T @ A, setup.jt.T)), rel=1e-8)
