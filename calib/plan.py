@@ -267,6 +267,22 @@ def user_candidates(model: object, postures: object, settings: object) -> Candid
     return cands
 
 
+def sampled_candidates(model: object, candidates: int | None, seed: int, settings: object) -> Candidates:
+    """``--candidates N`` (default DEFAULT_CANDIDATES) feasible postures
+    sampled with ``seed``; a warning when the tries ran out before N were
+    found (the rejections by reason: what to loosen)."""
+    n = DEFAULT_CANDIDATES if candidates is None else V.count(candidates, "candidates", 1, 10**6)
+    cands = sample_postures(model, n, seed, settings)
+    if len(cands) < n:
+        warnings.warn(
+            StiffkitWarning(
+                f"--candidates {n}: only {cands.summary()}: the plan chooses among these; loosen [plan] for more"
+            ),
+            stacklevel=3,
+        )
+    return cands
+
+
 def _more(cands: Candidates) -> str:
     """What gives more candidates: more postures in the user's list, or more sampled."""
     if cands.rows is not None:
@@ -525,8 +541,7 @@ def build_setup(
     if postures is not None:
         cands = user_candidates(model, postures, settings)
     else:
-        n = DEFAULT_CANDIDATES if candidates is None else V.count(candidates, "candidates", 1, 10**6)
-        cands = sample_postures(model, n, seed, settings)
+        cands = sampled_candidates(model, candidates, seed, settings)
     if sigma_position is not None:
         sigma, source = V.number(sigma_position, "sigma_position", "sigma_position", lo=0.0, lo_open=True), "given"
     elif model.sigma_position:
@@ -754,8 +769,7 @@ def discriminate(
     if postures is not None:
         cands = user_candidates(model, postures, settings)
     else:
-        n = DEFAULT_CANDIDATES if candidates is None else V.count(candidates, "candidates", 1, 10**6)
-        cands = sample_postures(model, n, seed, settings)
+        cands = sampled_candidates(model, candidates, seed, settings)
     k = V.count(k, "--select", 1)
     if k > len(cands):
         raise InputError(f"--select {k}: only {len(cands)} feasible candidates ({cands.summary()}); {_more(cands)}")

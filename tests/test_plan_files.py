@@ -322,3 +322,22 @@ def test_reported_values_are_the_direct_ones_on_an_ill_conditioned_problem(ws, t
     assert plan.value == pytest.approx(design.criterion(setup.jc, plan.selected, criterion, jt=jt), rel=1e-9)
     A = setup.jc[plan.selected].reshape(-1, setup.npar)
     assert plan.task_trace == pytest.approx(np.trace(setup.jt @ np.linalg.solve(A.T @ A, setup.jt.T)), rel=1e-8)
+
+
+def test_too_few_sampled_candidates_are_warned(ws, tmp_path):
+    """--candidates N when the tries run out first (a narrow view cone): a
+    warning with how many were found of how many tried, and why."""
+    folder = tmp_path / "da"
+    folder.mkdir()
+    for f in ("robot.urdf", "model.toml"):
+        (folder / f).write_text((ws / "da" / f).read_text())
+    with open(folder / "model.toml", "a") as fh:
+        fh.write("\n[plan]\ntracker = { position = [3.0, 0.0, 1.0], direction = [-1.0, 0.0, -0.3], cone_deg = 20 }\n")
+    with pytest.warns(stiffkit.StiffkitWarning) as rec:
+        setup = P.build_setup(folder / "model.toml", candidates=100, seed=0)
+    c = setup.candidates
+    assert 0 < len(c) < 100 and c.tried == 10_000  # GIVE_UP tries (more than 20 per candidate)
+    (msg,) = [str(w.message) for w in rec]
+    assert msg.startswith(f"--candidates 100: only {len(c)} feasible of 10,000 tried (")
+    assert f"{c.rejected['out of view']:,} out of view" in msg and msg.endswith("the plan chooses among these; "
+                                                                             "loosen [plan] for more")  # fmt: skip
