@@ -60,6 +60,7 @@ from ..calib.plots import candidates_plot, fit_plots, residual_plots
 from ..errors import InputError
 from ..io import validate as V
 from ..io.files import check_plots_folder, model_inputs, write_json
+from ..robot import catalogue
 from ..robot.model import KINDS, load_model
 from ..robot.tree_model import model_kind
 from . import args as A
@@ -85,6 +86,7 @@ extension kinds (docs/calibration.md s7), also usable in MODEL.toml:
   joint_deadzone  dq = c tau + b tanh(tau / tau0), backlash +-b (rad) -> J.backlash, value = b;
                   tau0 (N m) defaults to 5 % of the RMS torque about the joint in the data
 
+{catalogue}
 plots (--plots DIR): candidates; residual vectors, histograms, measured vs
 predicted; residual vs joint angle, vs joint torque, per configuration, along
 the row order.
@@ -95,12 +97,21 @@ example:
 """
 
 
+def _catalogue_text() -> str:
+    """The kinds scored as candidates on each data kind (robot/catalogue.py)."""
+    lines = ["candidates (every kind, its parameters and law: docs/calibration.md s8):"]
+    for data in catalogue.DATA_KINDS:
+        names = [e.name for e in catalogue.ENTRIES if data in e.data and data in e.candidate_in and e.candidates]
+        lines.append(f"  {data + ' data:':17s}" + ", ".join(names))
+    return "\n".join(lines) + "\n"
+
+
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "diagnose",
         help="test the model against the noise; rank the missing effects",
         description=__doc__,
-        epilog=HELP,
+        epilog=HELP.replace("{catalogue}", _catalogue_text()),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("model", help="model TOML")

@@ -128,6 +128,8 @@ class Kind:
     w0_key: str = ""
     #: how its diagnosis candidates are generated: (model, data kind, context) -> [(table, hint)]
     candidates: Callable | None = None
+    #: the data kinds on which it is a candidate (of those it applies to)
+    candidate_in: tuple[str, ...] = DATA_KINDS
     #: how the candidates are generated (docs)
     candidates_text: str = ""
 
@@ -344,7 +346,8 @@ ENTRIES: tuple[Kind, ...] = (
         needs_joint=(ABSOLUTE,),
         per_joint=True,
         scalar=True,
-        candidates=lambda m, d, ctx, k: _joint_candidates(m, d, ctx, k) if d == DEFLECTION else [],
+        candidates=_joint_candidates,
+        candidate_in=(DEFLECTION,),
         candidates_text="deflection data: every actuated joint lacking it",
     ),
     Kind(
@@ -361,7 +364,8 @@ ENTRIES: tuple[Kind, ...] = (
         per_joint=True,
         scalar=True,
         w0_key="tau0",
-        candidates=lambda m, d, ctx, k: _joint_candidates(m, d, ctx, k) if d == DEFLECTION else [],
+        candidates=_joint_candidates,
+        candidate_in=(DEFLECTION,),
         candidates_text=f"deflection data: every actuated joint lacking it (tau0 {DEADZONE_TAU0_FRACTION:.0%} "
         "of the RMS torque)",
     ),
@@ -494,7 +498,7 @@ def candidates(model: Model | TreeModel, data: str, tau0: dict | None = None) ->
     ctx = {"tau0": tau0}
     out: list[tuple[dict, str]] = []
     for e in ENTRIES:
-        if data in e.data and e.candidates is not None:
+        if data in e.data and data in e.candidate_in and e.candidates is not None:
             out += e.candidates(model, data, ctx, e)
     return out
 
