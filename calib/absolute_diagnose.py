@@ -256,8 +256,10 @@ def diagnose_absolute(
             dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, ext.names, sig_decl, log_p, alpha
         )
     held_for_addition(dg)
-    for t in dg.ties:  # name the command that plans the postures to tell them apart
-        t["plan_command"], t["plan_select"] = plan_command(model.path, data.path, data.n_postures)
+    for i, t in enumerate(dg.ties):  # name the command that plans the postures to tell them apart
+        # (bare --discriminate takes the first tie; the others are named by their labels)
+        tied = t.get("candidates") if i else None
+        t["plan_command"], t["plan_select"] = plan_command(model.path, data.path, data.n_postures, tied)
     if not sig_decl:
         dg.warnings.append(
             "no sigma_position declared: the residual cannot be called noise by a chi-square test; the verdict "

@@ -341,3 +341,22 @@ def test_too_few_sampled_candidates_are_warned(ws, tmp_path):
     assert msg.startswith(f"--candidates 100: only {len(c)} feasible of 10,000 tried (")
     assert f"{c.rejected['out of view']:,} out of view" in msg and msg.endswith("the plan chooses among these; "
                                                                              "loosen [plan] for more")  # fmt: skip
+
+
+def test_diagnose_names_each_tie_in_its_plan_command():
+    """Several ties: the first is what bare --discriminate plans for; the
+    command of every other tie names its candidates, and the command line
+    reads them back as the labels."""
+    import shlex
+
+    from stiffkit.calib.absolute_diagnose_report import plan_command
+    from stiffkit.cli.app import build_parser
+
+    tied = ["link:l_link1", "joint:left_2"]
+    cmd, k = plan_command("my cell/m.toml", "a.csv", 12, tied)
+    assert k == 12
+    assert cmd == "stiffkit plan 'my cell/m.toml' --discriminate link:l_link1,joint:left_2 --measured a.csv --select 12"
+    args = build_parser().parse_args(shlex.split(cmd)[1:])
+    assert args.model == "my cell/m.toml" and args.measured == "a.csv" and args.select == 12
+    assert [s.strip() for s in args.discriminate.split(",")] == tied
+    assert plan_command("m.toml", "a.csv", 12)[0] == "stiffkit plan m.toml --discriminate --measured a.csv --select 12"
