@@ -4,7 +4,7 @@ where the robot may go and what a candidate posture must respect.
 ```toml
 [plan]
 limits = { joint_a2 = [-1.2, 0.1] }   # rad (m for prismatic): tightens the URDF's limits
-radius = { link_3 = 0.12 }            # m: capsule radius of a link's skeleton
+radius = { link_3 = 0.12 }            # m: capsule radius of a link's skeleton (a link with URDF shapes keeps them)
 default_radius = 0.05                 # m: every other link
 margin = 0.01                         # m: least clearance between capsules (and to the floor)
 floor_z = 0.0                         # m, base frame: no capsule below floor_z + margin
@@ -28,12 +28,13 @@ names the file, the table and the key.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, StiffkitWarning
 from ..io import validate as V
 
 __all__ = ["PlanSettings", "plan_table", "parse_plan", "cone_cos", "PLAN_KEYS"]
@@ -190,6 +191,15 @@ def parse_plan(table: dict, path: Path | str, model: object) -> PlanSettings:
         if ln not in links:
             raise InputError(f"{where} radius.{V.shown(ln)}: the robot has no link {ln!r} (links: {', '.join(links)})")
         s.capsule_radius[ln] = _size(r, f"{where} radius.{V.shown(ln)}")
+        shapes = (tree.collisions if absolute else model.chain.collisions).get(ln)
+        if shapes:
+            warnings.warn(
+                StiffkitWarning(
+                    f"{where} radius.{V.shown(ln)}: link {ln!r} has {len(shapes)} primitive collision shape(s) in the "
+                    "URDF; they are its capsules, this radius is not used"
+                ),
+                stacklevel=3,
+            )
     if "default_radius" in table:
         s.default_radius = _size(table["default_radius"], f"{where} default_radius")
     if "margin" in table:

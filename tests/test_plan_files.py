@@ -360,3 +360,32 @@ def test_diagnose_names_each_tie_in_its_plan_command():
     assert args.model == "my cell/m.toml" and args.measured == "a.csv" and args.select == 12
     assert [s.strip() for s in args.discriminate.split(",")] == tied
     assert plan_command("m.toml", "a.csv", 12)[0] == "stiffkit plan m.toml --discriminate --measured a.csv --select 12"
+
+
+def test_radius_of_a_link_with_urdf_shapes_is_warned(tmp_path):
+    """[plan] radius of a link whose URDF has primitive collision shapes:
+    the shapes are its capsules (unchanged), the radius is said to be unused."""
+    from stiffkit.robot.plan_candidates import _Checks, plan_settings
+    from stiffkit.robot.tree import load_tree
+    from stiffkit.robot.tree_model import tree_model_from_tables
+
+    (tmp_path / "r.urdf").write_text(
+        '<robot name="r"><link name="base_link"/><link name="a">'
+        '<collision><geometry><cylinder radius="0.05" length="0.4"/></geometry></collision></link><link name="b"/>'
+        '<joint name="j" type="revolute"><parent link="base_link"/><child link="a"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+        '<joint name="k" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0.5 0 0"/>'
+        '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>'
+    )
+    tm = tree_model_from_tables(
+        load_tree(tmp_path / "r.urdf"), [{"kind": "tracker"}, {"kind": "marker", "target": "b"}]
+    )
+    tm.plan = {"radius": {"a": 0.2, "base_link": 0.1}}
+    tm.path = tmp_path / "model.toml"
+    with pytest.warns(stiffkit.StiffkitWarning) as rec:
+        s = plan_settings(tm)
+    (msg,) = [str(w.message) for w in rec]
+    assert "[plan] radius.a: link 'a' has 1 primitive collision shape(s) in the URDF" in msg
+    assert s.capsule_radius == {"a": 0.2, "base_link": 0.1}
+    sk = _Checks(tm, s).sk
+    assert sk.radius.tolist() == [0.05] and "cylinder" in sk.labels[0]  # base_link: a point (j at its origin)
