@@ -259,6 +259,25 @@ def check_out_folder(
     return out
 
 
+def plan_loads_toml(kind: str, force: float, moment: float) -> str:
+    """The [plan] loads table of a synthetic model file (``stiffkit plan``'s
+    (posture, load) candidates): the loads of the data's kind along the base
+    axes, force ``force`` (N) and moment ``moment`` (N m); ``gravity``: the
+    weight alone (its moment depends on the posture)."""
+    f, m = float(force), float(moment)
+    if kind == "gravity":
+        rows = [[0.0, 0.0, -f, 0.0, 0.0, 0.0]]
+    else:
+        rows = [[0.0, 0.0, -f, 0.0, 0.0, 0.0], [f, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, f, 0.0, 0.0, 0.0, 0.0]]
+        if m > 0:
+            rows += [[0.0, 0.0, 0.0, m, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, m, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, m]]
+    text = ", ".join("[" + ", ".join(f"{v:.17g}" for v in r) + "]" for r in rows)
+    return (
+        "\n# the loads you can apply (N, N m at the tool, base axes), for `stiffkit plan`: edit to your setup\n"
+        f"[plan]\nloads = [{text}]\n"
+    )
+
+
 def write_synth(
     outdir: Path | str,
     joints: list[dict] | Path | str,
@@ -276,7 +295,8 @@ def write_synth(
     tool = kw.get("tool_frame", "tool0") if isinstance(joints, (str, Path)) else joints[-1]["child"]
     atomic_write_text(
         out / "model.toml",
-        model_toml(fit_effects, sigma if declare_sigma and sigma > 0 else None, tool_frame=tool, sigma_rotation=sr),
+        model_toml(fit_effects, sigma if declare_sigma and sigma > 0 else None, tool_frame=tool, sigma_rotation=sr)
+        + plan_loads_toml(kw.get("loads", "random"), kw.get("force", 2500.0), kw.get("moment", 300.0)),
     )
     atomic_write_text(
         out / "truth.toml", model_toml(truth, sigma if sigma > 0 else None, tool_frame=tool, sigma_rotation=sr)

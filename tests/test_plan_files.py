@@ -389,3 +389,23 @@ def test_radius_of_a_link_with_urdf_shapes_is_warned(tmp_path):
     assert s.capsule_radius == {"a": 0.2, "base_link": 0.1}
     sk = _Checks(tm, s).sk
     assert sk.radius.tolist() == [0.05] and "cylinder" in sk.labels[0]  # base_link: a point (j at its origin)
+
+
+def test_synthetic_kr270_model_plans_as_written(tmp_path, capsys):
+    """stiffkit synth kr270 writes the loads the data used into [plan]
+    (force 2500 N, moment 300 N m along the base axes; gravity loading: the
+    weight alone), so the help's `stiffkit plan kr/model.toml ...` runs; the
+    planned loads are those."""
+    from stiffkit.calib.synth import plan_loads_toml
+    from stiffkit.robot.plan_candidates import plan_settings
+
+    assert main(["synth", "kr270", "--out", str(tmp_path / "kr"), "--configs", "6"]) == 0
+    s = plan_settings(tmp_path / "kr" / "model.toml")
+    f, m = 2500.0, 300.0
+    assert s.loads == [[0, 0, -f, 0, 0, 0], [f, 0, 0, 0, 0, 0], [0, f, 0, 0, 0, 0],
+                       [0, 0, 0, m, 0, 0], [0, 0, 0, 0, m, 0], [0, 0, 0, 0, 0, m]]  # fmt: skip
+    argv = ["plan", str(tmp_path / "kr" / "model.toml"), "--select", "12", "--candidates", "100", "--criterion", "D"]
+    assert main([*argv, "--json", str(tmp_path / "p.json")]) == 0, capsys.readouterr().err
+    doc = json.loads((tmp_path / "p.json").read_text())
+    assert all(sel["load"] in s.loads for sel in doc["selected"]) and doc["candidates"]["count"] == 6 * 100
+    assert "loads = [[0, 0, -981, 0, 0, 0]]" in plan_loads_toml("gravity", 981.0, 0.0)
