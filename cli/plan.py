@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
 def run_discriminate(args: argparse.Namespace) -> int:
     """``--discriminate``: T-optimal postures between tied candidates (calib/plan_discriminate.py)."""
     from ..calib.plan import discriminate
-    from ..calib.plan_report import absolute_postures_text
+    from ..calib.plan_report import _labels, absolute_postures_text
     from ..io.files import atomic_write_text, write_json
 
     if args.png or args.task or args.criterion:
@@ -160,7 +160,11 @@ def run_discriminate(args: argparse.Namespace) -> int:
             "value": res["value"],
             "pairs": res["pairs"],
             "sigma_position_m": res["sigma_position_m"],
-            "selected": [dict(zip(cands.joint_names, map(float, q))) for q in Q],
+            # as the parameter plan's: the config label of POSTURES.csv, the candidate, the joint values
+            "selected": [
+                {"config": label, "candidate": int(c), "q": dict(zip(cands.joint_names, map(float, q)))}
+                for label, c, q in zip(_labels(len(Q)), res["selected"], Q)
+            ],
         }
         print(f"wrote {write_json(args.json, doc)}")
     return 0

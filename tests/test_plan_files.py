@@ -409,3 +409,41 @@ def test_synthetic_kr270_model_plans_as_written(tmp_path, capsys):
     doc = json.loads((tmp_path / "p.json").read_text())
     assert all(sel["load"] in s.loads for sel in doc["selected"]) and doc["candidates"]["count"] == 6 * 100
     assert "loads = [[0, 0, -981, 0, 0, 0]]" in plan_loads_toml("gravity", 981.0, 0.0)
+
+
+def test_discriminate_json_names_the_csv_configs(tmp_path, capsys):
+    """--discriminate --json: each selected posture with the config label of
+    its POSTURES.csv rows, its candidate index and joint values (as the
+    parameter plan's report), equal to the CSV's numbers."""
+    import csv
+
+    from stiffkit.calib.absolute_data import write_absolute
+    from stiffkit.calib.absolute_write import model_text
+    from stiffkit.calib.synth_trees import MARKER_XYZ, TRACKER, random_tree_urdf
+    from stiffkit.robot.tree import load_tree
+    from stiffkit.robot.tree_model import GRAVITY, tree_model_from_tables
+
+    (tmp_path / "robot.urdf").write_text(random_tree_urdf(np.random.default_rng(1), trunk=1, arm=2))
+    tree = load_tree(tmp_path / "robot.urdf")
+    frames = [{"kind": "tracker", "xyz": list(TRACKER["xyz"]), "rpy": list(TRACKER["rpy"])}]
+    frames += [{"kind": "marker", "target": ln, "xyz": list(v)} for ln, v in MARKER_XYZ.items()]
+    truth = tree_model_from_tables(tree, frames, GRAVITY)
+    (tmp_path / "model.toml").write_text(
+        model_text(frames, sigma_position=1e-4, gravity=GRAVITY) + "\n[plan]\nlimits = { finger_a = [0.0, 1e-9] }\n"
+    )
+    rng = np.random.default_rng(100)
+    Q = rng.uniform(-1.4, 1.4, (9, len(tree.actuated)))
+    Q[:, tree.actuated.index("finger_a")] = 0.0
+    data = P._abs_data(truth, Q, path=str(tmp_path / "m.csv"))
+    data.xyz = predict(truth, data, truth.theta0)["pred"] + 1e-4 * rng.normal(size=data.xyz.shape)
+    write_absolute(tmp_path / "m.csv", data)
+    argv = ["plan", tmp_path / "model.toml", "--select", "4", "--candidates", "40", "--measured", tmp_path / "m.csv"]
+    argv += ["--discriminate", "link:l_link1,link:trunk_1", "--out", tmp_path / "p.csv", "--json", tmp_path / "p.json"]
+    assert main([str(a) for a in argv]) == 0, capsys.readouterr().err
+    doc = json.loads((tmp_path / "p.json").read_text())
+    with open(tmp_path / "p.csv") as fh:
+        rows = {r["config"]: r for r in csv.DictReader(fh)}
+    assert [s["config"] for s in doc["selected"]] == ["plan01", "plan02", "plan03", "plan04"] == sorted(rows)
+    for s in doc["selected"]:
+        assert s["q"] == {j: float(rows[s["config"]][j]) for j in tree.actuated}
+    assert len({s["candidate"] for s in doc["selected"]}) == 4
