@@ -37,13 +37,12 @@ effect of the model no longer earns its place?
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
 from .._core import calib as core_calib
 from .._core import tree as core
-from ..errors import StiffkitError
 from ..robot.tree_model import TreeModel
 from .absolute_candidates import (
     JOINT_KINDS,
@@ -66,9 +65,10 @@ from .absolute_fit import (
 from .absolute_propose import propose
 from .absolute_structure import PATH_GAP, STRUCTURE_ALPHA, STRUCTURE_PERMUTATIONS, residual_structure, structure_verdict
 from .backward import backward_steps, held_for_addition
-from .checks import cannot_judge, drop_copies, outlier_rows, unit_slips
+from .checks import outlier_rows, unit_slips
 from .crossval import FoldFactors, config_folds
 from .diagnose_candidates import Candidate
+from .diagnosis import ALPHA, CV_FOLDS, check_residual, distinct_rows, judged_fit
 
 __all__ = [
     "AbsoluteDiagnosis",
@@ -84,11 +84,9 @@ __all__ = [
     "PATH_GAP",
 ]
 
-ALPHA = 0.01
 #: gross errors are judged against the residual of a model that may still lack effects (whose errors
 #: are not Gaussian): a stricter level than the tests of the effects
 OUTLIER_ALPHA = 1e-4
-CV_FOLDS = 5
 #: held-out errors of this many leading candidates (each one CV of the linearised model)
 CV_TOP = 6
 ZTOL = 1e-6
@@ -129,17 +127,17 @@ def diagnose_absolute(
     cv_folds: int = CV_FOLDS,
     checks: bool = True,
     prune: bool = False,
+    kinds: Iterable[str] | None = None,
 ) -> AbsoluteDiagnosis:
     """Fit ``model`` to ``data``, check the data, rank the missing effects and
     test the effects already in the model (module docstring). ``prune``:
-    only the backward steps (no candidate is scored)."""
-    data, copies = drop_copies(data, row_values(data))  # copies are not replicates
-    try:
-        fit = fit_absolute(model, data, sigma_position=sigma_position)
-    except StiffkitError as exc:  # too few rows: with copies, say what is left
-        if not copies:
-            raise
-        raise cannot_judge(data.path, data.n, copies, str(exc).removeprefix(f"{data.path}: ")) from None
+    only the backward steps (no candidate is scored); ``kinds``: score only
+    the candidates of these kinds."""
+    kinds = set(kinds) if kinds else None
+    data, copies = distinct_rows(data, row_values(data))  # copies are not replicates
+    fit = judged_fit(
+        lambda: fit_absolute(model, data, sigma_position=sigma_position), data.path, data.n, copies, model.free.size, 3
+    )
     sig_decl = sigma_position if sigma_position is not None else model.sigma_position
     # 1. the data first
     dchecks: dict = {"outliers": [], "unit_slips": [], "warnings": list(data.warnings)}
@@ -148,7 +146,7 @@ def diagnose_absolute(
     w = data.weight.copy()
     m = fit.model
     theta = fit.theta
-    cands = [] if prune else absolute_candidates(m)
+    cands = [] if prune else [c for c in absolute_candidates(m) if not kinds or c["kind"] in kinds]
     ext = extended_model(m, cands)
     th_ext = ext.theta0.copy()
     for i, name in enumerate(ext.names):
@@ -178,10 +176,7 @@ def diagnose_absolute(
     nobs = 3 * int(np.sum(w > 0))
     rss = float(r @ r)
     p = int(fit.reduction.kept.size)
-    if nobs <= p:
-        raise cannot_judge(
-            data.path, data.n, copies, f"{nobs} coordinates for {p} identified parameters leave no residual"
-        )
+    check_residual(data.path, data.n, copies, nobs, p, 3)
     nres = nobs - p
     s2 = (sig_decl**2) if sig_decl else rss / nres
     sigma = math.sqrt(s2)
@@ -212,6 +207,9 @@ def diagnose_absolute(
         dof=dof,
         log_p=log_p,
         pruned=prune,
+        alpha=alpha,
+        residual_dof=nres,
+        n_copied=copies,
     )
     # 2. candidates: score tests in one core call (the held-out errors below)
     ranked = [] if prune else _score_candidates(dg, ext, cands, cand_cols, J, col, A, r, s2, sig_decl, nres, w)

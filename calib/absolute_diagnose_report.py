@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 from .absolute_fit import AbsoluteFit, position_stats
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
-from .diagnose_report import effect_toml
+from .diagnosis import ALPHA
+from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines
 
 __all__ = ["AbsoluteDiagnosis", "format_absolute_diagnosis", "plan_command"]
 
@@ -59,6 +60,9 @@ class AbsoluteDiagnosis:
     backward: list[BackwardStep] = field(default_factory=list)
     removal: BackwardStep | None = None
     pruned: bool = False  # only the backward steps were made (prune=True)
+    alpha: float = ALPHA
+    residual_dof: int = 0
+    n_copied: int = 0  # exact copies of earlier rows, dropped before the fit
 
     @property
     def floor(self) -> float:
@@ -92,7 +96,13 @@ class AbsoluteDiagnosis:
             "warnings": self.warnings,
             "non_identifiable_candidates": [c.inert_json() for c in self.non_identifiable],
             "fit": self.fit.to_json(),
+            **pipeline_json("absolute", self.n_rows_distinct, self.n_copied, self.residual_dof, self.alpha),
         }
+
+    @property
+    def n_rows_distinct(self) -> int:
+        """Distinct rows read (with those the data checks set aside)."""
+        return int(self.fit.data.n) + len(self.data_checks.get("set_aside_rows", []))
 
 
 def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
@@ -155,7 +165,7 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
                 f"residual structure: {what}: correlation {v['neighbour_correlation']:.3f}, p = {v['p_value']:.3g}"
             )
     if dg.nothing_fits:
-        lines.append("NOTHING IN THE CATALOGUE FITS")
+        lines.append(nothing_fits_line())
     for r in dg.reasons:
         lines.append(f"no proposal: {r}")
     if dg.backward:
@@ -163,8 +173,5 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
         lines += format_backward_steps(dg.backward, dg.removal)
     if dg.proposal is not None:
         lines.append("")
-        if dg.proposal.hint:
-            lines.append(f"note: {dg.proposal.hint}")
-        lines.append("proposal: append to the model and fit again:")
-        lines.append(effect_toml(dg.proposal.effect))
+        lines += proposal_lines(dg.proposal.effect, hint=dg.proposal.hint)
     return "\n".join(lines)

@@ -49,12 +49,10 @@ from collections.abc import Iterable
 import numpy as np
 
 from .._core import calib as core
-from ..errors import InputError
 from ..robot.model import Model, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
 from .backward import backward_steps, held_for_addition
-from .checks import cannot_judge, drop_copies
 from .diagnose_candidates import Candidate, candidate_tables, inert_reasons
 from .diagnose_rank import (
     COMPENSATOR_MATCH,
@@ -84,6 +82,7 @@ from .diagnose_stats import (
     logsf_f,
     pure_error,
 )
+from .diagnosis import distinct_rows, judged_fit
 from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
 from .robust import check_data
@@ -157,7 +156,7 @@ def diagnose(
 
     model, meas = as_inputs(model, meas)
     rows = np.hstack([meas.q, meas.w, meas.p, meas.d] + ([meas.r] if meas.r is not None else []))
-    meas, copies = drop_copies(meas, rows)  # copies are not replicates
+    meas, copies = distinct_rows(meas, rows)  # copies are not replicates
     tau_all = model.chain.joint_torques(meas.q, meas.w)
     tau0 = {j: default_tau0(tau_all[:, k]) for k, j in enumerate(model.chain.joint_names) if model.chain.qidx[k] > 0}
     cands = candidate_tables(model, tau0)
@@ -168,12 +167,7 @@ def diagnose(
     cterms = [expand_effect(model.chain, table, n0 + i, "candidate") for i, (table, _) in enumerate(cands)]
     flat = [t for ts in cterms for t in ts]
     pb = Problem(model, meas, extra_terms=flat, sigma_position=sigma_position)
-    try:
-        res_all = fit(model, meas, problem=pb)
-    except InputError as exc:  # too few rows: with copies, say what is left
-        if not copies:
-            raise
-        raise cannot_judge(meas.path, meas.n, copies, str(exc).removeprefix(f"{meas.path}: ")) from None
+    res_all = judged_fit(lambda: fit(model, meas, problem=pb), meas.path, meas.n, copies, pb.npar, pb.rows)
     test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res_all, pb, meas, copies)
     dc = check_data(res_all, alpha=alpha) if checks else None
     res, log_p_all, verdict_all = res_all, None, None
@@ -315,6 +309,7 @@ def diagnose(
         cv_folds=len(folds) if len(folds) >= 2 else 0,
         excess=excess,
         scale2=scale2,
+        n_copied=copies,
     )
     _rank_honestly(dg, pb, res, A, model, cterms, cands, sig)
     _backward(dg, pb, res, folds, obs_rows, npts, wp, meas, d_pe, alpha)

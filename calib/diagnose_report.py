@@ -16,6 +16,7 @@ from . import residual_map as RM
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
 from .diagnose_stats import ALPHA, TIE_LOG10
+from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines
 from .fit import FitResult, Problem
 from .robust import DataChecks, format_checks
 
@@ -60,6 +61,7 @@ class Diagnosis:
     backward: list[BackwardStep] = field(default_factory=list)  # the model's effects tested without them
     removal: BackwardStep | None = None
     pruned: bool = False
+    n_copied: int = 0  # exact copies of earlier rows, dropped before the fit
 
     @property
     def p_value(self) -> float:
@@ -114,7 +116,13 @@ class Diagnosis:
             "warnings": self.warnings,
             "residual_map": [f.to_json() for f in self.residual_map],
             "residual_shapes": self.shapes,
+            **pipeline_json("deflection", self.fit_all_rows, self.n_copied, self.fit.dof, self.alpha),
         }
+
+    @property
+    def fit_all_rows(self) -> int:
+        """Distinct rows read (before the data checks set any aside)."""
+        return int((self.fit_all if self.fit_all is not None else self.fit).measured.shape[0])
 
 
 def residual_shape(pb: Problem, res: FitResult, f: RM.Feature, bins: int = 6) -> dict:
@@ -240,6 +248,7 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
                 )
     if dg.nothing_fits:
         lines.append("")
+        lines.append(nothing_fits_line())
         L = dg.candidates[0] if dg.candidates else None
         msg = "nothing in the catalogue fits"
         if L is not None:
@@ -269,11 +278,8 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
         lines.append("")
         gain = ""
         if best.cv_rms_position_m is not None and cv is not None:
-            gain = f" (held-out RMS {cv * 1e3:.4g} -> {best.cv_rms_position_m * 1e3:.4g} mm)"
-        lines.append(f"suggested: append to the model file and run fit again{gain}")
-        lines.append(effect_toml(best.effect))
-        if best.hint:
-            lines.append(f"hint: {best.hint}")
+            gain = f"held-out RMS with it {cv * 1e3:.4g} -> {best.cv_rms_position_m * 1e3:.4g} mm"
+        lines += proposal_lines(best.effect, gain, best.hint)
     elif dg.verdict == "inadequate" or dg.reasons:
         lines.append("")
         lines.append("no effect is proposed: " + "; ".join(dg.reasons) if dg.reasons else "no effect is proposed")

@@ -15,15 +15,14 @@ from .._core import calib as core
 from ..errors import InputError
 from . import crossval as CV
 from .checks import cannot_judge
+from .diagnosis import ALPHA, CV_FOLDS, check_residual
 from .fit import FitResult, Problem
 from .measure import Measurements
 
-__all__ = ["pure_error", "logsf_chi2", "logsf_f"]
+__all__ = ["pure_error", "logsf_chi2", "logsf_f", "ALPHA", "CV_FOLDS"]
 
-ALPHA = 0.01
 TIE_LOG10 = 1.0  # within a factor 10 of the leader's p-value: undecidable
 ZTOL = 1e-6  # a projected unit column shorter than this adds nothing
-CV_FOLDS = 5
 LOW_DOF = 30  # fewer residual degrees of freedom than this (or than half the observations): warn
 OVERFIT = 0.8  # an adequate RMS below this fraction of the noise floor: warn
 NSIM = 999  # Monte Carlo draws of the max-score test
@@ -56,10 +55,7 @@ def _adequacy(
 ) -> tuple[str, float, int, float, float, str, float, int | None]:
     """(test, statistic, dof, log p, sigma, source, scale2, d_pe); ``meas``
     holds distinct rows only, ``copies`` rows were exact copies (dropped)."""
-    if res.dof <= 0:
-        raise cannot_judge(
-            meas.path, meas.n, copies, f"{res.nobs} observations for {res.rank} identified parameters leave no residual"
-        )
+    check_residual(meas.path, meas.n, copies, res.nobs, res.rank, pb.rows)
     if pb.sigma_declared:
         stat, dof = res.chi2, res.dof
         return (

@@ -50,18 +50,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..calib.absolute_diagnose import CV_FOLDS, diagnose_absolute, format_absolute_diagnosis
 from ..calib.absolute_plots import absolute_plots
-from ..calib.absolute_report import format_absolute, load_absolute
-from ..calib.diagnose import diagnose, format_diagnosis
+from ..calib.absolute_report import format_absolute
+from ..calib.diagnosis import CV_FOLDS
+from ..calib.diagnosis_files import diagnose_files, format_report
 from ..calib.fit import format_table
-from ..calib.measure import read_measurements
 from ..calib.plots import candidates_plot, fit_plots, residual_plots
 from ..errors import InputError
 from ..io import validate as V
 from ..io.files import check_plots_folder, model_inputs, write_json
 from ..robot import catalogue
-from ..robot.model import KINDS, load_model
 from ..robot.tree_model import model_kind
 from . import args as A
 
@@ -152,67 +150,51 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Both observation kinds through one pipeline (calib/diagnosis.py)."""
     if args.json:
         V.output_path(args.json, "--json", [*model_inputs(args.model), args.measurements])
     check_plots_folder(args.plots, "--plots")
     if args.cv == 1:
         raise InputError("--cv 1: cross-validation needs at least 2 folds (0 switches it off)")
-    if model_kind(args.model) == "absolute":
-        return run_absolute(args)
-    model = load_model(args.model)
-    meas = read_measurements(args.measurements, model.chain.dof)
+    absolute = model_kind(args.model) == "absolute"
     kinds = None
     if args.kinds:
+        known = catalogue.kinds(catalogue.ABSOLUTE if absolute else catalogue.DEFLECTION)
         kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
-        bad = [k for k in kinds if k not in KINDS]
+        bad = [k for k in kinds if k not in known]
         if bad:
-            raise InputError(f"--kinds: unknown kind(s) {', '.join(bad)}; choose from {', '.join(KINDS)}")
-    dg = diagnose(
-        model,
-        meas,
+            raise InputError(f"--kinds: unknown kind(s) {', '.join(bad)}; choose from {', '.join(known)}")
+    dg, kind = diagnose_files(
+        args.model,
+        args.measurements,
         sigma_position=args.sigma,
         alpha=args.alpha,
         kinds=kinds,
         checks=not args.no_checks,
-        cv_folds=args.cv,
+        # the absolute verdict without a declared sigma rests on the held-out error: never off
+        cv_folds=(args.cv or CV_FOLDS) if absolute else args.cv,
         prune=args.prune,
     )
-    print(format_table(dg.fit_all if dg.fit_all is not None else dg.fit))
+    if kind == "absolute":
+        print(format_absolute(dg.fit))
+    else:
+        print(format_table(dg.fit_all if dg.fit_all is not None else dg.fit))
     print()
-    print(format_diagnosis(dg, top=args.top))
+    print(format_report(dg, kind, top=args.top))
     if args.json:
         write_json(args.json, dg.to_json())
         print(f"wrote {args.json}")
     if args.plots:
-        Path(args.plots).mkdir(parents=True, exist_ok=True)
-        files = fit_plots(dg.fit, args.plots, label="diagnose")
-        if dg.candidates:
-            files.append(candidates_plot(dg, Path(args.plots) / "diagnose_candidates.png"))
-        files += residual_plots(dg, args.plots, label="diagnose")
-        for f in files:
+        for f in _plots(dg, kind, args.plots):
             print(f"wrote {f}")
     return 0
 
 
-def run_absolute(args: argparse.Namespace) -> int:
-    """``diagnose`` on absolute measurements (docs/calibration.md section 6.4)."""
-    model, data = load_absolute(args.model, args.measurements)
-    dg = diagnose_absolute(
-        model,
-        data,
-        sigma_position=args.sigma,
-        alpha=args.alpha,
-        cv_folds=args.cv or CV_FOLDS,
-        checks=not args.no_checks,
-        prune=args.prune,
-    )
-    print(format_absolute(dg.fit))
-    print()
-    print(format_absolute_diagnosis(dg, top=args.top))
-    if args.json:
-        write_json(args.json, dg.to_json())
-        print(f"wrote {args.json}")
-    if args.plots:
-        for f in absolute_plots(dg.fit, args.plots, label="diagnose"):
-            print(f"wrote {f}")
-    return 0
+def _plots(dg: object, kind: str, folder: str) -> list:
+    if kind == "absolute":
+        return absolute_plots(dg.fit, folder, label="diagnose")
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    files = fit_plots(dg.fit, folder, label="diagnose")
+    if dg.candidates:
+        files.append(candidates_plot(dg, Path(folder) / "diagnose_candidates.png"))
+    return files + residual_plots(dg, folder, label="diagnose")

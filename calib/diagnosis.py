@@ -1,0 +1,151 @@
+"""One diagnosis pipeline for both observation kinds (issue 15): the stages
+and rules that deflections under known loads (``calib.diagnose``) and
+absolute tracker positions (``calib.absolute_diagnose``) share; the entry
+that runs either from its files, the one path of ``stiffkit diagnose``, is
+``calib.diagnosis_files``.
+
+The stages, in order, on either kind:
+
+0. Rows: exact copies of an earlier row are dropped (:func:`distinct_rows`;
+   copies are not replicates: they carry no noise and no information);
+   a fit that fails on what is left, or that leaves fewer than
+   MIN_RESIDUAL_DOF residual degrees of freedom, gives no verdict:
+   "cannot judge: N distinct rows; a verdict needs at least M distinct
+   rows" with M = :func:`min_rows` (:func:`judged_fit`,
+   :func:`check_residual`).
+1. Data checks, fit, adequacy, candidates (score test and held-out error),
+   a checked proposal or why none, "nothing in the catalogue fits": each
+   kind's adapter (how to fit, how to predict, which rows, its data
+   checks) in its module; the report's common pieces in
+   ``calib.diagnosis_report``.
+
+What the two kinds still decide each their own way is listed in
+docs/calibration.md section 6.4 (multiplicity: the max-score test for
+deflections, Bonferroni for tracker data; ties: log p within TIE_LOG10 or
+paired held-out error, against held-out errors within CV_GAIN).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TypeVar
+
+import numpy.typing as npt
+
+from ..errors import InputError, StiffkitError
+from .checks import cannot_judge, drop_copies
+
+__all__ = [
+    "ALPHA",
+    "CV_FOLDS",
+    "MIN_RESIDUAL_DOF",
+    "PROPOSAL_LINE",
+    "NOTHING_FITS_LINE",
+    "JSON_FIELDS",
+    "min_rows",
+    "distinct_rows",
+    "judged_fit",
+    "check_residual",
+]
+
+#: level of the adequacy tests
+ALPHA = 0.01
+#: folds of the cross-validation by configuration
+CV_FOLDS = 5
+#: a verdict needs at least this many residual degrees of freedom: with fewer, a fit absorbs most of
+#: the noise, a chi-square or F test has next to no power and a held-out error rests on a few rows
+MIN_RESIDUAL_DOF = 10
+#: the line before a proposal's ready [[effect]] table, both kinds
+PROPOSAL_LINE = "proposal: append to the model and fit again:"
+#: the headline when no catalogued effect explains what the model leaves, both kinds
+NOTHING_FITS_LINE = "NOTHING IN THE CATALOGUE FITS"
+#: the JSON fields of the pipeline, both kinds (each kind adds its own)
+JSON_FIELDS = (
+    "observation_kind",
+    "verdict",
+    "test",
+    "statistic",
+    "dof",
+    "log10_p_value",
+    "alpha",
+    "sigma_position_m",
+    "sigma_source",
+    "noise_floor_position_m",
+    "rms_position_m",
+    "residual_dof",
+    "n_rows_distinct",
+    "n_rows_copied",
+    "min_residual_dof",
+    "data_checks",
+    "cv_rms_position_m",
+    "cv_folds",
+    "candidates",
+    "non_identifiable_candidates",
+    "ties",
+    "nothing_fits",
+    "proposal",
+    "no_proposal_reasons",
+    "removal",
+    "backward_steps",
+    "prune",
+    "warnings",
+)
+
+T = TypeVar("T")
+
+
+def min_rows(n_params: int, coords: int) -> int:
+    """The fewest distinct rows that leave MIN_RESIDUAL_DOF residual degrees
+    of freedom to ``n_params`` identified parameters, ``coords``
+    coordinates a row."""
+    return max(1, math.ceil((int(n_params) + MIN_RESIDUAL_DOF) / max(int(coords), 1)))
+
+
+def distinct_rows(data: T, rows: npt.ArrayLike) -> tuple[T, int]:
+    """``data`` without the rows that copy an earlier one (``rows``: the
+    values of each row), and how many were dropped."""
+    return drop_copies(data, rows)  # type: ignore[return-value]
+
+
+def _too_few(
+    path: object, n: int, copies: int, n_params: int, coords: int, why: str, which: str = "identified"
+) -> InputError:
+    need = min_rows(n_params, coords)
+    return cannot_judge(
+        path,
+        n,
+        copies,
+        f"{why}; a verdict needs at least {need} distinct rows ({n_params} {which} parameters + "
+        f"{MIN_RESIDUAL_DOF} residual degrees of freedom, {coords} coordinates a row)",
+    )
+
+
+def judged_fit(fit: Callable[[], T], path: object, n: int, copies: int, n_free: int, coords: int) -> T:
+    """``fit()`` on the distinct rows; when it fails on too few of them (fewer
+    coordinates than the free parameters plus MIN_RESIDUAL_DOF), or when copies
+    were dropped, the failure is a "cannot judge" that names the minimum."""
+    try:
+        return fit()
+    except StiffkitError as exc:
+        few = n * coords < n_free + MIN_RESIDUAL_DOF
+        if not (few or copies):
+            raise
+        why = str(exc).removeprefix(f"{path}: ")
+        if few:
+            raise _too_few(path, n, copies, n_free, coords, f"the fit fails ({why})", "free") from None
+        raise cannot_judge(path, n, copies, why) from None
+
+
+def check_residual(path: object, n: int, copies: int, nobs: int, rank: int, coords: int) -> None:
+    """No verdict from fewer than MIN_RESIDUAL_DOF residual degrees of freedom."""
+    if nobs - rank < MIN_RESIDUAL_DOF:
+        raise _too_few(
+            path,
+            n,
+            copies,
+            rank,
+            coords,
+            f"{nobs} coordinates for {rank} identified parameters leave {max(nobs - rank, 0)} residual degrees "
+            "of freedom",
+        )
