@@ -68,7 +68,16 @@ from .backward import backward_steps, held_for_addition
 from .checks import outlier_rows, unit_slips
 from .crossval import FoldFactors, config_folds
 from .diagnose_candidates import Candidate
-from .diagnosis import ALPHA, CV_FOLDS, check_residual, distinct_rows, judged_fit
+from .diagnosis import (
+    ALPHA,
+    CV_FOLDS,
+    Noise,
+    check_residual,
+    distinct_rows,
+    fill_scores,
+    judged_fit,
+    score_blocks,
+)
 
 __all__ = [
     "AbsoluteDiagnosis",
@@ -89,7 +98,6 @@ __all__ = [
 OUTLIER_ALPHA = 1e-4
 #: held-out errors of this many leading candidates (each one CV of the linearised model)
 CV_TOP = 6
-ZTOL = 1e-6
 
 
 def _data_checks(
@@ -371,28 +379,16 @@ def _score_candidates(
         else:
             blocks.append((cand, cols))
     rss = float(r @ r)
-    excess = rss / s2 - nres if sig_decl else 0.0  # the residual above the noise, chi-square units
+    noise = Noise(s2, "declared" if sig_decl else "residual", nres)
     ranked = []
-    if blocks:
-        Z = np.hstack([J[:, [col[x] for x in cols]] for _c, cols in blocks])
-        cstart = np.cumsum([1] + [cols.size for _c, cols in blocks]).astype(np.int32)
-        st, df, _pr = core_calib.score(A, r, Z, cstart, 1e-10, ZTOL)
+    st, df, _pr = score_blocks(A, r, [J[:, [col[x] for x in cols]] for _c, cols in blocks])
     for k, (cand, cols) in enumerate(blocks):
         d = int(df[k])
         if d == 0:
             cand.reason = "spanned by the model: its columns are combinations of the model's"
             dg.non_identifiable.append(cand)
             continue
-        cand.statistic = float(st[k] / s2)
-        cand.dof = d
-        if sig_decl:
-            cand.log_p = core_calib.chi2_logsf(cand.statistic, d)
-            cand.excess_fraction = max((cand.statistic - d) / excess, 0.0) if excess > 0 else None
-        else:
-            rest = max(nres - d, 1)
-            s2c = max(rss - st[k], 1e-300) / rest
-            cand.log_p = core_calib.f_logsf((st[k] / d) / s2c, d, rest)
-        cand.explained_fraction = float(st[k] / rss) if rss > 0 else 0.0
+        fill_scores(cand, float(st[k]), d, noise, rss)
         cand.rms_after_m = math.sqrt(max(rss - st[k], 0.0) / max(np.sum(w > 0), 1))
         ranked.append((cand, cols))
     ranked.sort(key=lambda x: x[0].log_p)

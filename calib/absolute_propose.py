@@ -20,13 +20,13 @@ from .absolute_data import AbsoluteData
 from .absolute_fit import _nonnegative, _solve, predict
 from .absolute_structure import structure_verdict
 from .diagnose_candidates import Candidate
+from .diagnosis import ZTOL
 
 if TYPE_CHECKING:
     from .absolute_diagnose_report import AbsoluteDiagnosis
 
 __all__ = ["propose", "CV_GAIN"]
 
-ZTOL = 1e-6
 #: a candidate must lower the held-out RMS by this fraction at least (beyond noise)
 CV_GAIN = 0.02
 #: a smaller candidate contained in the best one is proposed first when it achieves this share of

@@ -82,7 +82,7 @@ from .diagnose_stats import (
     logsf_f,
     pure_error,
 )
-from .diagnosis import distinct_rows, judged_fit
+from .diagnosis import Noise, distinct_rows, fill_scores, judged_fit, score_blocks
 from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
 from .robust import check_data
@@ -208,10 +208,10 @@ def diagnose(
     stat_c, dof_c = np.zeros(len(cands)), np.zeros(len(cands), int)
     pr = np.zeros((nobs, len(cands)))
     if act:
-        st_a, dof_a, pr_a = core.score(A, res.r, Zall, cstart, 1e-10, ZTOL)
-        stat_c[act], dof_c[act], pr[:, act] = st_a, dof_a, pr_a
+        stat_c[act], dof_c[act], pr[:, act] = score_blocks(A, res.r, [Z[c] for c in act])
     rr = float(res.r @ res.r)
-    excess = rr / scale2 - res.dof  # residual above the noise, in chi-square units
+    noise = Noise(scale2, "declared" if d_pe is None else "pure error", res.dof, d_pe)
+    excess = noise.excess(rr)  # residual above the noise, in chi-square units
     wp = float(pb.wrow[0])
     npts = meas.n
     rpos = res.r[: 3 * npts].reshape(3, npts)
@@ -222,14 +222,7 @@ def diagnose(
             cand.reason = inert[c] or "spanned by the model: its columns are combinations of the model's"
             spanned.append(cand)
             continue
-        cand.dof = int(dof_c[c])
-        cand.statistic = float(stat_c[c] / scale2)
-        if d_pe is None:
-            cand.log_p = logsf_chi2(cand.statistic, cand.dof)
-        else:
-            cand.log_p = logsf_f(cand.statistic / cand.dof, cand.dof, d_pe)
-        cand.explained_fraction = float(stat_c[c] / rr) if rr > 0 else 0.0
-        cand.excess_fraction = max(float((cand.statistic - cand.dof) / excess), 0.0) if excess > 0 else None
+        fill_scores(cand, float(stat_c[c]), int(dof_c[c]), noise, rr)
         after = (rpos - pr[: 3 * npts, c].reshape(3, npts)) / wp
         cand.rms_after_m = float(np.sqrt(np.mean((after**2).sum(axis=0))))
         cand._pr = pr[:, c]

@@ -13,11 +13,16 @@ The stages, in order, on either kind:
    "cannot judge: N distinct rows; a verdict needs at least M distinct
    rows" with M = :func:`min_rows` (:func:`judged_fit`,
    :func:`check_residual`).
-1. Data checks, fit, adequacy, candidates (score test and held-out error),
-   a checked proposal or why none, "nothing in the catalogue fits": each
-   kind's adapter (how to fit, how to predict, which rows, its data
-   checks) in its module; the report's common pieces in
-   ``calib.diagnosis_report``.
+1. Data checks, fit, adequacy: each kind's adapter (how to fit, how to
+   predict, which rows, its data checks) in its module.
+2. Candidates: the score test of every candidate's columns against the
+   model's, in one core call (:func:`score_blocks`), and its statistic,
+   degrees of freedom, log p-value, explained share and share of the
+   residual above the noise (:func:`fill_scores`, one rule for the three
+   sources of the noise level, :class:`Noise`); the held-out error of
+   the leaders by cross-validation by configuration.
+3. A checked proposal or why none, "nothing in the catalogue fits"; the
+   report's common pieces in ``calib.diagnosis_report``.
 
 What the two kinds still decide each their own way is listed in
 docs/calibration.md section 6.4 (multiplicity: the max-score test for
@@ -28,13 +33,19 @@ paired held-out error, against held-out errors within CV_GAIN).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import TypeVar
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, TypeVar
 
+import numpy as np
 import numpy.typing as npt
 
+from .._core import calib as core
 from ..errors import InputError, StiffkitError
 from .checks import cannot_judge, drop_copies
+
+if TYPE_CHECKING:
+    from .diagnose_candidates import Candidate
 
 __all__ = [
     "ALPHA",
@@ -47,6 +58,9 @@ __all__ = [
     "distinct_rows",
     "judged_fit",
     "check_residual",
+    "Noise",
+    "score_blocks",
+    "fill_scores",
 ]
 
 #: level of the adequacy tests
@@ -60,6 +74,8 @@ MIN_RESIDUAL_DOF = 10
 PROPOSAL_LINE = "proposal: append to the model and fit again:"
 #: the headline when no catalogued effect explains what the model leaves, both kinds
 NOTHING_FITS_LINE = "NOTHING IN THE CATALOGUE FITS"
+#: a projected unit candidate column shorter than this adds nothing (the core's score test)
+ZTOL = 1e-6
 #: the JSON fields of the pipeline, both kinds (each kind adds its own)
 JSON_FIELDS = (
     "observation_kind",
@@ -149,3 +165,60 @@ def check_residual(path: object, n: int, copies: int, nobs: int, rank: int, coor
             f"{nobs} coordinates for {rank} identified parameters leave {max(nobs - rank, 0)} residual degrees "
             "of freedom",
         )
+
+
+@dataclass(frozen=True)
+class Noise:
+    """How the residual's sums of squares become test statistics: ``scale2``
+    the noise variance of one weighted coordinate (1 when the weights
+    whiten by a declared sigma), ``source`` "declared", "pure error" (the
+    spread of replicated rows, ``d_pe`` degrees of freedom) or "residual"
+    (the model's own residual, ``nres`` degrees of freedom)."""
+
+    scale2: float
+    source: str
+    nres: int
+    d_pe: int | None = None
+
+    def excess(self, rss: float) -> float:
+        """The residual above the noise, in chi-square units (0 when the noise
+        is the residual itself)."""
+        return 0.0 if self.source == "residual" else rss / self.scale2 - self.nres
+
+
+def score_blocks(
+    A: np.ndarray, r: np.ndarray, blocks: Sequence[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The score test of each block of candidate columns against the model's
+    columns ``A`` (core/sk_calib.f90): each block projected off ``A``, the
+    residual ``r``'s sum of squares in what is left (raw, before the
+    noise), its rank (the degrees of freedom; 0: spanned by the model) and
+    the explained part of ``r`` (one column a block)."""
+    n = A.shape[0]
+    if not blocks:
+        return np.zeros(0), np.zeros(0, int), np.zeros((n, 0))
+    Z = np.hstack(list(blocks))
+    cstart = np.cumsum([1] + [b.shape[1] for b in blocks]).astype(np.int32)
+    st, dof, pr = core.score(A if A.shape[1] else np.zeros((n, 1)), r, Z, cstart, 1e-10, ZTOL)
+    return np.asarray(st, float), np.asarray(dof, int), np.asarray(pr)
+
+
+def fill_scores(cand: Candidate, st: float, d: int, noise: Noise, rss: float) -> None:
+    """A candidate's scores from its raw score statistic ``st`` on ``d``
+    degrees of freedom: statistic (in noise units), log p (chi-square
+    against a declared sigma; F against the pure error; F against the
+    residual left beside it when the noise is the residual's), share of the
+    residual it explains, share of the residual above the noise (None when
+    the noise is not known apart from the residual)."""
+    cand.dof = int(d)
+    cand.statistic = float(st / noise.scale2)
+    if noise.source == "declared":
+        cand.log_p = core.chi2_logsf(cand.statistic, d)
+    elif noise.source == "pure error":
+        cand.log_p = core.f_logsf(cand.statistic / d, d, noise.d_pe)
+    else:
+        rest = max(noise.nres - d, 1)
+        cand.log_p = core.f_logsf((st / d) / (max(rss - st, 1e-300) / rest), d, rest)
+    cand.explained_fraction = float(st / rss) if rss > 0 else 0.0
+    excess = noise.excess(rss)
+    cand.excess_fraction = max(float((cand.statistic - d) / excess), 0.0) if excess > 0 else None

@@ -20,6 +20,7 @@ import json
 import math
 import warnings
 
+import numpy as np
 import pytest
 
 from stiffkit.calib import diagnosis as D
@@ -189,3 +190,46 @@ def test_nothing_fits_absolute_in_the_common_words(tmp_path):
     assert D.NOTHING_FITS_LINE in format_absolute_diagnosis(dg)
     js = json.loads(json.dumps(dg.to_json()))
     assert js["nothing_fits"] is True and js["observation_kind"] == "absolute"
+
+
+@pytest.mark.parametrize("source", ["declared", "pure error", "residual"])
+def test_the_shared_score_test_against_closed_forms(source):
+    """score_blocks + fill_scores on random columns: the statistic is the
+    residual's squared norm in the candidate's columns projected off the
+    model's; the log p is scipy's chi-square or F tail of it."""
+    from scipy import stats
+
+    from stiffkit.calib.diagnose_candidates import Candidate
+
+    rng = np.random.default_rng(5)
+    n, p = 60, 4
+    A = rng.normal(size=(n, p))
+    r = rng.normal(size=n)
+    r -= A @ np.linalg.lstsq(A, r, rcond=None)[0]  # a fitted residual: orthogonal to A
+    blocks = [rng.normal(size=(n, 2)), rng.normal(size=(n, 3)) + r[:, None] * [0.3, 0.0, 0.1]]
+    st, dof, pr = D.score_blocks(A, r, blocks)
+    rss = float(r @ r)
+    noise = D.Noise(0.7, source, n - p, 12 if source == "pure error" else None)
+    for k, Z in enumerate(blocks):
+        Zp = Z - A @ np.linalg.lstsq(A, Z, rcond=None)[0]
+        proj = Zp @ np.linalg.lstsq(Zp, r, rcond=None)[0]
+        assert dof[k] == Z.shape[1]
+        assert st[k] == pytest.approx(float(proj @ proj), rel=1e-9)
+        np.testing.assert_allclose(pr[:, k], proj, atol=1e-12)
+        c = Candidate(kind="joint", target="j", effect={})
+        D.fill_scores(c, st[k], int(dof[k]), noise, rss)
+        d = Z.shape[1]
+        if source == "declared":
+            want = stats.chi2.logsf(st[k] / 0.7, d)
+        elif source == "pure error":
+            want = stats.f.logsf(st[k] / 0.7 / d, d, 12)
+        else:
+            want = stats.f.logsf((st[k] / d) / ((rss - st[k]) / (n - p - d)), d, n - p - d)
+        assert c.log_p == pytest.approx(want, rel=1e-8, abs=1e-10)
+        assert c.statistic == pytest.approx(st[k] / 0.7, rel=1e-12)
+        assert c.explained_fraction == pytest.approx(st[k] / rss, rel=1e-12)
+        if source == "residual":
+            assert c.excess_fraction is None
+        else:
+            excess = rss / 0.7 - (n - p)
+            assert c.excess_fraction == pytest.approx(max((st[k] / 0.7 - d) / excess, 0.0), rel=1e-12)
