@@ -72,6 +72,7 @@ from .diagnosis import (
     ALPHA,
     CV_FOLDS,
     Noise,
+    bonferroni,
     check_residual,
     distinct_rows,
     fill_scores,
@@ -104,7 +105,12 @@ def _data_checks(
     model: TreeModel, data: AbsoluteData, fit: AbsoluteFit, sig_decl: float | None, sigma_position: float | None
 ) -> tuple[AbsoluteData, AbsoluteFit, dict]:
     """Unit slips and gross errors named and set aside (the fit again without them)."""
-    dchecks: dict = {"outliers": [], "unit_slips": [], "warnings": list(data.warnings)}
+    dchecks: dict = {
+        "outliers": [],
+        "unit_slips": [],
+        "warnings": list(data.warnings),
+        "set_aside": {"rows": [], "lines": []},
+    }
     w = data.weight.copy()
     labels = [data.configs[p] for p in data.posture]
     pred = data.xyz - fit.residual
@@ -119,11 +125,16 @@ def _data_checks(
     dchecks["unit_slips"] = [s.to_json() for s in slips]
     dchecks["outliers"] = [f.to_json(line=data.lines[f.row]) for f in flags]
     aside = {f.row for f in flags} | {r for s in slips for r in s.rows} | set(np.flatnonzero(w == 0).tolist())
+    data_all = data
     if aside:
         w[list(aside)] = 0.0
         data = data.subset(w > 0)
         fit = fit_absolute(model, data, sigma_position=sigma_position)
         dchecks["set_aside_rows"] = sorted(int(x) for x in aside)
+        dchecks["set_aside"] = {
+            "rows": dchecks["set_aside_rows"],
+            "lines": [int(data_all.lines[i]) for i in dchecks["set_aside_rows"]],
+        }
     return data, fit, dchecks
 
 
@@ -148,7 +159,12 @@ def diagnose_absolute(
     )
     sig_decl = sigma_position if sigma_position is not None else model.sigma_position
     # 1. the data first
-    dchecks: dict = {"outliers": [], "unit_slips": [], "warnings": list(data.warnings)}
+    dchecks: dict = {
+        "outliers": [],
+        "unit_slips": [],
+        "warnings": list(data.warnings),
+        "set_aside": {"rows": [], "lines": []},
+    }
     if checks:
         data, fit, dchecks = _data_checks(model, data, fit, sig_decl, sigma_position)
     w = data.weight.copy()
@@ -221,6 +237,9 @@ def diagnose_absolute(
     )
     # 2. candidates: score tests in one core call (the held-out errors below)
     ranked = [] if prune else _score_candidates(dg, ext, cands, cand_cols, J, col, A, r, s2, sig_decl, nres, w)
+    # the multiplicity of the candidates: a proposal must pass alpha / n_tests (absolute_propose)
+    dg.n_tests = len(ranked)
+    dg.bonferroni_p = dg.multiplicity_p = bonferroni(ranked[0][0].p_value, len(ranked)) if ranked else None
     top = ranked[:CV_TOP]
     # every held-out error of the diagnosis (the model's, without each of its effects, with each
     # leading candidate) on one factorisation per fold of the model's and those candidates' columns

@@ -63,6 +63,9 @@ class AbsoluteDiagnosis:
     alpha: float = ALPHA
     residual_dof: int = 0
     n_copied: int = 0  # exact copies of earlier rows, dropped before the fit
+    n_tests: int = 0  # candidates scored
+    bonferroni_p: float | None = None  # the best candidate's p times n_tests (at most 1)
+    multiplicity_p: float | None = None  # the p the proposal rule corrects by: Bonferroni's
 
     @property
     def floor(self) -> float:
@@ -96,6 +99,10 @@ class AbsoluteDiagnosis:
             "warnings": self.warnings,
             "non_identifiable_candidates": [c.inert_json() for c in self.non_identifiable],
             "fit": self.fit.to_json(),
+            "n_tests": self.n_tests,
+            "multiplicity_p": self.multiplicity_p,
+            "multiplicity_method": f"Bonferroni over {self.n_tests} candidates",
+            "bonferroni_p": self.bonferroni_p,
             **pipeline_json("absolute", self.n_rows_distinct, self.n_copied, self.residual_dof, self.alpha),
         }
 

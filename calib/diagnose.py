@@ -82,7 +82,7 @@ from .diagnose_stats import (
     logsf_f,
     pure_error,
 )
-from .diagnosis import Noise, distinct_rows, fill_scores, judged_fit, score_blocks
+from .diagnosis import Noise, bonferroni, distinct_rows, fill_scores, judged_fit, score_blocks
 from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
 from .robust import check_data
@@ -236,7 +236,7 @@ def diagnose(
     nsim_used = 0
     if ranked:
         lobs = ranked[0].log_p
-        bonf_p = min(1.0, len(ranked) * ranked[0].p_value)
+        bonf_p = bonferroni(ranked[0].p_value, len(ranked))
         # the corrected p lies between the best p (one test) and Bonferroni's bound:
         # when both sides of alpha are settled, fewer draws give its value
         settled = ranked[0].p_value >= alpha or bonf_p < alpha

@@ -96,6 +96,7 @@ class Diagnosis:
                 else f"Bonferroni bound over {self.n_tests} candidates (far below alpha)"
             ),
             "bonferroni_p": self.bonferroni_p,
+            "n_tests": self.n_tests,
             "best_candidate_inadequate": self.best_inadequate,
             "data_checks": dc.to_json() if dc is not None else None,
             "n_rows": int(self.fit.measured.shape[0]),

@@ -24,10 +24,32 @@ The stages, in order, on either kind:
 3. A checked proposal or why none, "nothing in the catalogue fits"; the
    report's common pieces in ``calib.diagnosis_report``.
 
-What the two kinds still decide each their own way is listed in
-docs/calibration.md section 6.4 (multiplicity: the max-score test for
-deflections, Bonferroni for tracker data; ties: log p within TIE_LOG10 or
-paired held-out error, against held-out errors within CV_GAIN).
+What the two kinds still decide each their own way (to be made one rule
+each; today's tests pin both):
+
+- adequacy without a declared sigma: deflections test lack of fit against
+  the pure error of replicated rows (no replicates: cannot judge); tracker
+  data have no test, the verdict rests on the held-out error and the
+  residual's structure (calib/absolute_structure.py);
+- multiplicity: deflections raise the alarm on the best candidate by the
+  max-score test (Monte Carlo in the core); tracker data only require a
+  proposal to pass alpha / n_tests (Bonferroni); both report
+  ``bonferroni_p`` and ``multiplicity_p``;
+- ties: deflections tie candidates of other targets within TIE_LOG10 in
+  log10 p or significantly better held out (paired), with the posture and
+  load that would separate them; tracker data tie useful candidates
+  within CV_GAIN of the proposal's held-out error, with the ``stiffkit
+  plan --discriminate`` command (implemented for tracker data only);
+- proposal: deflections propose the untied leader that lowers the held-out
+  error; tracker data the candidate that lowers it by CV_GAIN, checked by
+  a fit with it (the simpler of two nested candidates first);
+- nothing fits: deflections when the leader and the best three together
+  explain little of the residual above the noise and the leader leaves
+  the model inadequate; tracker data when the chi-square rejects a declared
+  sigma and nothing is proposed, else by the residual's structure;
+- data checks: deflections by a robust (Huber) fit (gross errors, unit
+  slips, angle units, outlying configurations); tracker data by unit slips
+  and gross errors against a robust scale of the plain fit.
 """
 
 from __future__ import annotations
@@ -61,6 +83,7 @@ __all__ = [
     "Noise",
     "score_blocks",
     "fill_scores",
+    "bonferroni",
 ]
 
 #: level of the adequacy tests
@@ -97,6 +120,10 @@ JSON_FIELDS = (
     "cv_rms_position_m",
     "cv_folds",
     "candidates",
+    "n_tests",
+    "multiplicity_p",
+    "multiplicity_method",
+    "bonferroni_p",
     "non_identifiable_candidates",
     "ties",
     "nothing_fits",
@@ -222,3 +249,8 @@ def fill_scores(cand: Candidate, st: float, d: int, noise: Noise, rss: float) ->
     cand.explained_fraction = float(st / rss) if rss > 0 else 0.0
     excess = noise.excess(rss)
     cand.excess_fraction = max(float((cand.statistic - d) / excess), 0.0) if excess > 0 else None
+
+
+def bonferroni(p_best: float, n_tests: int) -> float:
+    """Bonferroni's bound on the p-value of the best of ``n_tests`` candidates."""
+    return min(1.0, n_tests * p_best) if n_tests else 1.0

@@ -233,3 +233,31 @@ def test_the_shared_score_test_against_closed_forms(source):
         else:
             excess = rss / 0.7 - (n - p)
             assert c.excess_fraction == pytest.approx(max((st[k] / 0.7 - d) / excess, 0.0), rel=1e-12)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_multiplicity_and_set_aside_rows_on_both_kinds(cases, tmp_path, capsys, kind):
+    """Both kinds report the best candidate's p corrected for the number of
+    candidates (Bonferroni's bound: min(1, n_tests p_best); deflections also
+    the max-score test) and the rows the data checks set aside, as rows and
+    file lines: here one row made a gross error (+50 mm in x for deflections
+    of a few mm, +0.5 m for tracker points that the start model misses by
+    20 mm)."""
+    model, meas, _p, _k = cases[kind]
+    m = lines_of(meas)
+    head = m[0].split(",")
+    ix = head.index("dx" if kind == "deflection" else "x")
+    row = m[5].split(",")
+    row[ix] = repr(float(row[ix]) + (0.05 if kind == "deflection" else 0.5))
+    bad = write(tmp_path / "bad.csv", m[:5] + [",".join(row)] + m[6:])
+    js = tmp_path / "d.json"
+    code, _out, err = run(capsys, "diagnose", model, bad, "--cv", "3", "--json", js)
+    assert code == 0, err
+    d = json.loads(js.read_text())
+    n = d["n_tests"]
+    assert n == len(d["candidates"]) > 0
+    p0 = d["candidates"][0]["p_value"]
+    assert d["bonferroni_p"] == pytest.approx(min(1.0, n * p0), rel=1e-12, abs=1e-300)
+    assert d["multiplicity_p"] is not None and str(n) in d["multiplicity_method"]
+    aside = d["data_checks"]["set_aside"]
+    assert 4 in aside["rows"] and 6 in aside["lines"]  # the sixth line of the file: row index 4
