@@ -75,6 +75,7 @@ from .diagnosis import (
     bonferroni,
     check_residual,
     distinct_rows,
+    few_dof_warning,
     fill_scores,
     judged_fit,
     score_blocks,
@@ -290,8 +291,9 @@ def diagnose_absolute(
             "no sigma_position declared: the residual cannot be called noise by a chi-square test; the verdict "
             "rests on the held-out error (an effect is proposed only when it lowers it)"
         )
-    if nres < 30:
-        dg.warnings.append(f"only {nres} residual degrees of freedom: the tests have little power")
+    few = few_dof_warning(nres, nobs, p)
+    if few:
+        dg.warnings.append(few)
     return dg
 
 

@@ -82,7 +82,7 @@ from .diagnose_stats import (
     logsf_f,
     pure_error,
 )
-from .diagnosis import Noise, bonferroni, distinct_rows, fill_scores, judged_fit, score_blocks
+from .diagnosis import Noise, bonferroni, distinct_rows, few_dof_warning, fill_scores, judged_fit, score_blocks
 from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
 from .robust import check_data
@@ -364,12 +364,9 @@ def _backward(
 
 def _warnings(dg: Diagnosis, nobs: int) -> None:
     res = dg.fit
-    if res.dof < LOW_DOF or res.dof < 0.5 * nobs:
-        dg.warnings.append(
-            f"few residual degrees of freedom: {res.dof} of {nobs} observations ({len(res.names)} parameters); "
-            f"the tests have little power and a fit absorbs part of the noise (expected RMS "
-            f"{math.sqrt(max(res.dof, 0) / nobs):.2f} x the noise floor); judge by the held-out error"
-        )
+    few = few_dof_warning(res.dof, nobs, len(res.names))
+    if few:
+        dg.warnings.append(few)
     if dg.sigma_source == "declared":
         floor = dg.floor
         ratio = res.rms_position / floor if floor > 0 else float("nan")

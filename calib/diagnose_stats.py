@@ -15,14 +15,13 @@ from .._core import calib as core
 from ..errors import InputError
 from . import crossval as CV
 from .checks import cannot_judge
-from .diagnosis import ALPHA, CV_FOLDS, ZTOL, check_residual
+from .diagnosis import ALPHA, CV_FOLDS, LOW_DOF, ZTOL, check_residual
 from .fit import FitResult, Problem
 from .measure import Measurements
 
-__all__ = ["pure_error", "logsf_chi2", "logsf_f", "ALPHA", "CV_FOLDS"]
+__all__ = ["pure_error", "logsf_chi2", "logsf_f", "ALPHA", "CV_FOLDS", "LOW_DOF"]
 
 TIE_LOG10 = 1.0  # within a factor 10 of the leader's p-value: undecidable
-LOW_DOF = 30  # fewer residual degrees of freedom than this (or than half the observations): warn
 OVERFIT = 0.8  # an adequate RMS below this fraction of the noise floor: warn
 NSIM = 999  # Monte Carlo draws of the max-score test
 

@@ -84,6 +84,7 @@ __all__ = [
     "score_blocks",
     "fill_scores",
     "bonferroni",
+    "few_dof_warning",
 ]
 
 #: level of the adequacy tests
@@ -93,6 +94,8 @@ CV_FOLDS = 5
 #: a verdict needs at least this many residual degrees of freedom: with fewer, a fit absorbs most of
 #: the noise, a chi-square or F test has next to no power and a held-out error rests on a few rows
 MIN_RESIDUAL_DOF = 10
+#: fewer residual degrees of freedom than this (or than half the observations): the warning
+LOW_DOF = 30
 #: the line before a proposal's ready [[effect]] table, both kinds
 PROPOSAL_LINE = "proposal: append to the model and fit again:"
 #: the headline when no catalogued effect explains what the model leaves, both kinds
@@ -254,3 +257,15 @@ def fill_scores(cand: Candidate, st: float, d: int, noise: Noise, rss: float) ->
 def bonferroni(p_best: float, n_tests: int) -> float:
     """Bonferroni's bound on the p-value of the best of ``n_tests`` candidates."""
     return min(1.0, n_tests * p_best) if n_tests else 1.0
+
+
+def few_dof_warning(dof: int, nobs: int, n_params: int) -> str | None:
+    """The warning of a judged fit with few residual degrees of freedom
+    (fewer than LOW_DOF, or than half the observations), both kinds."""
+    if not (dof < LOW_DOF or dof < 0.5 * nobs):
+        return None
+    return (
+        f"few residual degrees of freedom: {dof} of {nobs} observations ({n_params} parameters); "
+        f"the tests have little power and a fit absorbs part of the noise (expected RMS "
+        f"{math.sqrt(max(dof, 0) / nobs):.2f} x the noise floor); judge by the held-out error"
+    )

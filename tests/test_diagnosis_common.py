@@ -261,3 +261,25 @@ def test_multiplicity_and_set_aside_rows_on_both_kinds(cases, tmp_path, capsys, 
     assert d["multiplicity_p"] is not None and str(n) in d["multiplicity_method"]
     aside = d["data_checks"]["set_aside"]
     assert 4 in aside["rows"] and 6 in aside["lines"]  # the sixth line of the file: row index 4
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_few_residual_dof_warned_in_the_same_words(cases, tmp_path, capsys, kind):
+    """At the minimum of rows both kinds judge, and both warn: 'few residual
+    degrees of freedom: D of N observations (P parameters)' with the
+    expected RMS sqrt(D / N) x the floor."""
+    model, meas, p, k = cases[kind]
+    need = D.min_rows(p, k)
+    f = write(tmp_path / "enough.csv", lines_of(meas)[: need + 1])
+    js = tmp_path / "d.json"
+    code, _out, err = run(capsys, "diagnose", model, f, "--cv", "3", "--json", js)
+    assert code == 0, err
+    d = json.loads(js.read_text())
+    dof, nobs = d["residual_dof"], need * k
+    assert dof == nobs - p
+    want = (
+        f"few residual degrees of freedom: {dof} of {nobs} observations ({p} parameters); the tests have "
+        f"little power and a fit absorbs part of the noise (expected RMS {math.sqrt(dof / nobs):.2f} x the noise floor)"
+    )
+    assert any(w.startswith(want) for w in d["warnings"]), d["warnings"]
+    assert D.few_dof_warning(D.LOW_DOF, 2 * D.LOW_DOF, 3) is None
