@@ -37,6 +37,7 @@ from .._core import calib as core_calib
 from .._core import field as core_field
 from .._core import tree as core
 from ..errors import InputError
+from ..robot.effect_values import nonnegative
 from ..robot.model_bodies import prior_rows
 from ..robot.tree_model import ABS_KINDS, DEADZONE_TAU0_FRACTION, EQ_TOL, LAW_DEADZONE, TreeModel, rpy_from_matrix
 from .absolute_data import AbsoluteData
@@ -244,12 +245,10 @@ def reduce_parameters(model: TreeModel, jac: np.ndarray, free: np.ndarray) -> Re
 
 
 def _nonnegative(p: object) -> bool:
-    """Parameters that are >= 0 by their physics: joint and lateral
+    """Parameters that are >= 0 by their physics, from the catalogue's
+    bounds (robot/effect_values.py ``nonnegative``): joint and lateral
     compliances, the backlash of a dead zone, the diagonal of 6-dof springs."""
-    tail = p.name.rsplit(".", 1)[-1]
-    if p.kind in ("joint", "lateral") or p.kind == "joint_deadzone":
-        return True
-    return p.kind in ("link", "base") and len(tail) == 3 and tail[0] == "c" and tail[1] == tail[2]
+    return nonnegative(p.kind, p.name)
 
 
 def _duplicates(A: np.ndarray, c: int, kept: np.ndarray, kept_names: list[str], coef: np.ndarray | None = None) -> str:

@@ -83,6 +83,10 @@ class Param:
     lo: float = -INF
     hi: float = INF
     default: float = 0.0
+    #: the quantity that judges a known value's plausibility (io/validate.py QUANTITIES; "" none)
+    quantity: str = ""
+    #: its name in messages when not its suffix (point_offset's ``r = [x, y, z]``)
+    label: str = ""
 
     @property
     def text(self) -> str:
@@ -126,6 +130,8 @@ class Kind:
     scalar: bool = False
     #: a fixed key the block takes from the table (joint_deadzone's tau0)
     w0_key: str = ""
+    #: a list kind whose table may give one number for all its values (lateral)
+    broadcast: bool = False
     #: how its diagnosis candidates are generated: (model, data kind, context) -> [(table, hint)]
     candidates: Callable | None = None
     #: the data kinds on which it is a candidate (of those it applies to)
@@ -282,7 +288,7 @@ ENTRIES: tuple[Kind, ...] = (
         BOTH,
         "actuated joint or `all`",
         {DEFLECTION: frozenset({"target", "value"}), ABSOLUTE: frozenset({"target", "value"})},
-        (Param("c", C_UNIT, lo=0.0),),
+        (Param("c", C_UNIT, lo=0.0, quantity="joint_compliance"),),
         "dq = c tau",
         law="LAW_LINEAR",
         term=1,
@@ -311,7 +317,7 @@ ENTRIES: tuple[Kind, ...] = (
         (DEFLECTION,),
         "actuated joint",
         {DEFLECTION: frozenset({"target", "a", "b", "beta", "s0", "k_s"})},
-        (Param("k_s", "N/m", lo=0.0),),
+        (Param("k_s", "N/m", lo=0.0, quantity="spring_stiffness"),),
         "stiffness 1/c + k_s (s'^2 + (s - s0) s''), s = sqrt(a^2 + b^2 - 2ab cos(q + beta))",
         needs_joint=(DEFLECTION,),
         term=3,
@@ -330,6 +336,7 @@ ENTRIES: tuple[Kind, ...] = (
         "tilts of the axis before its motion: dphi_x' = cx m_x', dphi_y' = cy m_y'",
         law="LAW_LINEAR",
         per_joint=True,
+        broadcast=True,
         candidates=_joint_candidates,
         candidates_text="every revolute joint lacking it, and `all`",
     ),
@@ -355,7 +362,7 @@ ENTRIES: tuple[Kind, ...] = (
         BOTH,
         "actuated joint",
         {DEFLECTION: frozenset({"target", "value", "tau0"}), ABSOLUTE: frozenset({"target", "value", "tau0"})},
-        (Param("backlash", "rad"),),
+        (Param("backlash", "rad", lo=0.0),),
         "dq = c tau + b tanh(tau / tau0)",
         law="LAW_DEADZONE",
         term=5,
@@ -426,7 +433,7 @@ ENTRIES: tuple[Kind, ...] = (
         (DEFLECTION,),
         "none",
         {DEFLECTION: frozenset({"target", "r"})},
-        (Param("rx", "m"), Param("ry", "m"), Param("rz", "m")),
+        (Param("rx", "m", quantity="position", label="x"), Param("ry", "m", label="y"), Param("rz", "m", label="z")),
         "the measured points sit at p + r (tool frame)",
         value_key="r",
         term=7,

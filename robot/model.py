@@ -24,6 +24,7 @@ from ..io.linkjson import check_spring_matrix, read_link_compliance
 from ..io.tables import read_toml
 from . import catalogue
 from .catalogue import DEADZONE_TAU0_FRACTION
+from .effect_values import effect_values, effect_w0
 from .indices import Indices, stiffness_indices_where
 from .model_core import known_joint_compliances
 from .plan_settings import plan_table
@@ -382,35 +383,22 @@ def expand_effect(
                 qcol=int(chain.qidx[k]) - 1,
                 source=kind,
             )
-            if kind == "joint":
-                t.names = [f"{jn}.c"]
-                if "value" in table:
-                    t.value = np.array([_number(table, "value", where, "joint_compliance", lo=0.0)])
-            elif catalogue.KIND[kind].compliance:  # c(q) linear in its values (robot/catalogue.py)
-                names = catalogue.KIND[kind].names
-                t.names = [f"{jn}.{n}" for n in names]
-                if "value" in table:
-                    if not isinstance(table["value"], list) or len(table["value"]) != len(names):
-                        raise InputError(f"{where}: value must be [{', '.join(names)}]")
-                    t.value = V.array(table["value"], f"{where}: value", (len(names),), "matrix6")
-            elif kind in LOAD_NONLINEAR:
-                t.names = [f"{jn}.cubic" if kind == "joint_cubic" else f"{jn}.backlash"]
-                if "value" in table:
-                    t.value = np.array([_number(table, "value", where)])
-                if kind == "joint_deadzone" and "tau0" in table:
-                    t.geometry = {"tau0": _number(table, "tau0", where, "moment", lo=0.0, lo_open=True)}
-                elif kind == "joint_deadzone" and "value" in table:
+            # the parameters and known values of every per-joint kind from its catalogue entry
+            t.names = [f"{jn}.{n}" for n in catalogue.KIND[kind].names]
+            t.value = effect_values(table, kind, where)
+            if kind == "joint_deadzone":
+                tau0 = effect_w0(table, kind, where)
+                if tau0 is not None:
+                    t.geometry = {"tau0": tau0}
+                elif t.value is not None:
                     raise InputError(f"{where}: a joint_deadzone with a value needs its tau0 (N m) too")
-            else:
-                t.names = [f"{jn}.k_s"]
+            elif kind == "gravity_compensator":
                 t.geometry = {
                     "a": _number(table, "a", where, "length", lo=0.0, lo_open=True),
                     "b": _number(table, "b", where, "length", lo=0.0, lo_open=True),
                     "beta": _number(table, "beta", where, "angle"),
                     "s0": _number(table, "s0", where, "length", lo=0.0),
                 }
-                if "k_s" in table:
-                    t.value = np.array([_number(table, "k_s", where, "spring_stiffness", lo=0.0)])
             terms.append(t)
     elif kind in ("link", "base", "tool"):
         if kind == "link":
@@ -454,10 +442,7 @@ def expand_effect(
             names=["point_offset.rx", "point_offset.ry", "point_offset.rz"],
             source=kind,
         )
-        if "r" in table:
-            if not isinstance(table["r"], list) or len(table["r"]) != 3:
-                raise InputError(f"{where}: r must be [x, y, z] (m)")
-            t.value = V.array(table["r"], f"{where}: r", (3,), "position")
+        t.value = effect_values(table, kind, where)
         terms.append(t)
     return terms
 

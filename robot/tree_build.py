@@ -16,10 +16,11 @@ from .._core.tree import CoreArrays
 from ..errors import InputError
 from . import catalogue
 from .catalogue import LAW_LINEAR, LAW_SPRING6
+from .effect_values import effect_values, effect_w0
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import body_entries
 from .tree import Tree, TreeJoint
-from .tree_effects import Effect, table_number, table_vector
+from .tree_effects import Effect, table_vector
 from .tree_lateral import duplicated_tilt, joint_tilts
 
 __all__ = ["FRAME_NAMES", "Builder", "Observed", "Param", "add_joints", "core_arrays", "tracker_and_markers"]
@@ -184,31 +185,21 @@ def tracker_and_markers(b: Builder, tree: Tree, by_kind: dict[str, list[Effect]]
 def _joint_law(b: Builder, jn: str, slot: dict, vj: int) -> tuple:
     """The elastic block of a joint: linear, or the law of its law kind (robot/catalogue.py)."""
     i, table, w = slot["joint"]
-    val = table.get("value")
-    if val is not None:
-        val = table_number(val, w, "value")
-        if val < 0:
-            raise InputError(f"{w}: a joint compliance must be >= 0 (rad/(N m) or m/N), got {val}")
-    kp = [b.add_param(f"{jn}.c", "joint", jn, i, 0.0 if val is None else val, val is None)] + [0] * 20
+    val = effect_values(table, "joint", w)
+    kp = [b.add_param(f"{jn}.c", "joint", jn, i, 0.0 if val is None else val[0], val is None)] + [0] * 20
     law, w0 = LAW_LINEAR, 1.0
     for kind in catalogue.LAW_KINDS:  # a law in place of the linear one (robot/catalogue.py)
         if kind not in slot:
             continue
         e = catalogue.KIND[kind]
         i2, t2, w2 = slot[kind]
-        v2 = t2.get("value")
-        if v2 is not None:
-            v2 = [table_number(v2, w2, "value")] if e.scalar else list(table_vector(t2, "value", len(e.params), w2))
+        v2 = effect_values(t2, kind, w2)
         for s, p in enumerate(e.params):
             start = p.default if v2 is None else v2[s]
             kp[1 + s] = b.add_param(f"{jn}.{p.suffix}", kind, jn, i2, start, v2 is None)
         law = catalogue.law_code(kind)
         if e.w0_key:
-            w0 = 0.0  # 0: set from the data's torque scale before the first evaluation
-            if e.w0_key in t2:
-                w0 = table_number(t2[e.w0_key], w2, e.w0_key)
-                if w0 <= 0:
-                    raise InputError(f"{w2}: {e.w0_key} must be > 0 N m, got {w0}")
+            w0 = effect_w0(t2, kind, w2) or 0.0  # 0: set from the data's torque scale before the first evaluation
     return law, [vj], kp, w0
 
 
@@ -218,10 +209,10 @@ def _joint_offsets(b: Builder, per_joint: dict[str, dict[str, Effect]]) -> dict[
     for jn, slot in per_joint.items():
         if "joint_offset" in slot:
             i, table, w = slot["joint_offset"]
-            val = table.get("value")
-            if val is not None and table.get("target", "all") == "all":
+            if "value" in table and table.get("target", "all") == "all":
                 raise InputError(f"{w}: a joint_offset value needs one target joint, not 'all'")
-            start = 0.0 if val is None else table_number(val, w, "value")
+            val = effect_values(table, "joint_offset", w)
+            start = 0.0 if val is None else val[0]
             offset_param[jn] = b.add_param(f"{jn}.dq0", "joint_offset", jn, i, start, val is None)
     return offset_param
 
@@ -229,11 +220,9 @@ def _joint_offsets(b: Builder, per_joint: dict[str, dict[str, Effect]]) -> dict[
 def _frame_error(b: Builder, cur: Cursor, j: TreeJoint, effect: Effect) -> None:
     """Six screws after the joint's origin, each moved by one parameter."""
     i, table, w = effect
-    val = table.get("value")
-    if val is not None:
-        if table.get("target", "all") == "all":
-            raise InputError(f"{w}: a frame value needs one target joint, not 'all'")
-        val = table_vector(table, "value", 6, w)
+    if "value" in table and table.get("target", "all") == "all":
+        raise InputError(f"{w}: a frame value needs one target joint, not 'all'")
+    val = effect_values(table, "frame", w)
     for k in range(6):
         vj = cur.add(2 if k < 3 else 1, np.eye(3)[k % 3], f"frame error {FRAME_NAMES[k]}")
         start = 0.0 if val is None else val[k]
@@ -244,14 +233,7 @@ def _frame_error(b: Builder, cur: Cursor, j: TreeJoint, effect: Effect) -> None:
 def _lateral(b: Builder, cur: Cursor, tree: Tree, j: TreeJoint, effect: Effect) -> None:
     """The bearing's tilts: before the motion, fixed in the parent link (section 6.12)."""
     i, table, w = effect
-    val = table.get("value")
-    if val is not None:
-        if isinstance(val, (int, float)) and not isinstance(val, bool):
-            val = np.array([float(val)] * 2)
-        else:
-            val = table_vector(table, "value", 2, w)
-        if np.any(val < 0):
-            raise InputError(f"{w}: lateral compliances must be >= 0 rad/(N m), got {list(val)}")
+    val = effect_values(table, "lateral", w)
     tilts = joint_tilts(tree, j.name, table, w)
     # y' on the previous axis line duplicates that joint's compliance: held at 0 unless given
     dup = "tilts" not in table and duplicated_tilt(tree, j.name)
