@@ -13,7 +13,7 @@ from .absolute_fit import AbsoluteFit, position_stats
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
 from .diagnosis import ALPHA
-from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines
+from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines, verdict_line
 
 __all__ = ["AbsoluteDiagnosis", "format_absolute_diagnosis", "plan_command"]
 
@@ -136,7 +136,7 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
     )
     if dg.test == "chi2":
         lines.append(f"chi-square {dg.statistic:.1f} on {dg.dof:.0f} dof: log10 p = {dg.log_p / math.log(10):.1f}")
-    lines.append(f"verdict: {dg.verdict.upper()}")
+    lines.append(verdict_line(dg.verdict))
     for w in dg.warnings:
         lines.append(f"warning: {w}")
     lines.append("")

@@ -16,7 +16,7 @@ from . import residual_map as RM
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
 from .diagnose_stats import ALPHA, TIE_LOG10
-from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines
+from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines, verdict_line
 from .fit import FitResult, Problem
 from .robust import DataChecks, format_checks
 
@@ -210,6 +210,7 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
         f"{r.rms_position * 1e3:.4g} mm"
         + (f"; held-out ({dg.cv_folds} folds by configuration) {cv * 1e3:.4g} mm" if cv is not None else "")
     )
+    lines.append(verdict_line(dg.verdict))
     for w in dg.warnings:
         lines.append(f"warning: {w}")
     if dg.candidates:

@@ -7,7 +7,7 @@ from __future__ import annotations
 from ..io.tomlw import effect_toml
 from .diagnosis import ALPHA, MIN_RESIDUAL_DOF, NOTHING_FITS_LINE, PROPOSAL_LINE
 
-__all__ = ["pipeline_json", "proposal_lines", "nothing_fits_line"]
+__all__ = ["pipeline_json", "proposal_lines", "nothing_fits_line", "verdict_line"]
 
 
 def pipeline_json(kind: str, n_distinct: int, n_copied: int, residual_dof: int, alpha: float = ALPHA) -> dict:
@@ -34,3 +34,8 @@ def proposal_lines(effect: dict, gain: str = "", hint: str = "") -> list[str]:
 
 def nothing_fits_line(detail: str = "") -> str:
     return NOTHING_FITS_LINE + (f": {detail}" if detail else "")
+
+
+def verdict_line(verdict: str) -> str:
+    """The verdict, both kinds: ``verdict: ADEQUATE`` or ``verdict: INADEQUATE``."""
+    return f"verdict: {verdict.upper()}"

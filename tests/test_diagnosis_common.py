@@ -135,6 +135,7 @@ def test_a_missing_effect_is_found_and_proposed_in_the_same_words(cases, tmp_pat
     assert code == 0, err
     d = json.loads(js.read_text())
     assert d["observation_kind"] == kind and d["verdict"] == "inadequate"
+    assert "verdict: INADEQUATE" in out.splitlines()
     assert (d["proposal"]["kind"], d["proposal"].get("target")) == want
     head = out.split(D.PROPOSAL_LINE)
     assert len(head) == 2, out
