@@ -19,7 +19,34 @@ from ..io import validate as V
 from . import catalogue
 from .catalogue import Param
 
-__all__ = ["effect_values", "effect_w0", "nonnegative"]
+__all__ = ["effect_where", "effect_kind", "effect_values", "effect_w0", "nonnegative"]
+
+
+def effect_where(path: object, i: int, table: dict) -> str:
+    """The label of effect table ``i`` in messages: ``m.toml: [[effect]] #3 (joint, target 'elbow')``."""
+    return f"{path}: [[effect]] #{i + 1} ({V.shown(table.get('kind', '?'))}" + (
+        f", target {table['target']!r})" if "target" in table else ")"
+    )
+
+
+def effect_kind(table: dict, where: str, data: str) -> str:
+    """The table's kind, one the catalogue lists for data of kind ``data``,
+    with only the keys its entry allows (a typo is an error, not a silent
+    default); raises InputError naming ``where``, the word and the choices."""
+    kinds = catalogue.kinds(data)
+    kind = table.get("kind")
+    if not isinstance(kind, str) or kind not in kinds:
+        raise InputError(
+            f"{where}: unknown kind {kind!r}{V.suggest(kind, kinds)}; choose one of {', '.join(kinds)} ({data} data)"
+        )
+    allowed = catalogue.KIND[kind].keys[data]
+    unknown = sorted(set(table) - allowed - {"kind", "note"})
+    if unknown:
+        raise InputError(
+            f"{where}: unknown key(s) {', '.join(map(V.shown, unknown))} for kind {kind!r}"
+            f"{V.suggest(unknown[0], allowed)} (allowed: kind, {', '.join(sorted(allowed))}, note)"
+        )
+    return kind
 
 
 def _limits(p: Param) -> dict:

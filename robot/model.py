@@ -24,7 +24,7 @@ from ..io.linkjson import check_spring_matrix, read_link_compliance
 from ..io.tables import read_toml
 from . import catalogue
 from .catalogue import DEADZONE_TAU0_FRACTION
-from .effect_values import effect_values, effect_w0
+from .effect_values import effect_kind, effect_values, effect_w0, effect_where
 from .indices import Indices, stiffness_indices_where
 from .model_core import known_joint_compliances
 from .plan_settings import plan_table
@@ -285,12 +285,6 @@ def default_tau0(tau: np.ndarray) -> float:
 # reading a model file
 
 
-def _where(path: Path | str, i: int, table: dict) -> str:
-    return f"{path}: [[effect]] #{i + 1} ({V.shown(table.get('kind', '?'))}" + (
-        f", target {table['target']!r})" if "target" in table else ")"
-    )
-
-
 def _six_value(table: dict, base_dir: Path, where: str) -> np.ndarray:
     """The known 6x6 compliance of a link/base/tool effect: ``value`` as 6
     rows of 6 numbers or the name of a ``stiffkit link`` JSON result, in the
@@ -343,16 +337,8 @@ def expand_effect(
     """Terms of one [[effect]] table (raises InputError naming the table)."""
     if not isinstance(table, dict):
         raise InputError(f"{path}: [[effect]] #{i + 1} must be a table (kind = ..., target = ...), got {table!r:.60}")
-    where = _where(path, i, table)
-    kind = table.get("kind")
-    if not isinstance(kind, str) or kind not in KINDS:
-        raise InputError(f"{where}: unknown kind {kind!r}{_suggest(kind, KINDS)}; choose one of {', '.join(KINDS)}")
-    unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
-    if unknown:
-        raise InputError(
-            f"{where}: unknown key(s) {', '.join(map(V.shown, unknown))} for kind {kind!r}"
-            f"{_suggest(unknown[0], KEYS[kind])} (allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)"
-        )
+    where = effect_where(path, i, table)
+    kind = effect_kind(table, where, catalogue.DEFLECTION)
     target = table.get("target", "all" if kind == "joint" else "")
     if not isinstance(target, str):
         raise InputError(f"{where}: target = {target!r} must be a name (a string)")

@@ -13,8 +13,8 @@ import math
 import numpy as np
 
 from ..errors import InputError
-from ..io import validate as V
 from . import catalogue
+from .effect_values import effect_kind, effect_where
 from .tree import Tree
 
 __all__ = [
@@ -62,17 +62,8 @@ def group_effects(effects: list[dict], where: str) -> dict[str, list[Effect]]:
     for i, table in enumerate(effects):
         if not isinstance(table, dict):
             raise InputError(f"{where}: [[effect]] #{i + 1} is not a table")
-        kind = table.get("kind")
-        w = f"{where}: [[effect]] #{i + 1} ({kind}" + (f", target {table['target']!r})" if "target" in table else ")")
-        if kind not in ABS_KINDS:
-            raise InputError(f"{w}: unknown kind {kind!r} for absolute data; choose one of {', '.join(ABS_KINDS)}")
-        unknown = sorted(set(table) - KEYS[kind] - {"kind", "note"})
-        if unknown:
-            raise InputError(
-                f"{w}: unknown key(s) {', '.join(map(V.shown, unknown))} for kind {kind!r} "
-                f"(allowed: kind, {', '.join(sorted(KEYS[kind]))}, note)"
-            )
-        by_kind[kind].append((i, table, w))
+        w = effect_where(where, i, table)
+        by_kind[effect_kind(table, w, catalogue.ABSOLUTE)].append((i, table, w))
     if len(by_kind["tracker"]) > 1:
         raise InputError(f"{where}: more than one tracker effect")
     if len(by_kind["base"]) > 1:

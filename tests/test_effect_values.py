@@ -6,7 +6,7 @@ import pytest
 
 from stiffkit.errors import InputError
 from stiffkit.robot import catalogue
-from stiffkit.robot.effect_values import effect_values, effect_w0, nonnegative
+from stiffkit.robot.effect_values import effect_kind, effect_values, effect_w0, effect_where, nonnegative
 
 W = "m.toml: [[effect]] #2 (joint, target 'elbow')"
 
@@ -51,3 +51,18 @@ def test_nonnegative_from_catalogue_bounds():
     # every kind whose parameters the check bounds below by 0 alone
     have = sorted(e.name for e in catalogue.ENTRIES if any(nonnegative(e.name, f"x.{p.suffix}") for p in e.params))
     assert have == ["gravity_compensator", "joint", "joint_deadzone", "lateral"]
+
+
+@pytest.mark.parametrize("data", catalogue.DATA_KINDS)
+def test_one_kind_and_key_check_for_both_readers(data):
+    table = {"kind": "joint", "target": "elbow", "valeu": 1e-7}
+    w = effect_where("m.toml", 2, table)
+    assert w == W.replace("#2", "#3")
+    with pytest.raises(InputError) as exc:
+        effect_kind(table, w, data)
+    assert str(exc.value) == (
+        f"{w}: unknown key(s) valeu for kind 'joint' (did you mean 'value'?) (allowed: kind, target, value, note)"
+    )
+    with pytest.raises(InputError, match=r"unknown kind 'jiont' \(did you mean 'joint'\?\); choose one of .*"):
+        effect_kind({"kind": "jiont"}, w, data)
+    assert effect_kind({"kind": "joint", "value": 1e-7, "note": "x"}, w, data) == "joint"
