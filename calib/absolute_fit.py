@@ -409,6 +409,12 @@ def fit_absolute(
     # and a generic point for the reduction (a marker start on a joint axis would
     # hide that joint's parameters)
     frames_only = np.array([i for i in free if model.params[i].kind in ("tracker", "marker")], dtype=int)
+    if frames_only.size > data.xyz.size:
+        need = -(-frames_only.size // 3)
+        raise InputError(
+            f"{data.path}: {data.xyz.size // 3} point(s) give {data.xyz.size} coordinates, fewer than the "
+            f"{frames_only.size} parameters of the tracker and markers alone; measure at least {need} points"
+        )
     if frames_only.size:
         # the start only: the rigid model is enough and much cheaper than the equilibrium
         model, sol0 = _solve(model, data, theta, frames_only, w, maxit, eqit=0)

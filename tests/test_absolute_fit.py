@@ -388,3 +388,23 @@ def test_bad_one_configuration_two_postures(da):
     with pytest.raises(stiffkit.InputError) as exc:
         read_absolute(p, model.actuated, model.frames, mimic)
     assert "line 3: configuration 'p0001' has other joint values than on line 2" in one_line(exc, p)
+
+
+def test_fewer_coordinates_than_the_frames_parameters_is_named(tmp_path, capsys):
+    """3 tracker points (9 coordinates) cannot fix the tracker and two markers
+    (12 parameters): one line naming the file and the minimum, not the core's
+    'arrays are inconsistent' (its size check of the LM's rows)."""
+    from stiffkit.cli.app import main
+
+    assert main(["synth", "dualarm", "--out", str(tmp_path / "d"), "--configs", "3", "--seed", "1"]) == 0
+    lines = (tmp_path / "d" / "measurements.csv").read_text().splitlines()
+    meas = tmp_path / "m3.csv"
+    meas.write_text("\n".join(lines[:4]) + "\n")
+    capsys.readouterr()
+    assert main(["fit", str(tmp_path / "d" / "model.toml"), str(meas)]) == 2
+    err = capsys.readouterr().err
+    assert f"{meas}: 3 point(s) give 9 coordinates, fewer than the 12 parameters of the tracker and markers" in err
+    assert "measure at least 4 points" in err
+    # 4 points (12 coordinates) are enough for the start
+    meas.write_text("\n".join(lines[:5]) + "\n")
+    assert main(["fit", str(tmp_path / "d" / "model.toml"), str(meas)]) == 0
