@@ -50,22 +50,8 @@ contains
             call quad_weights(x, conn, w, area, info)
             return
         end if
-        if (size(x, 1) /= 3 .or. size(w) /= size(x, 2) .or. (npf /= 3 .and. npf /= 6)) then
-            info = sk_err_size
-            return
-        end if
-        if (size(conn, 2) < 1) then
-            info = sk_err_too_few
-            return
-        end if
-        if (any(conn < 1) .or. any(conn > size(x, 2))) then
-            info = sk_err_argument
-            return
-        end if
-        if (.not. all_finite(x)) then
-            info = sk_err_nonfinite
-            return
-        end if
+        call check_faces(x, conn, size(w), .not. (npf /= 3 .and. npf /= 6), info)
+        if (info /= sk_ok) return
         do f = 1, size(conn, 2)
             do k = 1, npf
                 p(:, k) = x(:, conn(k, f))
@@ -101,6 +87,25 @@ contains
         info = sk_ok
     end subroutine face_weights
 
+    !> The checks both face rules share: x[3,nn], w[nn], a known face kind
+    !> (kind_ok), at least one face, node numbers in 1..nn, finite nodes.
+    subroutine check_faces(x, conn, nw, kind_ok, info)
+        real(dp), intent(in) :: x(:, :)
+        integer(ip), intent(in) :: conn(:, :)
+        integer, intent(in) :: nw
+        logical, intent(in) :: kind_ok
+        integer(ip), intent(out) :: info
+        info = sk_err_size
+        if (size(x, 1) /= 3 .or. nw /= size(x, 2) .or. .not. kind_ok) return
+        info = sk_err_too_few
+        if (size(conn, 2) < 1) return
+        info = sk_err_argument
+        if (any(conn < 1) .or. any(conn > size(x, 2))) return
+        info = sk_err_nonfinite
+        if (.not. all_finite(x)) return
+        info = sk_ok
+    end subroutine check_faces
+
     !> Weights of quadrilateral faces (hexahedra), 3 x 3 Gauss points on the
     !> isoparametric face: the integrals of the shape functions, bilinear
     !> (npf = 4) or serendipity (npf = 8: negative at the corners, -A/12 on
@@ -122,22 +127,8 @@ contains
         w = 0.0_dp
         area = 0.0_dp
         npf = size(conn, 1)
-        if (size(x, 1) /= 3 .or. size(w) /= size(x, 2) .or. (npf /= 4 .and. npf /= 8)) then
-            info = sk_err_size
-            return
-        end if
-        if (size(conn, 2) < 1) then
-            info = sk_err_too_few
-            return
-        end if
-        if (any(conn < 1) .or. any(conn > size(x, 2))) then
-            info = sk_err_argument
-            return
-        end if
-        if (.not. all_finite(x)) then
-            info = sk_err_nonfinite
-            return
-        end if
+        call check_faces(x, conn, size(w), .not. (npf /= 4 .and. npf /= 8), info)
+        if (info /= sk_ok) return
         do f = 1, size(conn, 2)
             do k = 1, npf
                 p(:, k) = x(:, conn(k, f))

@@ -381,21 +381,7 @@ def parse_link(data: dict, path: str = "LINK.toml", base: Path | None = None) ->
         element = "tet10" if order == 2 else "tet4"
     msh = str(geometry.get("step", "")).lower().endswith(".msh")
     if msh:  # a mesh already: used as it is
-        given = sorted(
-            set(me)
-            & {
-                "size",
-                "refine",
-                "refine_radius",
-                "optimize",
-                "structured",
-                "across_factor",
-                "features",
-                "across",
-                "around",
-                "accuracy",
-            }
-        )
+        given = sorted(set(me) & (set(MESH_KEYS) - {"mesher", "order", "max_nodes", "element"}))
         if given:
             raise ConfigError(
                 f"{path}: [mesh] {', '.join(given)}: [geometry] step is a .msh, a mesh used as it is "
