@@ -753,7 +753,7 @@ def discriminate(
         raise InputError("--discriminate needs --measured MEAS.csv: the data the tied candidates are fitted to")
     path = model if isinstance(model, (str, Path)) else model.path
     if model_kind(path) != "absolute":
-        raise InputError(f"--discriminate: {path}: implemented for absolute (tracker) data")
+        return _discriminate_deflection(path, k, measured, tied, candidates, postures, seed)
     model, data = load_absolute(path, measured)
     if not tied:
         from .absolute_diagnose import diagnose_absolute
@@ -774,3 +774,55 @@ def discriminate(
     if k > len(cands):
         raise InputError(f"--select {k}: only {len(cands)} feasible candidates ({cands.summary()}); {_more(cands)}")
     return plan_discriminate(model, data, tied, cands, k, settings), cands, model
+
+
+def _discriminate_deflection(
+    path: str | Path,
+    k: int,
+    measured: str | Path,
+    tied: list[str] | None,
+    candidates: int | None,
+    postures: object,
+    seed: int,
+) -> tuple[dict, Candidates, Model]:
+    """``discriminate`` on deflection data: the candidates are (posture,
+    load) pairs, every candidate posture under every [plan] load, measured
+    at the [plan] points (else the measured points; calib.plan_discriminate_defl).
+    The result adds ``posture`` (the candidate posture of each pair),
+    ``loads`` (each pair's wrench) and ``points``."""
+    from .diagnose import diagnose
+    from .plan_discriminate_defl import plan_discriminate_deflection
+
+    model = load_plan_model(path)
+    meas = read_measurements(measured, model.chain.dof)
+    if not tied:
+        dg = diagnose(load_plan_model(path), meas)
+        if not dg.ties:
+            raise InputError(
+                f"--discriminate: the diagnosis of {measured} finds no tie to tell apart; name the candidates: "
+                "--discriminate kind:target,kind:target"
+            )
+        tied = dg.ties[0]
+    settings = plan_settings(model)
+    if postures is not None:
+        cands = user_candidates(model, postures, settings)
+    else:
+        cands = sampled_candidates(model, candidates, seed, settings)
+    if cands.loads is None:
+        raise InputError(
+            f"{model.path or 'model'}: [plan] loads missing: deflection data need the loads you can apply, "
+            "e.g. [plan] loads = [[0, 0, -2500, 0, 0, 0], [2500, 0, 0, 0, 0, 0]] (N, N m, at the tool frame)"
+        )
+    pts, _src = _points(None, cands, meas, measured)
+    nl = cands.loads.shape[0]
+    posture = np.repeat(np.arange(len(cands)), nl)
+    loads = np.tile(cands.loads, (len(cands), 1))
+    k = V.count(k, "--select", 1)
+    if k > posture.size:
+        raise InputError(
+            f"--select {k}: only {posture.size} (posture, load) candidates ({cands.summary()}, {nl} loads); "
+            f"{_more(cands)}"
+        )
+    res = plan_discriminate_deflection(model, meas, tied, cands.q[posture], loads, pts, k)
+    res.update(posture=posture[res["selected"]], loads=loads[res["selected"]], points=pts)
+    return res, cands, model

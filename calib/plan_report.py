@@ -105,6 +105,18 @@ def postures_rows(res: PlanResult) -> tuple[list[str], list[list]]:
     return header, rows
 
 
+def deflection_postures_text(Q: np.ndarray, loads: np.ndarray, points: np.ndarray) -> str:
+    """POSTURES.csv of deflection data for chosen (posture ``Q[i]``, load
+    ``loads[i]``) pairs: a row per pair and point, dx dy dz empty."""
+    header = ["config", *[f"q{i + 1}" for i in range(Q.shape[1])], *WRENCH, *POINT, *DEFL]
+    rows = [
+        [label, *map(float, q), *map(float, w), *map(float, p), math.nan, math.nan, math.nan]
+        for label, q, w in zip(_labels(len(Q)), Q, loads)
+        for p in points
+    ]
+    return _csv(header, rows)
+
+
 def _csv(header: list[str], rows: list[list]) -> str:
     def cell(v: object) -> str:
         if isinstance(v, str):

@@ -82,7 +82,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         nargs="?",
         const="",
         metavar="A,B",
-        help="tracker data: the postures that best tell tied candidate effects apart (labels kind:target; "
+        help="the postures (deflection data: posture, load pairs) that best tell tied candidate effects apart "
+        "(labels kind:target[:template]; "
         "default: the first tie the diagnosis of --measured reports); needs --measured",
     )
     p.add_argument("--out", metavar="POSTURES.csv", help="write the chosen postures here")
@@ -130,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
 def run_discriminate(args: argparse.Namespace) -> int:
     """``--discriminate``: T-optimal postures between tied candidates (calib/plan_discriminate.py)."""
     from ..calib.plan import discriminate
-    from ..calib.plan_report import _labels, absolute_postures_text
+    from ..calib.plan_report import _labels, absolute_postures_text, deflection_postures_text
     from ..io.files import atomic_write_text, write_json
 
     if args.png or args.task or args.criterion:
@@ -139,7 +140,8 @@ def run_discriminate(args: argparse.Namespace) -> int:
     res, cands, model = discriminate(
         args.model, args.select, args.measured, tied, args.candidates, args.postures, args.seed
     )
-    Q = cands.q[res["selected"]]
+    defl = "loads" in res
+    Q = cands.q[res["posture"] if defl else res["selected"]]
     names = res["hypotheses"]
     print(
         f"stiffkit plan --discriminate: {args.select} of {len(cands)} candidates ({cands.summary()}) to tell apart "
@@ -150,7 +152,11 @@ def run_discriminate(args: argparse.Namespace) -> int:
     for a, row in zip(names, res["pairs"]):
         print(f"  {a:{w}s} " + " ".join(f"{v:10.4g}" for v in row))
     if args.out:
-        print(f"wrote {atomic_write_text(args.out, absolute_postures_text(Q, cands.joint_names, model.frames))}")
+        if defl:
+            text = deflection_postures_text(Q, res["loads"], res["points"])
+        else:
+            text = absolute_postures_text(Q, cands.joint_names, model.frames)
+        print(f"wrote {atomic_write_text(args.out, text)}")
     if args.json:
         doc = {
             "command": "plan",
@@ -166,5 +172,8 @@ def run_discriminate(args: argparse.Namespace) -> int:
                 for label, c, q in zip(_labels(len(Q)), res["selected"], Q)
             ],
         }
+        if defl:  # the wrench of each chosen (posture, load) pair
+            for d, w in zip(doc["selected"], res["loads"]):
+                d["load"] = [float(v) for v in w]
         print(f"wrote {write_json(args.json, doc)}")
     return 0
