@@ -10,9 +10,7 @@ node order.
 from __future__ import annotations
 
 import logging
-import shutil
 import signal
-import subprocess
 import tempfile
 import threading
 import time
@@ -24,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError, PlausibilityWarning
 from .faces import CadFace, distances, faces_of_model, groups, surface_triangles
-from .mesh import PERM_GMSH_HEX20, PERM_GMSH_TET10, PERM_TETGEN_TET10, Mesh, MeshError, check_geometry
+from .mesh import PERM_GMSH_HEX20, PERM_GMSH_TET10, Mesh, MeshError, check_geometry
 from .refine import (
     estimate_nodes,
     feature_fields,
@@ -34,6 +32,7 @@ from .refine import (
     prism_mesh,
     set_background,
 )
+from .tetgen_mesh import tetgen_mesh
 
 logger = logging.getLogger(__name__)
 
@@ -404,7 +403,7 @@ def mesh_part(
             with tempfile.TemporaryDirectory(dir=workdir) as tmp:
                 stl = Path(tmp) / "surface.stl"
                 gmsh.write(str(stl))
-                mesh = _tetgen(stl, order, size, scale, tetgen_timeout)
+                mesh = tetgen_mesh(stl, order, size, scale, tetgen_timeout)
     finally:
         gmsh.finalize()
     mesh.size_m = size * scale
@@ -561,45 +560,3 @@ def _collect_gmsh(gmsh: ModuleType, order: int, scale: float) -> Mesh:
     if order == 2:
         elements = elements[:, PERM_GMSH_TET10]
     return Mesh(nodes=nodes, elements=elements.astype(np.int64), mesher="gmsh")
-
-
-def _read_tetgen(node_file: Path, ele_file: Path, order: int, scale: float) -> Mesh:
-    def table(path: Path) -> tuple[list[str], np.ndarray]:
-        lines = [ln.split("#")[0].split() for ln in path.read_text().splitlines()]
-        lines = [ln for ln in lines if ln]
-        head, body = lines[0], lines[1:]
-        return head, np.array(body, dtype=float)
-
-    _h, nd = table(node_file)
-    eh, el = table(ele_file)
-    npe = int(eh[1])
-    if npe != (10 if order == 2 else 4):
-        raise MeshError(f"TetGen wrote {npe}-node tetrahedra, expected {10 if order == 2 else 4}")
-    idx = nd[:, 0].astype(np.int64)
-    lookup = np.zeros(int(idx.max()) + 1, dtype=np.int64)
-    lookup[idx] = np.arange(1, idx.size + 1)
-    conn = lookup[el[:, 1 : 1 + npe].astype(np.int64)]
-    if order == 2:
-        conn = conn[:, PERM_TETGEN_TET10]
-    return Mesh(nodes=nd[:, 1:4] * scale, elements=conn, mesher="tetgen")
-
-
-def _tetgen(stl: Path, order: int, size: float, scale: float, timeout: float) -> Mesh:
-    exe = shutil.which("tetgen")
-    if exe is None:
-        raise InputError(
-            "mesh.mesher = 'tetgen' but the tetgen program is not on PATH "
-            "(Debian package tetgen; `make install` installs it)"
-        )
-    vmax = size**3 / (6.0 * np.sqrt(2.0))  # regular tetrahedron of edge `size`
-    flags = f"-pq1.414a{vmax:.6g}YQ" + ("o2" if order == 2 else "")
-    try:
-        proc = subprocess.run([exe, flags, stl.name], cwd=stl.parent, capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        raise MeshError(f"tetgen did not finish within {timeout:.0f} s") from None
-    node_file = stl.parent / (stl.stem + ".1.node")
-    ele_file = stl.parent / (stl.stem + ".1.ele")
-    if proc.returncode != 0 or not ele_file.is_file():
-        text = (proc.stdout + proc.stderr).strip().splitlines()[-5:]
-        raise MeshError(f"tetgen {flags} failed (exit {proc.returncode}): " + " | ".join(text))
-    return _read_tetgen(node_file, ele_file, order, scale)
