@@ -52,6 +52,7 @@ from .._core import calib as core
 from ..robot.model import Model, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
+from .absolute_diagnose_report import plan_command
 from .backward import backward_steps, held_for_addition
 from .diagnose_candidates import Candidate, candidate_tables, inert_reasons
 from .diagnose_rank import (
@@ -305,6 +306,9 @@ def diagnose(
         n_copied=copies,
     )
     _rank_honestly(dg, pb, res, A, model, cterms, cands, sig)
+    pairs = len(np.unique(np.hstack([meas.q, meas.w]), axis=0))
+    for t in dg.ties:  # name the command that plans the (posture, load) pairs to tell them apart
+        t["plan_command"], t["plan_select"] = plan_command(model.path, meas.path, pairs, t["candidates"])
     _backward(dg, pb, res, folds, obs_rows, npts, wp, meas, d_pe, alpha)
     if dg.proposal is not None and prune:
         dg.reasons.append(f"{dg.proposal.label} is not proposed: --prune proposes removals only")

@@ -233,6 +233,8 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
             f"undecidable: {', '.join(t['candidates'])} fit these data about as well (within "
             f"{TIE_LOG10:g} in log10 p, or better on held-out configurations); adding one of them would be a guess."
         )
+        if t.get("plan_command"):
+            lines.append(f"  postures and loads that would tell them apart: {t['plan_command']}")
         for s in t["separate_by"]:
             ds = s.get("difference_sigma")
             sig = f" = {ds:.3g} sigma" if ds is not None else ""

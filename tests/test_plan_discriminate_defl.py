@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shlex
 import shutil
 
 import numpy as np
@@ -124,3 +125,25 @@ def test_cli_plan_discriminate_on_deflection_files(tmp_path, tied_cases):
     assert [[float(r[f"q{i}"]) for i in range(1, 7)] for r in rows] == [list(s["q"].values()) for s in doc["selected"]]
     # bare --discriminate: the diagnosis's first tie of the same data
     assert main([*argv[:-3], "--discriminate", "", "--select", str(K), "--candidates", "40", "--seed", "3"]) == 0
+
+
+def test_diagnose_names_a_plan_command_that_runs(tmp_path, tied_cases, capsys):
+    """The deflection diagnosis of a tie (JSON and text) names `stiffkit
+    plan MODEL --discriminate A,B --measured MEAS --select K` with K = the
+    (posture, load) pairs measured (18); the command runs and plans K pairs
+    for the tie's candidates."""
+    seed, sc, tie = tied_cases[0]
+    model, meas = scenario_files(tmp_path, sc)
+    rep = tmp_path / "dg.json"
+    main(["diagnose", str(model), str(meas), "--json", str(rep)])
+    text = capsys.readouterr().out
+    t = json.loads(rep.read_text())["ties"][0]
+    assert t["candidates"] == tie["candidates"] and t["plan_select"] == 18
+    want = f"stiffkit plan {model} --discriminate {','.join(tie['candidates'])} --measured {meas} --select 18"
+    assert t["plan_command"] == want
+    assert f"  postures and loads that would tell them apart: {want}" in text.splitlines()
+    out = tmp_path / "plan.json"
+    assert main([*shlex.split(want)[1:], "--seed", "1", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["hypotheses"] == tie["candidates"] and len({s["candidate"] for s in doc["selected"]}) == 18
+    assert doc["value"] > 0 and all(s["load"] in LOADS for s in doc["selected"])
