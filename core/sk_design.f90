@@ -243,42 +243,6 @@ contains
         end do
     end subroutine add_cache
 
-    !> pr[nv, nobs*ncand] = vz^T J (vz[npar,nv] already scaled by s): the
-    !> products of every candidate's rows with nv vectors (four partial sums
-    !> per dot product: the loop is bound by memory, not by the add latency).
-    subroutine cross(jc, vz, pr)
-        real(dp), intent(in) :: jc(:, :, :), vz(:, :)
-        real(dp), intent(out) :: pr(:, :)
-        call cross_rows(size(jc, 1), size(pr, 2), size(vz, 2), jc, vz, pr)
-    end subroutine cross
-
-    subroutine cross_rows(n, ncol, nv, rows, vz, pr)
-        integer, intent(in) :: n, ncol, nv
-        real(dp), intent(in) :: rows(n, ncol), vz(n, nv)
-        real(dp), intent(out) :: pr(nv, ncol)
-        integer :: col, j, p, n4
-        real(dp) :: s1, s2, s3, s4
-        n4 = n - mod(n, 4)
-        do col = 1, ncol
-            do j = 1, nv
-                s1 = 0.0_dp
-                s2 = 0.0_dp
-                s3 = 0.0_dp
-                s4 = 0.0_dp
-                do p = 1, n4, 4
-                    s1 = s1 + vz(p, j) * rows(p, col)
-                    s2 = s2 + vz(p + 1, j) * rows(p + 1, col)
-                    s3 = s3 + vz(p + 2, j) * rows(p + 2, col)
-                    s4 = s4 + vz(p + 3, j) * rows(p + 3, col)
-                end do
-                do p = n4 + 1, n
-                    s1 = s1 + vz(p, j) * rows(p, col)
-                end do
-                pr(j, col) = (s1 + s2) + (s3 + s4)
-            end do
-        end do
-    end subroutine cross_rows
-
     !> vz[npar,nv] = s * [M^-1 U_a, M^-1 Q M^-1 U_a] (the second half for A
     !> and task only), U_a = S J_a^T.
     subroutine products(st, jc, a, vz)
@@ -295,25 +259,6 @@ contains
         vz(:, 1:n) = matmul(st%minv, u)
         if (st%crit /= crit_d) vz(:, n + 1:) = matmul(st%minv, matmul(st%q, vz(:, 1:n)))
     end subroutine products
-
-    !> Candidate c's blocks P = J_c S V (p) and R = J_c S Z (r) from pr.
-    pure subroutine blocks_of(pr, c, n, p, r)
-        real(dp), intent(in) :: pr(:, :)
-        integer, intent(in) :: c, n
-        real(dp), intent(out) :: p(n, n), r(n, n)
-        integer :: i, j
-        do j = 1, n
-            do i = 1, n
-                p(i, j) = pr(j, (c - 1) * n + i)
-            end do
-        end do
-        if (size(pr, 1) <= n) return
-        do j = 1, n
-            do i = 1, n
-                r(i, j) = pr(n + j, (c - 1) * n + i)
-            end do
-        end do
-    end subroutine blocks_of
 
     !> Woodbury update of st after adding (sgn = +1) or removing (sgn = -1)
     !> candidate a: M' = M + sgn U U^T, U = S J_a^T, V = M^-1 U,
@@ -343,7 +288,7 @@ contains
         do j = 1, nv
             vz(:, j) = vz(:, j) * st%s
         end do
-        call cross(jc, vz, pr)
+        call cand_cross(jc, vz, pr)
         do c = 1, st%ncand
             call blocks_of(pr, c, n, p, r)
             call mul(n, 'n', p, e, pe)
@@ -390,7 +335,7 @@ contains
             do c = 1, nv
                 vz(:, c) = vz(:, c) * st%s
             end do
-            call cross(jc, vz, pr)
+            call cand_cross(jc, vz, pr)
             best = 0
             dbest = huge(1.0_dp)
             do c = 1, st%ncand

@@ -14,6 +14,7 @@ module sk_design_base
     private
     public :: design_check, chol_small, lower_solve, mul_tn, mul, sandwich_trace, chol_checked, fail
     public :: dpotrf, dpotri
+    public :: cand_cross, cross_rows, blocks_of
 
     !> criteria (sk_design)
     integer(ip), parameter, public :: crit_d = 1, crit_a = 2, crit_task = 3
@@ -200,5 +201,60 @@ contains
             end do
         end do
     end subroutine mul
+
+    !> pr[nv, nobs*ncand] = vz^T J (vz[npar,nv] already scaled by s): the
+    !> products of every candidate's rows with nv vectors (four partial sums
+    !> per dot product: the loop is bound by memory, not by the add latency).
+    subroutine cand_cross(jc, vz, pr)
+        real(dp), intent(in) :: jc(:, :, :), vz(:, :)
+        real(dp), intent(out) :: pr(:, :)
+        call cross_rows(size(jc, 1), size(pr, 2), size(vz, 2), jc, vz, pr)
+    end subroutine cand_cross
+
+    subroutine cross_rows(n, ncol, nv, rows, vz, pr)
+        integer, intent(in) :: n, ncol, nv
+        real(dp), intent(in) :: rows(n, ncol), vz(n, nv)
+        real(dp), intent(out) :: pr(nv, ncol)
+        integer :: col, j, p, n4
+        real(dp) :: s1, s2, s3, s4
+        n4 = n - mod(n, 4)
+        do col = 1, ncol
+            do j = 1, nv
+                s1 = 0.0_dp
+                s2 = 0.0_dp
+                s3 = 0.0_dp
+                s4 = 0.0_dp
+                do p = 1, n4, 4
+                    s1 = s1 + vz(p, j) * rows(p, col)
+                    s2 = s2 + vz(p + 1, j) * rows(p + 1, col)
+                    s3 = s3 + vz(p + 2, j) * rows(p + 2, col)
+                    s4 = s4 + vz(p + 3, j) * rows(p + 3, col)
+                end do
+                do p = n4 + 1, n
+                    s1 = s1 + vz(p, j) * rows(p, col)
+                end do
+                pr(j, col) = (s1 + s2) + (s3 + s4)
+            end do
+        end do
+    end subroutine cross_rows
+
+    !> Candidate c's blocks P = J_c S V (p) and R = J_c S Z (r) from pr.
+    pure subroutine blocks_of(pr, c, n, p, r)
+        real(dp), intent(in) :: pr(:, :)
+        integer, intent(in) :: c, n
+        real(dp), intent(out) :: p(n, n), r(n, n)
+        integer :: i, j
+        do j = 1, n
+            do i = 1, n
+                p(i, j) = pr(j, (c - 1) * n + i)
+            end do
+        end do
+        if (size(pr, 1) <= n) return
+        do j = 1, n
+            do i = 1, n
+                r(i, j) = pr(n + j, (c - 1) * n + i)
+            end do
+        end do
+    end subroutine blocks_of
 
 end module sk_design_base
