@@ -46,6 +46,8 @@ examples:
   stiffkit plan kr/model.toml --select 12 --candidates 5000 --criterion D --json plan.json
   stiffkit plan da/model.toml --select 10 --measured da/measurements.csv --from my_postures.csv
   stiffkit plan da/model.toml --select 10 --measured da/measurements.csv --discriminate link:l_link1,link:trunk_1
+  stiffkit plan kr/model.toml --select 18 --measured kr/m.csv --discriminate link:link_3:diagonal,link:link_4:beam
+                 (deflection data: the (posture, load) pairs, loads from [plan] loads; named by diagnose on a tie)
   task.csv:  joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6
              0.1,-0.6,0.4,0.0,1.1,0.0
 """
