@@ -346,22 +346,30 @@ def discriminate(
     if not tied:
         from .absolute_diagnose import diagnose_absolute
 
-        dg = diagnose_absolute(model.copy(), data)
-        if not dg.ties:
-            raise InputError(
-                f"--discriminate: the diagnosis of {measured} finds no tie to tell apart; name the candidates: "
-                "--discriminate kind:target,kind:target"
-            )
-        tied = dg.ties[0]
+        tied = _first_tie(diagnose_absolute(model.copy(), data), measured)
     settings = plan_settings(model)
-    if postures is not None:
-        cands = user_candidates(model, postures, settings)
-    else:
-        cands = sampled_candidates(model, candidates, seed, settings)
+    cands = _candidates(model, postures, candidates, seed, settings)
     k = V.count(k, "--select", 1)
     if k > len(cands):
         raise InputError(f"--select {k}: only {len(cands)} feasible candidates ({cands.summary()}); {_more(cands)}")
     return plan_discriminate(model, data, tied, cands, k, settings), cands, model
+
+
+def _first_tie(dg: object, measured: str | Path) -> dict:
+    """The diagnosis's first tie (bare --discriminate), or the error that there is none."""
+    if not dg.ties:
+        raise InputError(
+            f"--discriminate: the diagnosis of {measured} finds no tie to tell apart; name the candidates: "
+            "--discriminate kind:target,kind:target"
+        )
+    return dg.ties[0]
+
+
+def _candidates(model: object, postures: object, candidates: int | None, seed: int, settings: object) -> Candidates:
+    """The user's postures (--from) or sampled feasible ones (--candidates)."""
+    if postures is not None:
+        return user_candidates(model, postures, settings)
+    return sampled_candidates(model, candidates, seed, settings)
 
 
 def _discriminate_deflection(
@@ -384,18 +392,9 @@ def _discriminate_deflection(
     model = load_plan_model(path)
     meas = read_measurements(measured, model.chain.dof)
     if not tied:
-        dg = diagnose(load_plan_model(path), meas)
-        if not dg.ties:
-            raise InputError(
-                f"--discriminate: the diagnosis of {measured} finds no tie to tell apart; name the candidates: "
-                "--discriminate kind:target,kind:target"
-            )
-        tied = dg.ties[0]
+        tied = _first_tie(diagnose(load_plan_model(path), meas), measured)
     settings = plan_settings(model)
-    if postures is not None:
-        cands = user_candidates(model, postures, settings)
-    else:
-        cands = sampled_candidates(model, candidates, seed, settings)
+    cands = _candidates(model, postures, candidates, seed, settings)
     if cands.loads is None:
         raise InputError(
             f"{model.path or 'model'}: [plan] loads missing: deflection data need the loads you can apply, "

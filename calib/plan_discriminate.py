@@ -41,14 +41,22 @@ def _label(effect: dict) -> str:
 
 
 def hypothesis_effects(model: TreeModel, tied: object) -> list[dict]:
-    """The [[effect]] tables of the tied candidates: ``tied`` is a tie as
-    the diagnosis reports it (a dict with ``candidates``), or a list of
-    labels ``kind:target`` and/or effect tables."""
+    """The [[effect]] tables of the tied candidates on tracker data
+    (:func:`tied_effects` among the model's absolute candidates)."""
+    return tied_effects(tied, absolute_candidates(model))
+
+
+def tied_effects(tied: object, lacking: list[dict]) -> list[dict]:
+    """The [[effect]] tables of the tied candidates, for both data kinds:
+    ``tied`` is a tie as the diagnosis reports it (a dict with
+    ``candidates``), or a list of labels ``kind:target[:template]`` and/or
+    effect tables; a label is looked up among ``lacking`` (the candidate
+    tables of the model's data kind)."""
     items = tied.get("candidates") if isinstance(tied, dict) else tied
     if not isinstance(items, (list, tuple)) or len(items) < 2:
         raise InputError(f"tied: needs at least 2 candidate effects to tell apart, got {items!r}")
     catalogue = {}
-    for c in absolute_candidates(model):  # the label with and without a spring's template
+    for c in lacking:  # the label with and without a spring's template
         catalogue.setdefault(f"{c['kind']}:{c.get('target', c['kind'])}", c)
         catalogue[_label(c)] = c
     out = []

@@ -23,9 +23,10 @@ import numpy as np
 from .._core import calib as core_calib
 from ..errors import InputError
 from ..robot.model import Model, default_tau0, expand_effect
-from .diagnose_candidates import Candidate, candidate_tables
+from .diagnose_candidates import candidate_tables
 from .fit import fit
 from .measure import Measurements
+from .plan_discriminate import _label, tied_effects
 from .problem import Problem
 
 __all__ = ["plan_discriminate_deflection", "deflection_effects", "hypothesis_rows"]
@@ -34,42 +35,15 @@ __all__ = ["plan_discriminate_deflection", "deflection_effects", "hypothesis_row
 RANK_TOL = 1e-9
 
 
-def _label(effect: dict) -> str:
-    return Candidate(kind=effect["kind"], target=effect.get("target", effect["kind"]), effect=effect).label
-
-
 def _tau0(model: Model, meas: Measurements) -> dict:
     tau = model.chain.joint_torques(meas.q, meas.w)
     return {j: default_tau0(tau[:, k]) for k, j in enumerate(model.chain.joint_names) if model.chain.qidx[k] > 0}
 
 
 def deflection_effects(model: Model, meas: Measurements, tied: object) -> list[dict]:
-    """The [[effect]] tables of the tied candidates: ``tied`` is a tie as the
-    diagnosis reports it (a dict with ``candidates``) or a list of labels
-    ``kind:target[:template]`` and/or effect tables."""
-    items = tied.get("candidates") if isinstance(tied, dict) else tied
-    if not isinstance(items, (list, tuple)) or len(items) < 2:
-        raise InputError(f"tied: needs at least 2 candidate effects to tell apart, got {items!r}")
-    catalogue = {}
-    for table, _hint in candidate_tables(model, _tau0(model, meas)):
-        catalogue.setdefault(f"{table['kind']}:{table.get('target', table['kind'])}", table)
-        catalogue[_label(table)] = table
-    out = []
-    for i, it in enumerate(items):
-        if isinstance(it, dict) and "kind" in it:
-            out.append(dict(it))
-        elif isinstance(it, str) and it in catalogue:
-            out.append(dict(catalogue[it]))
-        else:
-            raise InputError(
-                f"tied[{i}]: {it!r} is neither an [[effect]] table nor a candidate the model lacks "
-                f"(labels kind:target[:template], e.g. {next(iter(catalogue), 'link:LINK')})"
-            )
-    names = [_label(e) for e in out]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise InputError(f"tied: {', '.join(dup)} given twice")
-    return out
+    """The [[effect]] tables of the tied candidates on deflection data
+    (calib.plan_discriminate.tied_effects among the model's candidates)."""
+    return tied_effects(tied, [table for table, _hint in candidate_tables(model, _tau0(model, meas))])
 
 
 def candidate_rows(q: np.ndarray, loads: np.ndarray, points: np.ndarray) -> Measurements:
