@@ -1,6 +1,6 @@
 !> Entry points of the deflection model (relative data) that f2py wraps
 !> (bindings/_calib.pyf): the predicted rows and their Jacobian, the joint
-!> compliances of a known model, the compensator's h (sk_deflect).
+!> compliances of a known model (sk_deflect), the compensator's h (sk_laws).
 
 !> Rows pred[6,nm] and, when want_jac /= 0, jac[6,nm,npar] of the terms
 !> (tint[7,nt], tgeo[5,nt], elem[ne], par[npall]) at theta[npar] (sk_deflect).
@@ -33,10 +33,10 @@ subroutine sk_joint_secant(ns, nt, npall, ndof, np, stype, tint, tgeo, par, q, t
     call joint_secant(stype, tint, tgeo, par, q, tau, with_load /= 0, cj, info)
 end subroutine sk_joint_secant
 
-!> The gravity compensator's d2V/dq2 per unit k_s, h[n] at q[n] (sk_deflect).
+!> The gravity compensator's d2V/dq2 per unit k_s, h[n] at q[n] (sk_laws).
 subroutine sk_compensator_h(n, q, a, b, beta, s0, h)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
-    use sk_deflect, only: compensator_h
+    use sk_laws, only: compensator_h
     implicit none
     integer(c_int), intent(in) :: n
     real(c_double), intent(in) :: q(n), a, b, beta, s0

@@ -3,9 +3,10 @@
 !> point deflection and tool rotation of every measurement row and their
 !> analytic Jacobian with respect to the model's free parameters,
 !> including the chain rule through a gravity compensator and a point
-!> offset. The joint laws are the tree's (sk_laws law_delta/law_derivs:
-!> linear, cubic, dead zone); the posture-dependent compliance of a joint
-!> (profile, compensator) is below. The frames, the springs' screws and
+!> offset. A joint spring's terms are the slots of one block of the
+!> tree's law_joint (sk_laws: linear, profile, harmonic, compensator,
+!> cubic, dead zone; law_delta/law_derivs); a 6-dof spring's elements are
+!> law_spring6's. The frames, the springs' screws and
 !> their generalised forces come from the chain's tree model
 !> (sk_chain_tree): a chain is a tree.
 !>
@@ -14,7 +15,7 @@
 !>             sin q, cos 2q, sin 2q), 3 gravity_compensator (k_s),
 !>             4 joint_cubic (c3), 5 joint_deadzone (b, tau0 = tgeo(5,t)),
 !>             6 six-dof spring (elements), 7 point offset (r, tool frame),
-!>             8 joint_harmonic (c1, s1 on cos q, sin q: sk_laws law_harmonic)
+!>             8 joint_harmonic (c1, s1 on cos q, sin q)
 !>   tint(2,t) the term's spring (1-based into stype/sidx; 0 for kind 7)
 !>   tint(3,t) its first value in par, tint(4,t) its number of values
 !>   tint(5,t) its first Jacobian column (1-based), 0 when known
@@ -22,10 +23,11 @@
 !>             first of its elements in elem (kind 6; sym_index order)
 !>   tgeo(1:4,t) compensator a, b, beta, s0 (m, m, rad, m)
 !> par holds every term's values; those of free terms are taken from theta.
-!> A joint spring deflects by delta = law(tau), tau = J_s^T w its torque,
-!> with the linear compliance c_eff = c(q) / (1 + c(q) k_s h(q)) (c(q) the
-!> sum of its joint and profile terms, h the compensator's d2V/dq2 per unit
-!> k_s, docs/calibration.md section 2); a 6-dof spring by C J_s^T w. A row's
+!> A joint spring deflects by delta = law_joint(tau), tau = J_s^T w its
+!> torque, with the linear compliance c_eff = c(q) / (1 + c(q) k_s h(q))
+!> (c(q) the sum of its joint, profile and harmonic terms, h the
+!> compensator's d2V/dq2 per unit k_s, docs/calibration.md section 2;
+!> sk_laws joint_ceff); a 6-dof spring by C J_s^T w. A row's
 !> six numbers are the point deflection dt + dphi x (R_tool (p + r)) and
 !> the tool rotation dphi (base axes).
 module sk_deflect
@@ -37,10 +39,11 @@ module sk_deflect
     use sk_chain, only: check_chain, spring_joint
     use sk_tree_model, only: tree_model, tree_state, state_init
     use sk_chain_tree, only: chain_tree_model, chain_tree_rows
-    use sk_laws, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone, law_harmonic
+    use sk_laws, only: law_delta, law_derivs, law_cubic, law_deadzone, law_joint, joint_ceff, js_c, js_cubic, &
+        js_backlash, js_profile, js_harmonic, js_ks, js_geom
     implicit none
     private
-    public :: deflection_rows, joint_secant, compensator_h, profile_basis
+    public :: deflection_rows, joint_secant
     !> term kinds (robot/model_core.py TERM_* mirrors them)
     integer, parameter, public :: term_joint = 1, term_profile = 2, term_compensator = 3, term_cubic = 4, &
         term_deadzone = 5, term_six = 6, term_offset = 7, term_harmonic = 8
@@ -48,36 +51,6 @@ module sk_deflect
     real(dp), parameter :: secant_small = 1.0e-4_dp
 
 contains
-
-    !> d2V/dq2 per unit k_s of a gravity compensator (docs/calibration.md
-    !> section 2): s = sqrt(a^2 + b^2 - 2ab cos phi), phi = q + beta,
-    !> V = k_s (s - s0)^2 / 2 -> h = s'^2 + (s - s0) s''.
-    elemental real(dp) function compensator_h(q, a, b, beta, s0) result(h)
-        real(dp), intent(in) :: q, a, b, beta, s0
-        real(dp) :: phi, s, ds, dds
-        phi = q + beta
-        s = sqrt(a*a + b*b - 2.0_dp*a*b*cos(phi))
-        ds = a*b*sin(phi)/s
-        dds = (a*b*cos(phi) - ds*ds)/s
-        h = ds*ds + (s - s0)*dds
-    end function compensator_h
-
-    !> The joint_profile basis at q: 1, cos q, sin q, cos 2q, sin 2q.
-    pure function profile_basis(q) result(f)
-        real(dp), intent(in) :: q
-        real(dp) :: f(5)
-        f = [1.0_dp, cos(q), sin(q), cos(2.0_dp*q), sin(2.0_dp*q)]
-    end function profile_basis
-
-    !> The joint_harmonic basis at q: the law_harmonic compliance per unit
-    !> c1 and s1 (sk_laws), cos q and sin q.
-    pure function harmonic_basis(q) result(f)
-        real(dp), intent(in) :: q
-        real(dp) :: f(2), par(nsym), dm(1, 1), dp2(1, nsym), dv(1)
-        par = 0.0_dp
-        call law_derivs(law_harmonic, par, 1.0_dp, q, [1.0_dp], dm, dp2, dv)
-        f = dp2(1, 2:3)
-    end function harmonic_basis
 
     !> Whether a term kind belongs to a joint spring (its q column is set).
     elemental logical function joint_term(k)
@@ -122,86 +95,41 @@ contains
         info = sk_ok
     end subroutine check_terms
 
-    !> The linear compliance of joint spring s at posture q: c_eff, and
-    !> dc_eff/dc (the chain factor of its joint and profile values) and
-    !> dc_eff/dk_s (0 without a compensator).
-    pure subroutine joint_linear(s, tint, tgeo, pv, q, ceff, dc, dk)
+    !> The law_joint block of joint spring s (sk_laws): its slots par[21]
+    !> from the values pv of its terms, the dead zone's width w0 (1 when it
+    !> has none) and the q column qc of its joint (0: no joint term).
+    pure subroutine joint_block(s, tint, tgeo, pv, par, w0, qc)
         integer, intent(in) :: s
         integer(ip), intent(in) :: tint(:, :)
-        real(dp), intent(in) :: tgeo(:, :), pv(:), q(:)
-        real(dp), intent(out) :: ceff, dc, dk
-        real(dp) :: c, ks, h, den
+        real(dp), intent(in) :: tgeo(:, :), pv(:)
+        real(dp), intent(out) :: par(nsym), w0
+        integer, intent(out) :: qc
         integer :: t, p
-        logical :: comp
-        c = 0.0_dp
-        comp = .false.
-        ks = 0.0_dp
-        h = 0.0_dp
+        par = 0.0_dp
+        w0 = 1.0_dp
+        qc = 0
         do t = 1, size(tint, 2)
-            if (tint(2, t) /= s) cycle
+            if (tint(2, t) /= s .or. .not. joint_term(tint(1, t))) cycle
             p = tint(3, t)
+            qc = tint(6, t)
             select case (tint(1, t))
             case (term_joint)
-                c = c + pv(p)
+                par(js_c) = par(js_c) + pv(p)
             case (term_profile)
-                c = c + dot_product(profile_basis(q(tint(6, t))), pv(p:p + 4))
+                par(js_profile:js_profile + 4) = par(js_profile:js_profile + 4) + pv(p:p + 4)
             case (term_harmonic)
-                c = c + dot_product(harmonic_basis(q(tint(6, t))), pv(p:p + 1))
+                par(js_harmonic:js_harmonic + 1) = par(js_harmonic:js_harmonic + 1) + pv(p:p + 1)
             case (term_compensator)
-                comp = .true.
-                ks = pv(p)
-                h = compensator_h(q(tint(6, t)), tgeo(1, t), tgeo(2, t), tgeo(3, t), tgeo(4, t))
-            end select
-        end do
-        if (comp) then
-            den = 1.0_dp + c*ks*h
-            ceff = c/den
-            dc = 1.0_dp/den**2
-            dk = -c*c*h/den**2
-        else
-            ceff = c
-            dc = 1.0_dp
-            dk = 0.0_dp
-        end if
-    end subroutine joint_linear
-
-    !> Deflection of joint spring s under torque tau (the tree's laws: the
-    !> linear compliance with the cubic c3 and the dead zone b, tau0 of its
-    !> terms), and d delta/d c_eff, d delta/d c3, d delta/d b.
-    pure subroutine joint_law(s, tint, tgeo, pv, ceff, tau, delta, dlin, dcub, ddz)
-        integer, intent(in) :: s
-        integer(ip), intent(in) :: tint(:, :)
-        real(dp), intent(in) :: tgeo(:, :), pv(:), ceff, tau
-        real(dp), intent(out) :: delta, dlin, dcub, ddz
-        real(dp) :: par(nsym), d(1), dm(1, 1), dp2(1, nsym), dv(1), w(1)
-        integer :: t
-        w(1) = tau
-        par = 0.0_dp
-        par(1) = ceff
-        call law_delta(law_linear, par, 1.0_dp, 0.0_dp, w, d)
-        call law_derivs(law_linear, par, 1.0_dp, 0.0_dp, w, dm, dp2, dv)
-        delta = d(1)
-        dlin = dp2(1, 1)
-        dcub = 0.0_dp
-        ddz = 0.0_dp
-        do t = 1, size(tint, 2)
-            if (tint(2, t) /= s) cycle
-            par = 0.0_dp
-            par(2) = pv(tint(3, t))
-            select case (tint(1, t))
+                par(js_ks) = pv(p)
+                par(js_geom:js_geom + 3) = tgeo(1:4, t)
             case (term_cubic)
-                call law_delta(law_cubic, par, 1.0_dp, 0.0_dp, w, d)
-                call law_derivs(law_cubic, par, 1.0_dp, 0.0_dp, w, dm, dp2, dv)
-                delta = delta + d(1)
-                dcub = dp2(1, 2)
+                par(js_cubic) = par(js_cubic) + pv(p)
             case (term_deadzone)
-                call law_delta(law_deadzone, par, tgeo(5, t), 0.0_dp, w, d)
-                call law_derivs(law_deadzone, par, tgeo(5, t), 0.0_dp, w, dm, dp2, dv)
-                delta = delta + d(1)
-                ddz = dp2(1, 2)
+                par(js_backlash) = par(js_backlash) + pv(p)
+                w0 = tgeo(5, t)
             end select
         end do
-    end subroutine joint_law
+    end subroutine joint_block
 
     !> All values: par with the free slices from theta.
     pure subroutine values(tint, par, theta, pv)
@@ -229,9 +157,9 @@ contains
         real(dp), intent(out) :: pred(:, :), jac(:, :, :)
         integer(ip), intent(out) :: info
         real(dp), allocatable :: pv(:), g(:, :, :), a(:, :)
-        real(dp) :: rt(3, 3), r(3), col(6), fn(5), ceff, dc, dk, delta, dlin, dcub, ddz
+        real(dp) :: rt(3, 3), r(3), col(6), jpar(nsym), w0, dl(1), dm(1, 1), dpar(1, nsym), dv(1)
         integer, allocatable :: sv(:)
-        integer :: m, s, t, k, kk, ia, ib, ns, jc, pp, toff, tool
+        integer :: m, s, t, k, kk, ia, ib, ns, jc, qc, toff, tool
         type(tree_model) :: tm
         type(tree_state) :: st
         ns = size(stype)
@@ -283,38 +211,34 @@ contains
                     if (want_jac .and. jc > 0) jac(:, m, jc + k - 1) = col
                 end do
             end do
-            ! joint springs: delta = law(tau) with the posture's linear compliance
+            ! joint springs: delta = law_joint(tau) at the posture
             do s = 1, ns
                 if (stype(s) /= spring_joint) cycle
                 if (.not. any(tint(2, :) == s .and. joint_term(tint(1, :)))) cycle
-                call joint_linear(s, tint, tgeo, pv, q(:, m), ceff, dc, dk)
-                call joint_law(s, tint, tgeo, pv, ceff, a(1, s), delta, dlin, dcub, ddz)
-                pred(:, m) = pred(:, m) + g(:, 1, s)*delta
+                call joint_block(s, tint, tgeo, pv, jpar, w0, qc)
+                call law_delta(law_joint, jpar, w0, q(qc, m), a(1:1, s), dl)
+                pred(:, m) = pred(:, m) + g(:, 1, s)*dl(1)
                 if (.not. want_jac) cycle
+                call law_derivs(law_joint, jpar, w0, q(qc, m), a(1:1, s), dm, dpar, dv)
                 do t = 1, size(tint, 2)
                     jc = tint(5, t)
                     if (tint(2, t) /= s .or. jc == 0) cycle
-                    pp = tint(6, t)
                     select case (tint(1, t))
                     case (term_joint)
-                        jac(:, m, jc) = g(:, 1, s)*(dlin*dc)
+                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_c)
                     case (term_profile)
-                        col = g(:, 1, s)*(dlin*dc)
-                        fn = profile_basis(q(pp, m))
                         do k = 1, 5
-                            jac(:, m, jc + k - 1) = col*fn(k)
+                            jac(:, m, jc + k - 1) = g(:, 1, s)*dpar(1, js_profile + k - 1)
                         end do
                     case (term_harmonic)
-                        col = g(:, 1, s)*(dlin*dc)
-                        fn(1:2) = harmonic_basis(q(pp, m))
-                        jac(:, m, jc) = col*fn(1)
-                        jac(:, m, jc + 1) = col*fn(2)
+                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_harmonic)
+                        jac(:, m, jc + 1) = g(:, 1, s)*dpar(1, js_harmonic + 1)
                     case (term_compensator)
-                        jac(:, m, jc) = g(:, 1, s)*(dlin*dk)
+                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_ks)
                     case (term_cubic)
-                        jac(:, m, jc) = g(:, 1, s)*dcub
+                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_cubic)
                     case (term_deadzone)
-                        jac(:, m, jc) = g(:, 1, s)*ddz
+                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_backlash)
                     end select
                 end do
             end do
@@ -343,8 +267,9 @@ contains
         logical, intent(in) :: with_load
         real(dp), intent(out) :: cj(:, :)
         integer(ip), intent(out) :: info
-        real(dp) :: ceff, dc, dk, pv(size(par)), none(0), wpar(nsym), dm(1, 1), dp2(1, nsym), dv(1), d(1)
-        integer :: m, s, t
+        real(dp) :: ceff, dc, dk, dvc, pv(size(par)), none(0), wpar(nsym), dm(1, 1), dp2(1, nsym), dv(1), d(1), &
+            jpar(nsym), w0
+        integer :: m, s, t, qc
         integer(ip) :: noelem(0)
         cj = 0.0_dp
         call check_terms(tint, tgeo, noelem, size(stype, kind=ip), size(par, kind=ip), 0_ip, &
@@ -356,7 +281,9 @@ contains
         do m = 1, size(q, 2)
             do s = 1, size(stype)
                 if (stype(s) /= spring_joint) cycle
-                call joint_linear(s, tint, tgeo, pv, q(:, m), ceff, dc, dk)
+                call joint_block(s, tint, tgeo, pv, jpar, w0, qc)
+                ceff = 0.0_dp
+                if (qc > 0) call joint_ceff(jpar, q(qc, m), ceff, dc, dk, dvc)
                 cj(s, m) = ceff
                 if (.not. with_load) cycle
                 ! the secant delta(tau)/tau of each nonlinear term (the tree's laws)

@@ -16,7 +16,7 @@ module sk_tree_check
     use sk_errors
     use sk_linalg, only: eye, all_finite
     use sk_spatial, only: nsym
-    use sk_laws, only: law_linear, law_deadzone, law_ndof, nlaw
+    use sk_laws, only: law_linear, law_deadzone, law_joint, law_ndof, nlaw
     implicit none
     private
     public :: model_check, inputs_check, observations_check, rows_check, params_check, is_rotation
@@ -181,7 +181,8 @@ contains
         do k = 1, nk
             if (ktype(k) < law_linear .or. ktype(k) > nlaw) call fail(sk_err_argument, arg_ktype, k, info, loc)
             if (any(kpar(:, k) < 0) .or. any(kpar(:, k) > npar)) call fail(sk_err_argument, arg_kpar, k, info, loc)
-            if (ktype(k) == law_deadzone .and. .not. kw0(k) > 0.0_dp) call fail(sk_err_argument, arg_kw0, k, info, loc)
+            if ((ktype(k) == law_deadzone .or. ktype(k) == law_joint) .and. .not. kw0(k) > 0.0_dp) &
+                call fail(sk_err_argument, arg_kw0, k, info, loc)
             if (info /= sk_ok) return
             do j = 1, law_ndof(ktype(k))
                 v = kvj(j, k)

@@ -57,14 +57,15 @@ DEFLECTION, ABSOLUTE = "deflection", "absolute"
 DATA_KINDS = (DEFLECTION, ABSOLUTE)
 BOTH = DATA_KINDS
 
-#: the law codes of the tree core's elastic blocks (core/sk_tree_check.f90 law_*)
-LAW_LINEAR, LAW_CUBIC, LAW_DEADZONE, LAW_SPRING6, LAW_HARMONIC = 1, 2, 3, 4, 5
+#: the law codes of the tree core's elastic blocks (core/sk_laws.f90 law_*)
+LAW_LINEAR, LAW_CUBIC, LAW_DEADZONE, LAW_SPRING6, LAW_HARMONIC, LAW_JOINT = 1, 2, 3, 4, 5, 6
 LAWS = {
     "LAW_LINEAR": LAW_LINEAR,
     "LAW_CUBIC": LAW_CUBIC,
     "LAW_DEADZONE": LAW_DEADZONE,
     "LAW_SPRING6": LAW_SPRING6,
     "LAW_HARMONIC": LAW_HARMONIC,
+    "LAW_JOINT": LAW_JOINT,
 }
 #: default smoothing of joint_deadzone: tau0 = this fraction of the RMS torque about the joint in the data
 DEADZONE_TAU0_FRACTION = 0.05
