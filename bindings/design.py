@@ -33,10 +33,12 @@ __all__ = [
     "DesignError",
     "DesignResult",
     "DiscriminationResult",
+    "Weakness",
     "covariance",
     "criterion",
     "discriminate",
     "select",
+    "weakness",
 ]
 
 #: criterion name -> the core's code (sk_design: crit_d, crit_a, crit_task)
@@ -313,6 +315,52 @@ def covariance(jc: np.ndarray, chosen: np.ndarray, m0: np.ndarray | None = None)
         raise exc
     _check(routine, info, errloc)
     return np.array(cov)
+
+
+@dataclass(frozen=True)
+class Weakness:
+    """What :func:`weakness` finds in a chosen design (core/sk_design_weak.f90).
+
+    ``info`` (npar,) the diagonal of M = m0 + sum of the chosen J_c^T J_c
+    (1/info_j: the variance of parameter j if the others were known);
+    ``pool`` (npar,) the same over all candidates (and m0): 1/scale^2 of
+    :func:`select`, so sqrt(info / pool) is the norm of each column of the
+    scaled Jacobian over the chosen rows;
+    ``task`` (npar,) the task influence, the sum of squares of jt's column
+    j; ``eigenvalues`` (npar,) of the unit-diagonal information, ascending;
+    ``nnull`` the dimension of its null space (0: M is regular, as
+    :func:`covariance` tests it) and ``null`` (npar, npar) the projector onto
+    it: ``null[j, j] > 0`` when parameter j is not identifiable,
+    ``null[j, k]`` its share with k."""
+
+    info: np.ndarray
+    pool: np.ndarray
+    task: np.ndarray
+    eigenvalues: np.ndarray
+    nnull: int
+    null: np.ndarray
+
+
+def weakness(jc: np.ndarray, chosen: np.ndarray, jt: np.ndarray, m0: np.ndarray | None = None) -> Weakness:
+    """Why each parameter of the design ``chosen`` (0-based) stays weak:
+    its information, its task influence (``jt`` (nt, npar): the task rows)
+    and the null space of the information (:class:`Weakness`)."""
+    routine = "design.weakness"
+    a = _jc(routine, jc)
+    ncand, _, npar = a.shape
+    ch = _chosen(routine, chosen, ncand)
+    m = _m0(routine, m0, npar)
+    t = _jt(routine, jt, CRITERIA["task"], npar)
+    info_d, pool, task, ev, nnull, proj, info, errloc = call(_design.sk_design_weakness, routine, a.T, ch, m, t.T)
+    _check(routine, info, errloc)
+    return Weakness(
+        info=np.array(info_d),
+        pool=np.array(pool),
+        task=np.array(task),
+        eigenvalues=np.array(ev),
+        nnull=int(nnull),
+        null=np.array(proj),
+    )
 
 
 def _rows_finite(routine: str, name: str, a: np.ndarray) -> None:

@@ -97,6 +97,8 @@ class PlanResult:
     start: str = "greedy"
     #: --measured: the task trace of the rows already measured alone (+inf: they do not identify every parameter)
     measured_task_trace: float | None = None
+    #: the design core's numbers of why parameters stay weak (design.weakness: information, task influence, null space)
+    weakness: design.Weakness | None = None
 
     @property
     def task_rms(self) -> float:
@@ -117,6 +119,14 @@ class PlanResult:
         """Expected task error of the plan over the median of the random designs."""
         r = self.random_task_rms
         return self.task_rms / r if math.isfinite(r) and r > 0 else 0.0
+
+    @property
+    def weak(self) -> list[dict]:
+        """The weak parameters and why: not identifiable, correlated (with
+        whom) or weakly excited, with the numbers (calib.plan_weak)."""
+        from .plan_weak import weak_parameters
+
+        return weak_parameters(self)
 
     def table(self) -> object:
         """The chosen measurements, the table of POSTURES.csv (``--out``):
@@ -274,10 +284,9 @@ def plan(
     if setup.m0 is not None and setup.measured_rows:
         before = design.criterion(setup.jc, np.zeros(0, int), "task", m0=setup.m0, jt=jt)
     cov, exc = _cov(setup, chosen)
-    # the information's diagonal (variance inflation = diag(M^-1) diag(M))
-    info_diag = np.einsum("cij,cij->j", setup.jc[chosen], setup.jc[chosen])
-    if setup.m0 is not None:
-        info_diag = info_diag + np.diag(setup.m0)
+    # the information's diagonal (variance inflation = diag(M^-1) diag(M)), its null space
+    weak = design.weakness(setup.jc, chosen, setup.jt, m0=setup.m0)
+    info_diag = weak.info
     notes = []
     if cov is None:
         npar = setup.npar
@@ -317,6 +326,7 @@ def plan(
         notes=notes,
         measured_task_trace=before,
         start=start,
+        weakness=weak,
     )
 
 

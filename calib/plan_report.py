@@ -12,6 +12,7 @@ import numpy as np
 
 from ..io.files import atomic_write_text
 from .measure import DEFL, POINT, WRENCH
+from .plan_weak import WEAK_EXCITATION, WEAK_VIF, excitation, task_excitation, weak_parameters  # noqa: F401 - weak_parameters: re-exported
 
 if TYPE_CHECKING:  # calib.plan's PlanResult calls this module (its table, report, file)
     from .plan import PlanResult
@@ -31,8 +32,6 @@ __all__ = [
 
 #: at most this many weak parameters and correlated pairs are reported
 SHOWN = 10
-#: a parameter whose variance is inflated by more than this (against an orthogonal design) is weak
-WEAK_VIF = 10.0
 #: |correlation| above which two parameters are reported as a correlated pair
 CORRELATED = 0.9
 
@@ -48,27 +47,6 @@ def correlated_pairs(res: PlanResult, limit: float = CORRELATED) -> list[tuple[s
     r = c[i, j]
     order = np.argsort(-np.abs(r))
     return [(names[i[k]], names[j[k]], float(r[k])) for k in order if abs(r[k]) > limit][:SHOWN]
-
-
-def weak_parameters(res: PlanResult) -> list[dict]:
-    """The parameters whose variance the plan inflates most (beyond
-    WEAK_VIF against an orthogonal design of the same information), each
-    with why: its most correlated partner."""
-    names = res.setup.names
-    out = []
-    if not np.all(np.isfinite(res.vif)):
-        return [{"name": "(the plan)", "vif": math.inf, "why": res.notes[0] if res.notes else "singular"}]
-    for k in np.argsort(-res.vif):
-        if res.vif[k] <= WEAK_VIF or len(out) >= SHOWN:
-            break
-        r = np.abs(res.corr[k]).copy()
-        r[k] = 0.0
-        p = int(np.argmax(r)) if r.size > 1 else k
-        why = f"variance inflated {res.vif[k]:.3g} x by its correlation with the others"
-        if r.size > 1:
-            why += f"; most with {names[p]} (r = {res.corr[k, p]:+.3f})"
-        out.append({"name": names[k], "vif": float(res.vif[k]), "std": float(res.std[k]), "why": why})
-    return out
 
 
 def _labels(res: PlanResult | int) -> list[str]:
@@ -222,10 +200,16 @@ def plan_json(res: PlanResult) -> dict:
         **({"points": s.points.tolist(), "points_source": s.points_source} if s.points is not None else {}),
         "identifiable": s.npar,
         "parameters": [
-            {"name": n, "expected_std": _finite(sd), "variance_inflation": _finite(v)}
-            for n, sd, v in zip(s.names, res.std, res.vif)
+            {
+                "name": n,
+                "expected_std": _finite(sd),
+                "variance_inflation": _finite(v),
+                "excitation": _finite(e),
+                "task_excitation": _finite(et),
+            }
+            for n, sd, v, e, et in zip(s.names, res.std, res.vif, excitation(res), task_excitation(res))
         ],
-        "weak": weak_parameters(res),
+        "weak": res.weak,
         "correlated_pairs": [{"a": a, "b": b, "r": r} for a, b, r in correlated_pairs(res)],
         "not_planned": [{"name": n, "why": w} for n, w in s.not_planned],
         "selected": selected,
@@ -276,18 +260,27 @@ def plan_text(res: PlanResult) -> str:
         "expected standard deviation of each parameter:",
     ]
     width = max(len(n) for n in s.names)
-    for n, sd, v in zip(s.names, res.std, res.vif):
-        lines.append(f"  {n:{width}s}  {sd:.4g}  (variance inflation {v:.3g})")
-    weak = weak_parameters(res)
-    if weak:
-        lines.append("weak parameters:")
-        lines += [f"  {w['name']}: {w['why']}" for w in weak]
+    for n, sd, v, e, et in zip(s.names, res.std, res.vif, excitation(res), task_excitation(res)):
+        ex = "".join(f", {what} {x:.3g}" for what, x in (("excitation", e), ("for the task", et)) if math.isfinite(x))
+        lines.append(f"  {n:{width}s}  {sd:.4g}  (variance inflation {v:.3g}{ex})")
+    weak = res.weak
+    planned = [w for w in weak if w["source"] == "plan"]
+    if planned:
+        lines.append(
+            "weak parameters (not identifiable, correlated: variance inflation > "
+            f"{WEAK_VIF:g}, or weakly excited: excitation < {WEAK_EXCITATION:g} of the median):"
+        )
+        lines += [f"  {w['name']}: {w['why']}" for w in planned[:SHOWN]]
+        if len(planned) > SHOWN:
+            lines.append(f"  ... and {len(planned) - SHOWN} more (--json lists them all)")
     pairs = correlated_pairs(res)
     if pairs:
         lines.append(f"correlated pairs (|r| > {CORRELATED}):")
         lines += [f"  {a} ~ {b}: r = {r:+.3f}" for a, b, r in pairs]
     if s.not_planned:
-        lines.append(f"not planned for ({len(s.not_planned)}: the fit would not identify them):")
+        lines.append(
+            f"not planned for ({len(s.not_planned)}: not identifiable at all, the fit's reduction sets them aside):"
+        )
         lines += [f"  {n}: {w}" for n, w in s.not_planned[:SHOWN]]
         if len(s.not_planned) > SHOWN:
             lines.append(f"  ... and {len(s.not_planned) - SHOWN} more (--json lists them all)")

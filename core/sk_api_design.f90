@@ -121,3 +121,29 @@ subroutine sk_design_discriminate(nrow, nh, ptot, nh1, f, jall, hoff, n0, nobs, 
     if (info /= sk_ok) return
     call disc_select(f, jall, hoff, n0, nobs, k, max_passes, sel, value, gvalue, pairs, passes, swaps, info)
 end subroutine sk_design_discriminate
+
+!> Why each parameter of chosen[nch] stays weak (sk_design_weak%design_weakness):
+!> info_d[npar] the information's diagonal, pool[npar] that of all candidates, task[npar] the task influence
+!> (jt[npar,nt]: the task rows), ev[npar] the eigenvalues of the
+!> unit-diagonal information, nnull and proj[npar,npar] its null space.
+subroutine sk_design_weakness(npar, nobs, ncand, nt, nch, jc, chosen, m0, jt, info_d, pool, task, ev, nnull, proj, &
+        info, errloc)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_design, only: design_check, crit_task
+    use sk_design_weak, only: design_weakness
+    implicit none
+    integer(c_int), intent(in) :: npar, nobs, ncand, nt, nch, chosen(nch)
+    real(c_double), intent(in) :: jc(npar, nobs, ncand), m0(npar, npar), jt(npar, nt)
+    real(c_double), intent(out) :: info_d(npar), pool(npar), task(npar), ev(npar), proj(npar, npar)
+    integer(c_int), intent(out) :: nnull, info, errloc(2)
+    info_d = 0
+    pool = 0
+    task = 0
+    ev = 0
+    proj = 0
+    nnull = 0
+    call design_check(jc, m0, jt, crit_task, chosen, info, errloc)
+    if (info /= sk_ok) return
+    call design_weakness(jc, m0, jt, chosen, info_d, pool, task, ev, nnull, proj, info)
+end subroutine sk_design_weakness
