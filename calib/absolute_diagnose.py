@@ -66,7 +66,7 @@ from .absolute_propose import propose
 from .absolute_structure import PATH_GAP, STRUCTURE_ALPHA, STRUCTURE_PERMUTATIONS, residual_structure, structure_verdict
 from .backward import backward_steps, held_for_addition
 from .checks import outlier_rows, unit_slips
-from .crossval import FoldFactors, config_folds
+from .crossval import FoldFactors
 from .diagnose_candidates import Candidate
 from .diagnosis import (
     ALPHA,
@@ -77,6 +77,7 @@ from .diagnosis import (
     distinct_rows,
     few_dof_warning,
     fill_scores,
+    folds_of,
     judged_fit,
     score_blocks,
 )
@@ -214,7 +215,7 @@ def diagnose_absolute(
         test, stat, dof, log_p = "held-out error (sigma not declared)", float("nan"), float(nres), 0.0
         source = "estimated from the residual"
     labels = [data.configs[q] for q in data.posture]
-    folds = config_folds(labels, cv_folds)
+    folds = folds_of(labels, cv_folds)
     npts = data.n
     obs_rows = np.repeat(np.arange(npts), 3)
     dg = AbsoluteDiagnosis(

@@ -20,15 +20,13 @@ from .absolute_data import AbsoluteData
 from .absolute_fit import _nonnegative, _solve, predict
 from .absolute_structure import structure_verdict
 from .diagnose_candidates import Candidate
-from .diagnosis import ZTOL
+from .diagnosis import CV_GAIN, NO_HELD_OUT, ZTOL, lowers_held_out
 
 if TYPE_CHECKING:
     from .absolute_diagnose_report import AbsoluteDiagnosis
 
 __all__ = ["propose", "CV_GAIN"]
 
-#: a candidate must lower the held-out RMS by this fraction at least (beyond noise)
-CV_GAIN = 0.02
 #: a smaller candidate contained in the best one is proposed first when it achieves this share of
 #: the best one's held-out improvement (joint offsets before the frame errors that contain them)
 NESTED_SHARE = 0.5
@@ -62,14 +60,7 @@ def propose(
     error, and a fit with it realises the improvement; ties; or why none."""
     fit = dg.fit
     crit = math.log(alpha / max(len(ranked), 1))
-    useful = [
-        c
-        for c, _ in top
-        if c.log_p < crit
-        and c.cv_rms_position_m is not None
-        and cv_base is not None
-        and c.cv_rms_position_m < cv_base * (1 - CV_GAIN)
-    ]
+    useful = [c for c, _ in top if c.log_p < crit and lowers_held_out(c.cv_rms_position_m, cv_base)]
     best = None
     tried: set[str] = set()
     notes: list[str] = []
@@ -119,20 +110,24 @@ def propose(
         dg.proposal = best
         dg.verdict = "inadequate"
         return
-    if ranked and ranked[0][0].log_p < crit and not tried:
+    if cv_base is None and ranked:
+        dg.reasons.append(NO_HELD_OUT)
+    elif ranked and ranked[0][0].log_p < crit and not tried:
         dg.reasons.append(
             "the leading candidates are significant but none lowers the held-out error by more than "
             f"{CV_GAIN:.0%}: they would fit noise or the fit's own flexibility"
         )
+    checked = cv_base is not None or not ranked  # candidates held out (or none to check)
     if sig_decl and log_p < math.log(alpha):
         dg.verdict = "inadequate"
-        dg.nothing_fits = True
-        dg.reasons.append(
-            "the residual is larger than the declared noise, but no catalogued effect explains it: look at "
-            "the data checks and at the residual's shape (fit --plots)"
-        )
+        dg.nothing_fits = checked
+        if checked:
+            dg.reasons.append(
+                "the residual is larger than the declared noise, but no catalogued effect explains it: look at "
+                "the data checks and at the residual's shape (fit --plots)"
+            )
     if not sig_decl or dg.verdict == "inadequate":
-        structure_verdict(dg, data, fit, w)
+        structure_verdict(dg, data, fit, w, checked)
 
 
 def _refit_rms(

@@ -66,9 +66,12 @@ def residual_structure(data: AbsoluteData, residual: np.ndarray, w: np.ndarray, 
     return out
 
 
-def structure_verdict(dg: AbsoluteDiagnosis, data: AbsoluteData, fit: AbsoluteFit, w: np.ndarray) -> None:
+def structure_verdict(
+    dg: AbsoluteDiagnosis, data: AbsoluteData, fit: AbsoluteFit, w: np.ndarray, checked: bool = True
+) -> None:
     """No candidate proposed: say whether the residual is still structured
-    (then nothing in the catalogue fits, and what the structure suggests)."""
+    (then, when the candidates were ``checked`` (scored and held out),
+    nothing in the catalogue fits; and what the structure suggests)."""
     st = residual_structure(data, fit.residual, w, fit.model)
     dg.residual_structure = st
     found = {
@@ -78,13 +81,14 @@ def structure_verdict(dg: AbsoluteDiagnosis, data: AbsoluteData, fit: AbsoluteFi
     }
     if not found:
         return
-    dg.nothing_fits = True
+    dg.nothing_fits = checked
     dg.verdict = "inadequate"
     rms = fit.rms_position * 1e3
     if "posture" in found:
         v = found["posture"]
         dg.reasons.append(
-            f"nothing in the catalogue fits, yet the residual ({rms:.3g} mm RMS) is not noise: the errors of "
+            ("nothing in the catalogue fits, yet " if checked else "")
+            + f"the residual ({rms:.3g} mm RMS) is not noise: the errors of "
             f"neighbouring postures are alike (correlation {v['neighbour_correlation']:.2f}, p = {v['p_value']:.2g} "
             f"by {st['permutations']} permutations). An effect that varies with the posture is missing that no "
             "catalogued kind describes (e.g. a transmission error cyclic in a joint angle, a deformation of "

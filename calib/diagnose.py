@@ -83,7 +83,16 @@ from .diagnose_stats import (
     logsf_f,
     pure_error,
 )
-from .diagnosis import Noise, bonferroni, distinct_rows, few_dof_warning, fill_scores, judged_fit, score_blocks
+from .diagnosis import (
+    Noise,
+    bonferroni,
+    distinct_rows,
+    few_dof_warning,
+    fill_scores,
+    folds_of,
+    judged_fit,
+    score_blocks,
+)
 from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
 from .robust import check_data
@@ -142,7 +151,8 @@ def diagnose(
     kinds : restrict the candidates to these kinds
     checks : run the data checks (robust fit, gross errors, unit slips) and
         set aside the rows they list
-    cv_folds : folds of the cross-validation by configuration (0: none)
+    cv_folds : folds of the cross-validation by configuration (0: none, and
+        then nothing is proposed: ``diagnosis.folds_of``)
     nsim, seed : Monte Carlo draws of the max-score test
     prune : propose removals only (the backward steps are made in every
         case; an addition is then not proposed)
@@ -265,7 +275,7 @@ def diagnose(
                 b.indistinguishable_from.append(a.label)
 
     # held-out error, by configuration
-    folds = CV.config_folds(meas.config, cv_folds) if cv_folds else []
+    folds = folds_of(meas.config, cv_folds)
     obs_rows = np.tile(np.arange(npts), pb.rows)
     cv0 = None
     for c in ranked:
@@ -300,7 +310,7 @@ def diagnose(
         omnibus_inadequate=omnibus,
         best_inadequate=best_alarm,
         cv_rms_position_m=cv0,
-        cv_folds=len(folds) if len(folds) >= 2 else 0,
+        cv_folds=len(folds),
         excess=excess,
         scale2=scale2,
         n_copied=copies,

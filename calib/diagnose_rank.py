@@ -15,6 +15,7 @@ from .._core import calib as core
 from ..robot.model import Model, compensator_h
 from .diagnose_candidates import Candidate
 from .diagnose_stats import TIE_LOG10, ZTOL, _cos, _cv_better, _nested, logsf_chi2
+from .diagnosis import CV_GAIN, NO_HELD_OUT, lowers_held_out
 from .fit import FitResult, Problem, identified_model
 from .measure import Measurements
 
@@ -128,9 +129,13 @@ def _rank_honestly(
         )
     if tied:
         dg.reasons.append(f"undecidable: {', '.join([L.label] + [c.label for c in tied])} fit these data about as well")
-    if L.cv_rms_position_m is not None and cv0 is not None and not L.cv_rms_position_m < cv0:
+    if cv0 is None:
+        dg.reasons.append(NO_HELD_OUT)
+    elif not lowers_held_out(L.cv_rms_position_m, cv0):
+        # unified rule (issue 15): by CV_GAIN, as on tracker data (was: any decrease)
+        after = f"{L.cv_rms_position_m * 1e3:.4g}" if L.cv_rms_position_m is not None else "?"
         dg.reasons.append(
-            f"{L.label} does not lower the held-out error ({cv0 * 1e3:.4g} -> {L.cv_rms_position_m * 1e3:.4g} mm)"
+            f"{L.label} does not lower the held-out error by {CV_GAIN:.0%} ({cv0 * 1e3:.4g} -> {after} mm)"
         )
     if L.log_p >= sig:
         dg.reasons.append(

@@ -24,6 +24,15 @@ The stages, in order, on either kind:
 3. A checked proposal or why none, "nothing in the catalogue fits"; the
    report's common pieces in ``calib.diagnosis_report``.
 
+The one rule of each decision, both kinds (docs/calibration.md 7.2):
+
+- held-out check and ``--cv 0``: a candidate is proposed only when its
+  held-out RMS (cross-validation by configuration, :func:`folds_of`) is at
+  least CV_GAIN below the model's (:func:`lowers_held_out`); ``--cv 0``
+  (or fewer than two configurations) switches the cross-validation off,
+  and then nothing is proposed (NO_HELD_OUT); each kind may check its
+  proposal further (tracker data: by a fit with it).
+
 What the two kinds still decide each their own way (to be made one rule
 each; today's tests pin both):
 
@@ -38,11 +47,10 @@ each; today's tests pin both):
 - ties: deflections tie candidates of other targets within TIE_LOG10 in
   log10 p or significantly better held out (paired), with the posture and
   load that would separate them; tracker data tie useful candidates
-  within CV_GAIN of the proposal's held-out error, with the ``stiffkit
-  plan --discriminate`` command (implemented for tracker data only);
-- proposal: deflections propose the untied leader that lowers the held-out
-  error; tracker data the candidate that lowers it by CV_GAIN, checked by
-  a fit with it (the simpler of two nested candidates first);
+  within CV_GAIN of the proposal's held-out error;
+- proposal: deflections propose the untied leader; tracker data the
+  candidate of lowest held-out error, checked by a fit with it (the
+  simpler of two nested candidates first);
 - nothing fits: deflections when the leader and the best three together
   explain little of the residual above the noise and the leader leaves
   the model inadequate; tracker data when the chi-square rejects a declared
@@ -65,6 +73,7 @@ import numpy.typing as npt
 from .._core import calib as core
 from ..errors import InputError, StiffkitError
 from .checks import cannot_judge, drop_copies
+from .crossval import config_folds
 
 if TYPE_CHECKING:
     from .diagnose_candidates import Candidate
@@ -85,12 +94,23 @@ __all__ = [
     "fill_scores",
     "bonferroni",
     "few_dof_warning",
+    "CV_GAIN",
+    "NO_HELD_OUT",
+    "folds_of",
+    "lowers_held_out",
 ]
 
 #: level of the adequacy tests
 ALPHA = 0.01
 #: folds of the cross-validation by configuration
 CV_FOLDS = 5
+#: a proposal must lower the model's held-out RMS by at least this fraction (both kinds): less is
+#: within what the held-out estimate itself varies by, or the fit's own flexibility
+CV_GAIN = 0.02
+#: why nothing is proposed without cross-validation (both kinds)
+NO_HELD_OUT = (
+    "no held-out check (cross-validation off: --cv 0, or fewer than two configurations): nothing is proposed without it"
+)
 #: a verdict needs at least this many residual degrees of freedom: with fewer, a fit absorbs most of
 #: the noise, a chi-square or F test has next to no power and a held-out error rests on a few rows
 MIN_RESIDUAL_DOF = 10
@@ -252,6 +272,20 @@ def fill_scores(cand: Candidate, st: float, d: int, noise: Noise, rss: float) ->
     cand.explained_fraction = float(st / rss) if rss > 0 else 0.0
     excess = noise.excess(rss)
     cand.excess_fraction = max(float((cand.statistic - d) / excess), 0.0) if excess > 0 else None
+
+
+def folds_of(labels: Sequence[object], k: int) -> list[np.ndarray]:
+    """The folds of ``--cv K`` by configuration, both kinds
+    (``crossval.config_folds``): none when K is 0 or the rows hold fewer
+    than two configurations (no held-out check)."""
+    folds = config_folds(labels, k) if k else []
+    return folds if len(folds) >= 2 else []
+
+
+def lowers_held_out(cv: float | None, cv_base: float | None) -> bool:
+    """The proposal's held-out check, both kinds: the candidate's held-out
+    RMS is at least CV_GAIN below the model's (False when either is unknown)."""
+    return cv is not None and cv_base is not None and cv < cv_base * (1.0 - CV_GAIN)
 
 
 def bonferroni(p_best: float, n_tests: int) -> float:

@@ -52,7 +52,6 @@ from pathlib import Path
 
 from ..calib.absolute_plots import absolute_plots
 from ..calib.absolute_report import format_absolute
-from ..calib.diagnosis import CV_FOLDS
 from ..calib.diagnosis_files import diagnose_files, format_report
 from ..calib.fit import format_table
 from ..calib.plots import candidates_plot, fit_plots, residual_plots
@@ -134,7 +133,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         type=A.count("--cv", lo=0),
         default=5,
         metavar="K",
-        help="folds of the cross-validation by configuration (0: off)",
+        help="folds of the cross-validation by configuration (0: off; a proposal needs its held-out check, so "
+        "nothing is then proposed)",
     )
     p.add_argument(
         "--prune",
@@ -171,8 +171,7 @@ def run(args: argparse.Namespace) -> int:
         alpha=args.alpha,
         kinds=kinds,
         checks=not args.no_checks,
-        # the absolute verdict without a declared sigma rests on the held-out error: never off
-        cv_folds=(args.cv or CV_FOLDS) if absolute else args.cv,
+        cv_folds=args.cv,  # 0: off, both kinds (then nothing is proposed: calib.diagnosis.folds_of)
         prune=args.prune,
     )
     if kind == "absolute":

@@ -284,3 +284,29 @@ def test_few_residual_dof_warned_in_the_same_words(cases, tmp_path, capsys, kind
     )
     assert any(w.startswith(want) for w in d["warnings"]), d["warnings"]
     assert D.few_dof_warning(D.LOW_DOF, 2 * D.LOW_DOF, 3) is None
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_cv_0_is_off_on_both_kinds_and_then_nothing_is_proposed(cases, tmp_path, capsys, kind):
+    """Unified rule (issue 15): --cv 0 switches the cross-validation off on
+    both kinds (tracker data used to take 5 folds); without the held-out
+    check nothing is proposed, the verdict stands (both start models lack
+    an effect)."""
+    model, meas, _p, _k = cases[kind]
+    js = tmp_path / "d.json"
+    code, out, err = run(capsys, "diagnose", model, meas, "--cv", "0", "--json", js)
+    assert code == 0, err
+    d = json.loads(js.read_text())
+    assert d["cv_folds"] == 0 and d["cv_rms_position_m"] is None
+    assert d["proposal"] is None and not d["nothing_fits"]
+    assert d["verdict"] == "inadequate" or kind == "absolute"  # no sigma: the max-score test decides (b)
+    assert D.NO_HELD_OUT in d["no_proposal_reasons"]
+    assert D.PROPOSAL_LINE not in out
+
+
+def test_the_held_out_check_is_one_rule():
+    assert D.CV_GAIN == 0.02
+    assert D.lowers_held_out(0.979, 1.0) and not D.lowers_held_out(0.981, 1.0)
+    assert not D.lowers_held_out(None, 1.0) and not D.lowers_held_out(0.5, None)
+    assert D.folds_of(["a", "b", "c"], 0) == [] and D.folds_of(["a", "a"], 5) == []
+    assert [f.tolist() for f in D.folds_of(["a", "b", "a", "c"], 2)] == [[0, 2, 3], [1]]
