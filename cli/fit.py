@@ -14,6 +14,9 @@ coupled sets are listed).
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -41,8 +44,8 @@ from ..calib.evaluation import (
     overlap_deflection,
     overlap_warning,
 )
-from ..calib.fit import fit, format_parameters, format_table, write_model
-from ..calib.measure import read_measurements
+from ..calib.fit import FitResult, fit, format_parameters, format_table, write_model
+from ..calib.measure import Measurements, read_measurements
 from ..calib.plots import fit_plots
 from ..calib.reduce import format_reduction, reduce_model, reduced_model
 from ..calib.results import written_model
@@ -50,7 +53,7 @@ from ..calib.robust import format_checks, robust_fit
 from ..errors import InputError
 from ..io import validate as V
 from ..io.files import check_plots_folder, model_inputs, write_json
-from ..robot.model import KINDS, load_model
+from ..robot.model import KINDS, Model, load_model
 from ..robot.tree_model import model_kind
 from . import args as A
 
@@ -186,33 +189,40 @@ def _outputs(args: argparse.Namespace) -> None:
     V.distinct_outputs({"--json": args.json, "--write-model": args.write_model, "--write-urdf": args.write_urdf})
 
 
-def run(args: argparse.Namespace) -> int:
-    _outputs(args)
-    kind = model_kind(args.model)
-    for path in (args.measurements, args.validate):
-        if path:
-            check_kind(args.model, kind, path)
-    if kind == "absolute":
-        return run_absolute(args)
-    if args.write_urdf:
-        raise InputError(
-            "--write-urdf: a model of deflections under known loads (section 3) has no geometric effects to fold "
-            'into a URDF; it is for absolute data ([measurements] kind = "absolute")'
-        )
-    if args.cv is not None:
-        raise InputError(
-            "--cv: cross-validation of a fit is for absolute data; `stiffkit diagnose --cv K` "
-            "cross-validates deflection data"
-        )
-    model = load_model(args.model)
+@dataclass(frozen=True)
+class _DataKind:
+    """What ``fit`` does differently on one data kind, as data: the one path
+    (:func:`run`: read -> build the model -> fit -> report -> write) calls
+    these and has no second body."""
+
+    unit: str  # what a row of the CSV is called in the messages
+    refused: tuple[tuple[str, str], ...]  # (option attribute, why it is refused on this kind)
+    read: Callable[[str, str], tuple[Any, Any]]  # (MODEL.toml, MEAS.csv) -> (model, data)
+    read_more: Callable[[str, Any, str], Any]  # (MODEL.toml, model, VAL.csv) -> data
+    fit: Callable[[Any, Any, argparse.Namespace], tuple[Any, dict]]  # -> (result, extra JSON keys)
+    n_params: Callable[[Any, Any], int]  # (model, result)
+    report: tuple[Callable[[Any], str], ...]  # the table, then the details (not with --quiet)
+    plots: Callable[..., list]  # (result or evaluation, DIR, label=...) -> files
+    overlap: Callable[[Any, Any], Any]  # (data, validation data) -> repeated rows
+    written: Callable[[Any], Any]  # result -> the model --write-model writes
+    evaluate: Callable[..., Any]  # (written model, data, sigma_position=) -> evaluation
+    format_evaluation: Callable[[Any, str], str]  # (evaluation, sigma_from) -> text
+    writers: tuple[tuple[str, Callable[[Any, str, argparse.Namespace], list[str]]], ...]  # (option attr, writer)
+
+
+def _read_deflection(model_path: str, meas_path: str) -> tuple[Model, Measurements]:
+    model = load_model(model_path)
     if not model.effects:
         raise InputError(
-            f'{args.model}: the model has no [[effect]] table: nothing to fit (start with kind = "joint", '
+            f'{model_path}: the model has no [[effect]] table: nothing to fit (start with kind = "joint", '
             'target = "all"; stiffkit diagnose proposes what to add)'
         )
-    meas = read_measurements(args.measurements, model.chain.dof)
-    val = read_measurements(args.validate, model.chain.dof) if args.validate else None
-    checks = None
+    return model, read_measurements(meas_path, model.chain.dof)
+
+
+def _fit_deflection(model: Model, meas: Measurements, args: argparse.Namespace) -> tuple[FitResult, dict]:
+    """The fit of deflection data: with --robust the data checks first, with --reduce M1-M5 first."""
+    extra: dict = {}
     if args.robust:
         res, checks, _plain = robust_fit(model, meas, sigma_position=args.sigma)
         text = format_checks(checks)
@@ -220,9 +230,9 @@ def run(args: argparse.Namespace) -> int:
         if checks.set_aside:
             print(f"fitted without the {len(checks.set_aside)} rows listed")
         print()
+        extra["data_checks"] = checks.to_json()
     else:
         res = fit(model, meas, sigma_position=args.sigma)
-    red = None
     if args.reduce:
         red = reduce_model(model, meas, sigma_position=args.sigma)
         print(format_reduction(red))
@@ -230,85 +240,109 @@ def run(args: argparse.Namespace) -> int:
         full = res
         res = fit(reduced_model(model, red), meas, sigma_position=args.sigma)
         print(f"reduced model: {len(res.names)} free parameters (of {len(full.names)}); the others fixed at 0")
-    print(
-        f"model {args.model}: {len(model.effects)} effect(s), {len(res.names)} parameters; "
-        f"{meas.n} rows from {args.measurements}"
-    )
-    print(format_table(res))
-    if not args.quiet:
-        print()
-        print(format_parameters(res))
-    out = res.to_json()
-    if checks is not None:
-        out["data_checks"] = checks.to_json()
-    if red is not None:
-        out["reduction"] = red.to_json()
-    if val is not None:
-        warn = overlap_warning(overlap_deflection(meas, val), val.lines, val.n, args.validate, args.measurements)
-        if warn:
-            V.warn(warn)
-        # the noise floor: the declared sigma, else the fit's estimate
-        sig = args.sigma if args.sigma is not None else res.sigma
-        vres = evaluate_deflection(written_model(res), val, sigma_position=sig if np.isfinite(sig) else None)
-        print()
-        print(f"validation: the fitted model (as --write-model writes it) on {val.n} rows from {args.validate}")
-        frm = "declared" if res.sigma_declared or args.sigma is not None else "the fit's estimate"
-        print(format_evaluation(vres, "the fitted model", top=5, sigma_from=frm))
-        out["validation"] = evaluation_json(vres)
-        if args.plots:
-            for f in fit_plots(vres, args.plots, label="validate"):
-                print(f"wrote {f}")
-    if args.json:
-        write_json(args.json, out)
-        print(f"wrote {args.json}")
-    if args.plots:
-        for f in fit_plots(res, args.plots):
-            print(f"wrote {f}")
-    if args.write_model:
-        for note in write_model(res, args.write_model):
-            print(f"note: {note}")
-        print(f"wrote {args.write_model}")
-    if args.compare:
-        print()
-        print(compare(args.compare, out, names=("before", "now")))
-    return 0
+        extra["reduction"] = red.to_json()
+    return res, extra
 
 
-def run_absolute(args: argparse.Namespace) -> int:
-    """``fit`` on absolute measurements (docs/calibration.md section 6.4)."""
-    model, data = load_absolute(args.model, args.measurements)
+def _warned(data: AbsoluteData) -> AbsoluteData:
     for w in data.warnings:  # stderr, one line each, like every command's warnings
         V.warn(w, key=("data", w))
-    val = None
-    if args.validate:
-        _m, val = load_absolute(args.model, args.validate)
-        for w in val.warnings:
-            V.warn(w, key=("data", w))
-    fit = fit_absolute(model, data, sigma_position=args.sigma, cv=args.cv or 0, robust=args.robust)
+    return data
+
+
+def _read_absolute(model_path: str, meas_path: str) -> tuple[Any, AbsoluteData]:
+    model, data = load_absolute(model_path, meas_path)
+    return model, _warned(data)
+
+
+def _fit_absolute(model: Any, data: AbsoluteData, args: argparse.Namespace) -> tuple[AbsoluteFit, dict]:
+    return fit_absolute(model, data, sigma_position=args.sigma, cv=args.cv or 0, robust=args.robust), {}
+
+
+DATA_KINDS: dict[str, _DataKind] = {
+    "deflection": _DataKind(
+        unit="rows",
+        refused=(
+            (
+                "write_urdf",
+                "--write-urdf: a model of deflections under known loads (section 3) has no geometric effects to "
+                'fold into a URDF; it is for absolute data ([measurements] kind = "absolute")',
+            ),
+            (
+                "cv",
+                "--cv: cross-validation of a fit is for absolute data; `stiffkit diagnose --cv K` "
+                "cross-validates deflection data",
+            ),
+        ),
+        read=_read_deflection,
+        read_more=lambda _path, model, val: read_measurements(val, model.chain.dof),
+        fit=_fit_deflection,
+        n_params=lambda _model, res: len(res.names),
+        report=(format_table, format_parameters),
+        plots=fit_plots,
+        overlap=overlap_deflection,
+        written=written_model,
+        evaluate=evaluate_deflection,
+        format_evaluation=lambda ev, frm: format_evaluation(ev, "the fitted model", top=5, sigma_from=frm),
+        writers=(("write_model", lambda res, path, _args: write_model(res, path)),),
+    ),
+    "absolute": _DataKind(
+        unit="points",
+        refused=(),
+        read=_read_absolute,
+        read_more=lambda path, _model, val: _warned(load_absolute(path, val)[1]),
+        fit=_fit_absolute,
+        n_params=lambda model, _res: len(model.params),
+        report=(format_absolute, format_absolute_parameters, residual_table),
+        plots=absolute_plots,
+        overlap=overlap_absolute,
+        written=written_tree_model,
+        evaluate=evaluate_absolute,
+        format_evaluation=lambda ev, frm: format_absolute_evaluation(ev, top=5, label="fitted model", sigma_from=frm),
+        writers=(
+            ("write_urdf", lambda res, path, _args: write_urdf(res, path)),
+            ("write_model", lambda res, path, args: write_model_absolute(res, path, folded_urdf=args.write_urdf)),
+        ),
+    ),
+}
+
+
+def run(args: argparse.Namespace) -> int:
+    """The one path of both data kinds: read -> build the model -> fit -> report -> write."""
+    _outputs(args)
+    kind = model_kind(args.model)
+    for path in (args.measurements, args.validate):
+        if path:
+            check_kind(args.model, kind, path)
+    dk = DATA_KINDS[kind]
+    for opt, why in dk.refused:
+        if getattr(args, opt) not in (None, False):
+            raise InputError(why)
+    model, data = dk.read(args.model, args.measurements)
+    val = dk.read_more(args.model, model, args.validate) if args.validate else None
+    res, extra = dk.fit(model, data, args)
     print(
-        f"model {args.model}: {len(model.effects)} effect(s), {len(model.params)} parameters; "
-        f"{data.n} points from {args.measurements}"
+        f"model {args.model}: {len(model.effects)} effect(s), {dk.n_params(model, res)} parameters; "
+        f"{data.n} {dk.unit} from {args.measurements}"
     )
-    print(format_absolute(fit))
+    table, *details = dk.report
+    print(table(res))
     if not args.quiet:
-        print()
-        print(format_absolute_parameters(fit))
-        print()
-        print(residual_table(fit))
-    out = fit.to_json()
+        for part in details:
+            print()
+            print(part(res))
+    out = {**res.to_json(), **extra}
     if args.plots:
-        for f in absolute_plots(fit, args.plots):
+        for f in dk.plots(res, args.plots):
             print(f"wrote {f}")
     if val is not None:
-        out["validation"] = _validate_absolute(fit, data, val, args)
-    if args.write_urdf:
-        for note in write_urdf(fit, args.write_urdf):
-            print(f"note: {note}")
-        print(f"wrote {args.write_urdf}")
-    if args.write_model:
-        for note in write_model_absolute(fit, args.write_model, folded_urdf=args.write_urdf):
-            print(f"note: {note}")
-        print(f"wrote {args.write_model}")
+        out["validation"] = _validate(dk, res, data, val, args)
+    for opt, writer in dk.writers:
+        path = getattr(args, opt)
+        if path:
+            for note in writer(res, path, args):
+                print(f"note: {note}")
+            print(f"wrote {path}")
     if args.json:
         write_json(args.json, out)
         print(f"wrote {args.json}")
@@ -318,19 +352,19 @@ def run_absolute(args: argparse.Namespace) -> int:
     return 0
 
 
-def _validate_absolute(fit: AbsoluteFit, data: AbsoluteData, val: AbsoluteData, args: argparse.Namespace) -> dict:
-    """The fitted model as --write-model writes it, evaluated on the validation data."""
-    warn = overlap_warning(overlap_absolute(data, val), val.lines, val.n, args.validate, args.measurements)
+def _validate(dk: _DataKind, res: Any, data: Any, val: Any, args: argparse.Namespace) -> dict:
+    """The fitted model as --write-model writes it, evaluated on the validation data (nothing refitted)."""
+    warn = overlap_warning(dk.overlap(data, val), val.lines, val.n, args.validate, args.measurements)
     if warn:
         V.warn(warn)
     # the noise floor: the declared sigma, else the fit's estimate
-    sig = args.sigma if args.sigma is not None else fit.sigma
-    ev = evaluate_absolute(written_tree_model(fit), val, sigma_position=sig if np.isfinite(sig) else None)
+    sig = args.sigma if args.sigma is not None else res.sigma
+    ev = dk.evaluate(dk.written(res), val, sigma_position=sig if np.isfinite(sig) else None)
     print()
-    print(f"validation: the fitted model (as --write-model writes it) on {val.n} points from {args.validate}")
-    frm = "declared" if fit.sigma_declared or args.sigma is not None else "the fit's estimate"
-    print(format_absolute_evaluation(ev, top=5, label="fitted model", sigma_from=frm))
+    print(f"validation: the fitted model (as --write-model writes it) on {val.n} {dk.unit} from {args.validate}")
+    frm = "declared" if res.sigma_declared or args.sigma is not None else "the fit's estimate"
+    print(dk.format_evaluation(ev, frm))
     if args.plots:
-        for f in absolute_plots(ev, args.plots, label="validate"):  # type: ignore[arg-type]
+        for f in dk.plots(ev, args.plots, label="validate"):
             print(f"wrote {f}")
     return evaluation_json(ev)
