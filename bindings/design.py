@@ -37,6 +37,7 @@ __all__ = [
     "covariance",
     "criterion",
     "discriminate",
+    "discrimination",
     "select",
     "weakness",
 ]
@@ -369,21 +370,9 @@ def _rows_finite(routine: str, name: str, a: np.ndarray) -> None:
         raise _fail(routine, f"{name}: row {int(np.argwhere(bad)[0][0])} is not finite")
 
 
-def discriminate(
-    f: np.ndarray,
-    jh: list[np.ndarray],
-    n0: int,
-    nobs: int,
-    k: int,
-    max_passes: int = 100,
-) -> DiscriminationResult:
-    """T-optimal design: choose ``k`` candidates maximising the smallest
-    noncentrality between ``nh >= 2`` hypotheses. ``f`` (nrow, nh): whitened
-    predictions of each hypothesis (fitted to the data so far) at all rows,
-    the first ``n0`` the existing data, then ncand blocks of ``nobs`` rows,
-    one per candidate; ``jh``: nh arrays (nrow, p_h >= 1), the whitened
-    Jacobian of each hypothesis' parameters at all rows."""
-    routine = "design.discriminate"
+def _disc_rows(routine: str, f: object, jh: object, n0: object, nobs: object) -> tuple:
+    """The checked rows of a discrimination problem: (f, jall: the
+    Jacobians side by side, hoff, n0, nobs) (:func:`discriminate`)."""
     fa = _float_array(routine, "f", f)
     if fa.ndim != 2:
         raise _fail(routine, f"f must be (nrow, nh), not shape {fa.shape}")
@@ -406,10 +395,48 @@ def discriminate(
     nobsv = _count(routine, "nobs", nobs, 1)
     if (nrow - n0v) % nobs or nrow == n0v:
         raise _fail(routine, f"the {nrow - n0v} candidate rows (nrow - n0) are not blocks of nobs = {nobsv}")
+    hoff = np.concatenate([[0], np.cumsum([b.shape[1] for b in blocks])]).astype(np.int32)
+    return fa, np.asfortranarray(np.hstack(blocks)), hoff, n0v, nobsv
+
+
+def discrimination(
+    f: np.ndarray, jh: list[np.ndarray], n0: int, nobs: int, chosen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Evaluate a discrimination design as :func:`discriminate` would:
+    with the first ``n0`` rows and the candidates ``chosen`` (0-based, may
+    be empty), (pairs (nh, nh) their noncentralities, ``pairs[a, b]`` the
+    data of a fitted by b; per candidate (ncand,) the smallest
+    noncentrality after adding that candidate alone, NaN for the chosen)."""
+    routine = "design.discrimination"
+    fa, jall, hoff, n0v, nobsv = _disc_rows(routine, f, jh, n0, nobs)
+    ncand = (fa.shape[0] - n0v) // nobsv
+    ch = _chosen(routine, chosen, ncand)
+    pairs, tc, info, errloc = call(_design.sk_design_disc_evaluate, routine, ncand, fa, jall, hoff, n0v, nobsv, ch)
+    _check(routine, info, errloc)
+    tc = np.array(tc)
+    tc[ch - 1] = np.nan
+    return np.array(pairs), tc
+
+
+def discriminate(
+    f: np.ndarray,
+    jh: list[np.ndarray],
+    n0: int,
+    nobs: int,
+    k: int,
+    max_passes: int = 100,
+) -> DiscriminationResult:
+    """T-optimal design: choose ``k`` candidates maximising the smallest
+    noncentrality between ``nh >= 2`` hypotheses. ``f`` (nrow, nh): whitened
+    predictions of each hypothesis (fitted to the data so far) at all rows,
+    the first ``n0`` the existing data, then ncand blocks of ``nobs`` rows,
+    one per candidate; ``jh``: nh arrays (nrow, p_h >= 1), the whitened
+    Jacobian of each hypothesis' parameters at all rows."""
+    routine = "design.discriminate"
+    fa, jall, hoff, n0v, nobsv = _disc_rows(routine, f, jh, n0, nobs)
+    nrow = fa.shape[0]
     kk = _count(routine, "k", k, 1, (nrow - n0v) // nobsv)
     passes_max = _count(routine, "max_passes", max_passes, 0)
-    hoff = np.concatenate([[0], np.cumsum([b.shape[1] for b in blocks])]).astype(np.int32)
-    jall = np.asfortranarray(np.hstack(blocks))
     sel, value, gvalue, pairs, passes, swaps, info, errloc = call(
         _design.sk_design_discriminate, routine, fa, jall, hoff, n0v, nobsv, kk, passes_max
     )

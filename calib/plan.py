@@ -423,3 +423,44 @@ def _discriminate_deflection(
     res = plan_discriminate_deflection(model, meas, tied, cands.q[posture], loads, pts, k)
     res.update(posture=posture[res["selected"]], loads=loads[res["selected"]], points=pts)
     return res, cands, model
+
+
+def _tmin(pairs: np.ndarray) -> float:
+    """The smallest noncentrality over the ordered pairs a != b."""
+    off = ~np.eye(pairs.shape[0], dtype=bool)
+    return float(np.min(pairs[off]))
+
+
+def discrimination_numbers(res: dict, cands: Candidates, seed: int = 0) -> dict:
+    """What a discrimination plan (:func:`discriminate`'s result ``res``)
+    achieves, evaluated by the design core (``design.discrimination``) on
+    the plan's own rows (``res["rows"]``), in sigma^2 units: ``before`` the
+    smallest noncentrality of the rows measured so far; ``alone`` (ncand,)
+    that after adding each candidate alone to them; ``plan`` that of the
+    plan (``res["value"]``, recomputed); ``random`` (RANDOM_DESIGNS,) that of
+    random designs of the same size (seed + 1, as the parameter plans');
+    ``selected`` the chosen candidates, ``q`` (k, nq) their postures,
+    ``loads`` (k, 6) their loads (deflection data, else None), ``load_index``
+    (k,) which row of cands.loads each is (deflection data)."""
+    f, jh, n0, nobs = res["rows"]
+    ncand = (f.shape[0] - n0) // nobs
+    sel = np.asarray(res["selected"], int)
+    before, alone = design.discrimination(f, jh, n0, nobs, np.zeros(0, int))
+    planned, _ = design.discrimination(f, jh, n0, nobs, sel)
+    rng = np.random.default_rng(seed + 1)
+    draws = [np.sort(rng.choice(ncand, sel.size, replace=False)) for _ in range(RANDOM_DESIGNS)]
+    random = np.array([_tmin(design.discrimination(f, jh, n0, nobs, d)[0]) for d in draws])
+    loads = res.get("loads")
+    # deflection data: candidate c is posture c // nl under load c % nl of [plan] loads (_discriminate_deflection)
+    index = None if loads is None else sel % cands.loads.shape[0]
+    return {
+        "hypotheses": list(res["hypotheses"]),
+        "before": _tmin(before),
+        "alone": alone,
+        "plan": _tmin(planned),
+        "random": random,
+        "selected": sel,
+        "q": cands.q[res["posture"] if loads is not None else sel],
+        "loads": None if loads is None else np.asarray(loads, float),
+        "load_index": index,
+    }

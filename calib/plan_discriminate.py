@@ -164,7 +164,8 @@ def plan_discriminate(
     candidates are already feasible; not used here). Returns {selected (k,)
     int 0-based, value (the smallest noncentrality, in sigma^2), pairs (nh,
     nh) noncentrality of a against b's fit, hypotheses [labels], effects
-    [their tables], sigma_position_m}."""
+    [their tables], sigma_position_m, rows (f, jh, n0, nobs): the design
+    problem, for design.discrimination}."""
     from .._core import design
 
     if not isinstance(model, TreeModel):
@@ -189,4 +190,5 @@ def plan_discriminate(
         "hypotheses": [_label(e) for e in effects],
         "effects": effects,
         "sigma_position_m": float(sig),
+        "rows": (f, jh, n0, nobs),
     }

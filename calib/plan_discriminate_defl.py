@@ -129,7 +129,8 @@ def plan_discriminate_deflection(
     measured at ``points`` (tool frame, m), that best separate the tied
     effects ``tied`` after each is fitted to ``meas`` (module docstring).
     Returns {selected (k,) 0-based, value (smallest noncentrality, sigma^2
-    units), pairs (nh, nh), hypotheses [labels], effects, sigma_position_m}."""
+    units), pairs (nh, nh), hypotheses [labels], effects, sigma_position_m,
+    rows (f, jh, n0, nobs): the design problem, for design.discrimination}."""
     from .._core import design
 
     f, jh, n0, nobs, effects, sig = hypothesis_rows(model, meas, tied, q, loads, points)
@@ -145,4 +146,5 @@ def plan_discriminate_deflection(
         "hypotheses": [_label(e) for e in effects],
         "effects": effects,
         "sigma_position_m": float(sig),
+        "rows": (f, jh, n0, nobs),
     }

@@ -39,6 +39,7 @@ outputs:
                  measures, then `stiffkit fit MODEL.toml POSTURES.csv`; `stiffkit compensate` reads it too);
                  deflection data: config, q1..qN, fx..mz, px..pz, dx, dy, dz (the measurement file's columns)
   --json         the report; --png  expected error per task posture (plan vs random) and the chosen postures
+                 (--discriminate: how each candidate and the plan tell the tied effects apart, against random designs)
 
 examples:
   stiffkit synth dualarm --out da
@@ -132,12 +133,14 @@ def run(args: argparse.Namespace) -> int:
 
 def run_discriminate(args: argparse.Namespace) -> int:
     """``--discriminate``: T-optimal postures between tied candidates (calib/plan_discriminate.py)."""
-    from ..calib.plan import discriminate
+    import numpy as np
+
+    from ..calib.plan import discriminate, discrimination_numbers
     from ..calib.plan_report import _labels, absolute_postures_text, deflection_postures_text
     from ..io.files import atomic_write_text, write_json
 
-    if args.png or args.task or args.criterion:
-        raise InputError("--discriminate: --task, --criterion and --png belong to the parameter plans, not here")
+    if args.task or args.criterion:
+        raise InputError("--discriminate: --task and --criterion belong to the parameter plans, not here")
     tied = [t.strip() for t in args.discriminate.split(",") if t.strip()] or None
     res, cands, model = discriminate(
         args.model, args.select, args.measured, tied, args.candidates, args.postures, args.seed
@@ -153,6 +156,12 @@ def run_discriminate(args: argparse.Namespace) -> int:
     w = max(len(n) for n in names)
     for a, row in zip(names, res["pairs"]):
         print(f"  {a:{w}s} " + " ".join(f"{v:10.4g}" for v in row))
+    num = discrimination_numbers(res, cands, args.seed)
+    rmed = float(np.median(num["random"]))
+    print(
+        f"  the rows measured so far: {num['before']:.4g}; median of {num['random'].size} random designs of "
+        f"{args.select}: {rmed:.4g}" + (f" (the plan: {res['value'] / rmed:.3g} x)" if rmed > 0 else "")
+    )
     if args.out:
         if defl:
             text = deflection_postures_text(Q, res["loads"], res["points"])
@@ -168,6 +177,8 @@ def run_discriminate(args: argparse.Namespace) -> int:
             "value": res["value"],
             "pairs": res["pairs"],
             "sigma_position_m": res["sigma_position_m"],
+            "before": num["before"],
+            "random": {"designs": int(num["random"].size), "seed": args.seed + 1, "median_value": rmed},
             # as the parameter plan's: the config label of POSTURES.csv, the candidate, the joint values
             "selected": [
                 {"config": label, "candidate": int(c), "q": dict(zip(cands.joint_names, map(float, q)))}
@@ -178,4 +189,8 @@ def run_discriminate(args: argparse.Namespace) -> int:
             for d, w in zip(doc["selected"], res["loads"]):
                 d["load"] = [float(v) for v in w]
         print(f"wrote {write_json(args.json, doc)}")
+    if args.png:
+        from ..calib.plan_plots import discrimination_figure
+
+        print(f"wrote {discrimination_figure(res, cands, args.png, args.seed)}")
     return 0

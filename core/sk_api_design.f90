@@ -147,3 +147,51 @@ subroutine sk_design_weakness(npar, nobs, ncand, nt, nch, jc, chosen, m0, jt, in
     if (info /= sk_ok) return
     call design_weakness(jc, m0, jt, chosen, info_d, pool, task, ev, nnull, proj, info)
 end subroutine sk_design_weakness
+
+!> Evaluation of a discrimination design (sk_design_disc, as disc_select
+!> evaluates its own: columns of jall scaled to unit norm): with the existing
+!> n0 rows and the candidates sel[nsel] (1-based; nsel may be 0),
+!> pairs[nh,nh] the noncentralities over those rows (disc_pairs) and
+!> tc[ncand] the smallest noncentrality after adding each other candidate
+!> alone (disc_evaluate; -huge for the candidates in sel). f, jall, hoff,
+!> n0, nobs as sk_design_discriminate.
+subroutine sk_design_disc_evaluate(nrow, nh, ptot, nh1, ncand, nsel, f, jall, hoff, n0, nobs, sel, pairs, tc, &
+        info, errloc)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok, sk_err_argument
+    use sk_design_base, only: fail, darg_chosen, darg_nobs
+    use sk_design_disc, only: disc_check, disc_pairs, disc_evaluate, rows_of, unit_columns
+    implicit none
+    integer(c_int), intent(in) :: nrow, nh, ptot, nh1, ncand, nsel, hoff(nh1), n0, nobs, sel(nsel)
+    real(c_double), intent(in) :: f(nrow, nh), jall(nrow, ptot)
+    real(c_double), intent(out) :: pairs(nh, nh), tc(ncand)
+    integer(c_int), intent(out) :: info, errloc(2)
+    real(c_double) :: tnow
+    logical :: skip(ncand)
+    integer :: i
+    pairs = 0
+    tc = 0
+    call disc_check(f, jall, hoff, n0, nobs, 1_c_int, 0_c_int, info, errloc)
+    if (info /= sk_ok) return
+    if (ncand * nobs /= nrow - n0) then
+        call fail(sk_err_argument, darg_nobs, 0, info, errloc)
+        return
+    end if
+    skip = .false.
+    do i = 1, nsel
+        if (sel(i) < 1 .or. sel(i) > ncand) then
+            call fail(sk_err_argument, darg_chosen, i, info, errloc)
+            return
+        end if
+        if (skip(sel(i))) then
+            call fail(sk_err_argument, darg_chosen, i, info, errloc)
+            return
+        end if
+        skip(sel(i)) = .true.
+    end do
+    associate (js => unit_columns(jall))
+        call disc_pairs(f, js, hoff, rows_of(n0, nobs, sel), pairs, info)
+        if (info /= sk_ok) return
+        call disc_evaluate(f, js, hoff, n0, nobs, rows_of(n0, nobs, sel), skip, tc, tnow, info)
+    end associate
+end subroutine sk_design_disc_evaluate

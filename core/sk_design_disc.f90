@@ -29,7 +29,7 @@ module sk_design_disc
         darg_f, darg_jh, darg_k, darg_n0, darg_nobs, darg_max_passes
     implicit none
     private
-    public :: disc_select, disc_pairs, disc_check, disc_evaluate, rows_of, tmin
+    public :: disc_select, disc_pairs, disc_check, disc_evaluate, rows_of, tmin, unit_columns
 
     !> Per hypothesis: the inverse of its (ridged) scaled G over the rows.
     type hyp_state
@@ -245,6 +245,20 @@ contains
         end subroutine invert
     end subroutine disc_evaluate
 
+    !> The columns of jall scaled to unit norm over all rows (a zero column
+    !> kept): the Jacobians the search and its evaluations work on.
+    pure function unit_columns(jall) result(js)
+        real(dp), intent(in) :: jall(:, :)
+        real(dp), allocatable :: js(:, :)
+        real(dp) :: nrm
+        integer :: j
+        allocate(js, source=jall)
+        do j = 1, size(js, 2)
+            nrm = sqrt(sum(js(:, j)**2))
+            if (nrm > 0.0_dp) js(:, j) = js(:, j) / nrm
+        end do
+    end function unit_columns
+
     !> Greedy + exchange T-optimal selection: sel[k] (in order, exchanged
     !> positions replaced in place), value = T of the selection and pairs[nh,nh]
     !> (direct, disc_pairs), gvalue = T of the greedy selection, passes, swaps.
@@ -259,11 +273,7 @@ contains
         real(dp) :: tnow, nrm
         integer :: ncand, step, i, j, best, r, nswap
         ncand = (size(f, 1) - n0) / nobs
-        allocate(js, source=jall)
-        do j = 1, size(js, 2)
-            nrm = sqrt(sum(js(:, j)**2))
-            if (nrm > 0.0_dp) js(:, j) = js(:, j) / nrm
-        end do
+        js = unit_columns(jall)
         allocate(tc(ncand), chosen(ncand), skip(ncand))
         chosen = .false.
         sel = 0

@@ -78,3 +78,32 @@ def workcell_task(model: object, q_work: np.ndarray, n: int, seed: int, path: Pa
 def k_rule(npar: int) -> int:
     """K = ceil(1.3 x identifiable parameters / 3) (issue 19)."""
     return math.ceil(1.3 * npar / 3)
+
+
+def tied_tree_files(tmp_path: Path) -> tuple[Path, Path]:
+    """model.toml and m.csv in ``tmp_path``: a small tree whose truth has a
+    spring on l_link1, measured at 9 postures (the fingers closed), where
+    the link springs of l_link1 and trunk_1 tie. Returns (model, measurements)."""
+    from stiffkit.calib.absolute_data import write_absolute
+    from stiffkit.calib.absolute_fit import predict
+    from stiffkit.calib.absolute_write import model_text
+    from stiffkit.calib.synth_trees import MARKER_XYZ, TRACKER, random_tree_urdf
+    from stiffkit.robot.tree import load_tree
+    from stiffkit.robot.tree_model import GRAVITY, tree_model_from_tables
+
+    (tmp_path / "robot.urdf").write_text(random_tree_urdf(np.random.default_rng(1), trunk=1, arm=2))
+    tree = load_tree(tmp_path / "robot.urdf")
+    frames = [{"kind": "tracker", "xyz": list(TRACKER["xyz"]), "rpy": list(TRACKER["rpy"])}]
+    frames += [{"kind": "marker", "target": ln, "xyz": list(v)} for ln, v in MARKER_XYZ.items()]
+    spring = np.diag([0.0, 0.0, 0.0, 3e-3, 1.5e-3, 1.5e-3]).tolist()
+    truth = tree_model_from_tables(tree, [*frames, {"kind": "link", "target": "l_link1", "value": spring}], GRAVITY)
+    # the fingers (finger_b = -finger_a, both limited to [0, 0.04]) stay closed
+    plan = "\n[plan]\nlimits = { finger_a = [0.0, 1e-9] }\n"
+    (tmp_path / "model.toml").write_text(model_text(frames, sigma_position=1e-4, gravity=GRAVITY) + plan)
+    rng = np.random.default_rng(100)
+    Q = rng.uniform(-1.4, 1.4, (9, len(tree.actuated)))
+    Q[:, tree.actuated.index("finger_a")] = 0.0
+    data = P._abs_data(truth, Q, path=str(tmp_path / "m.csv"))
+    data.xyz = predict(truth, data, truth.theta0)["pred"] + 1e-4 * rng.normal(size=data.xyz.shape)
+    write_absolute(tmp_path / "m.csv", data)
+    return tmp_path / "model.toml", tmp_path / "m.csv"

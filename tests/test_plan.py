@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from _plan_robots import KR_POINTS, P, dualarm_files, k_rule, kr_files, workcell_task
+from _plan_robots import KR_POINTS, P, dualarm_files, k_rule, kr_files, tied_tree_files, workcell_task
 
 import stiffkit
 from stiffkit.calib.absolute_report import load_absolute
@@ -278,28 +278,7 @@ def test_cli_discriminate(tmp_path, capsys):
     """--discriminate wired to calib.plan_discriminate: the postures that tell
     two link springs apart on 9 postures of a small tree (its candidates
     named), written as POSTURES.csv that --from reads back."""
-    from stiffkit.calib.absolute_data import write_absolute
-    from stiffkit.calib.absolute_fit import predict
-    from stiffkit.calib.absolute_write import model_text
-    from stiffkit.calib.synth_trees import MARKER_XYZ, TRACKER, random_tree_urdf
-    from stiffkit.robot.tree import load_tree
-    from stiffkit.robot.tree_model import GRAVITY, tree_model_from_tables
-
-    (tmp_path / "robot.urdf").write_text(random_tree_urdf(np.random.default_rng(1), trunk=1, arm=2))
-    tree = load_tree(tmp_path / "robot.urdf")
-    frames = [{"kind": "tracker", "xyz": list(TRACKER["xyz"]), "rpy": list(TRACKER["rpy"])}]
-    frames += [{"kind": "marker", "target": ln, "xyz": list(v)} for ln, v in MARKER_XYZ.items()]
-    spring = np.diag([0.0, 0.0, 0.0, 3e-3, 1.5e-3, 1.5e-3]).tolist()
-    truth = tree_model_from_tables(tree, [*frames, {"kind": "link", "target": "l_link1", "value": spring}], GRAVITY)
-    # the fingers (finger_b = -finger_a, both limited to [0, 0.04]) stay closed
-    plan = "\n[plan]\nlimits = { finger_a = [0.0, 1e-9] }\n"
-    (tmp_path / "model.toml").write_text(model_text(frames, sigma_position=1e-4, gravity=GRAVITY) + plan)
-    rng = np.random.default_rng(100)
-    Q = rng.uniform(-1.4, 1.4, (9, len(tree.actuated)))
-    Q[:, tree.actuated.index("finger_a")] = 0.0
-    data = P._abs_data(truth, Q, path=str(tmp_path / "m.csv"))
-    data.xyz = predict(truth, data, truth.theta0)["pred"] + 1e-4 * rng.normal(size=data.xyz.shape)
-    write_absolute(tmp_path / "m.csv", data)
+    tied_tree_files(tmp_path)
     argv = ["plan", tmp_path / "model.toml", "--select", "5", "--candidates", "60", "--measured", tmp_path / "m.csv"]
     argv += ["--discriminate", "link:l_link1,link:trunk_1", "--out", tmp_path / "p.csv", "--json", tmp_path / "p.json"]
     assert main([str(a) for a in argv]) == 0, capsys.readouterr().err
