@@ -6,7 +6,8 @@ Two models:
        model TOML with values read by stiffkit.load_model: tool compliance
        and stiffness with the rank decided per posture,
        load_model(...).tool_compliance(Q) / .stiffness(Q), one core call
-       (sk_chain: forward kinematics, klimchik eq. 2, Cholesky inverse);
+       (the chain's tree model, sk_chain_tree + sk_tree_point: forward
+       kinematics, klimchik eq. 2, Cholesky inverse);
        also the same model through the spring-tree evaluator (model_vjm:
        poses from sk_chain, sk_springs serial array);
   SMG  the McGill SMG of Taghvaeipour et al. (eqs. 22-30), MP stiffness.

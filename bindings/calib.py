@@ -1,7 +1,8 @@
 """Typed wrappers of the serial-chain and calibration core (``_calib``,
-core/sk_api_calib.f90): chain kinematics, tool compliance, observation
-bases, weighted least squares, score tests, tail probabilities, and the
-Levenberg-Marquardt iteration by reverse communication (core/sk_lm.f90).
+core/sk_api_calib.f90): chain kinematics, tool compliance and spring
+Jacobians (on the chain's tree model), the deflection model, weighted
+least squares, score tests, tail probabilities, and the Levenberg-Marquardt
+iteration by reverse communication (core/sk_lm.f90).
 
 A chain is passed as the dict of Fortran-ordered arrays that
 ``stiffkit.robot.Chain.core_arrays()`` returns (jrot, jpos, jaxis, qidx,
@@ -56,15 +57,6 @@ def chain_poses(chain: dict, q: np.ndarray) -> dict[str, np.ndarray]:
         "rt": np.transpose(rt, (2, 0, 1)),
         "pt": pt.T.copy(),
     }
-
-
-def spring_basis(
-    nb: int, chain: dict, stype: np.ndarray, sidx: np.ndarray, q: np.ndarray, w: np.ndarray, p: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Observation basis B (6, n, nb) of every spring and the tool rotations (n, 3, 3)."""
-    b, rt, info = call(_calib.sk_spring_basis, "sk_spring_basis", nb, **chain, stype=stype, sidx=sidx, q=q, w=w, p=p)
-    check(info, "observation basis (sk_spring_basis)")
-    return b, np.transpose(rt, (2, 0, 1))
 
 
 def spring_jacobians(nd: int, chain: dict, stype: np.ndarray, sidx: np.ndarray, q: np.ndarray) -> np.ndarray:

@@ -1,13 +1,14 @@
 !> Entry points of the serial-chain / calibration core that f2py wraps
 !> (bindings/calib/_calib.pyf). Plain external subroutines with
 !> explicit-shape arrays of iso_c_binding kinds and an integer `info`
-!> (sk_errors); the numerics live in sk_chain and sk_calib.
+!> (sk_errors); the numerics live in sk_chain, sk_chain_tree and sk_calib.
 
-!> Tool compliance and stiffness at np postures q[ndof,np] (sk_chain).
+!> Tool compliance and stiffness at np postures q[ndof,np] (the chain's
+!> tree model, sk_chain_tree).
 subroutine sk_tool_compliance(nj, ndof, ns, np, jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, &
         cs, cj, q, c, k, rank, kinfo, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
-    use sk_chain, only: tool_compliance_batch
+    use sk_chain_tree, only: tool_compliance_batch
     implicit none
     integer(c_int), intent(in) :: nj, ndof, ns, np
     real(c_double), intent(in) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), trot(3, 3), tpos(3)
@@ -33,28 +34,12 @@ subroutine sk_chain_poses(nj, ndof, np, jrot, jpos, jaxis, qidx, trot, tpos, q, 
     call chain_poses_batch(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rt, pt, info)
 end subroutine sk_chain_poses
 
-!> Observation basis[6,nm,nb] of every spring at nm measurement rows (sk_chain).
-subroutine sk_spring_basis(nj, ndof, ns, nm, nb, jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, &
-        q, w, p, basis, rtool, info)
-    use, intrinsic :: iso_c_binding, only: c_double, c_int
-    use sk_chain, only: spring_basis_batch
-    implicit none
-    integer(c_int), intent(in) :: nj, ndof, ns, nm, nb
-    real(c_double), intent(in) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), trot(3, 3), tpos(3)
-    integer(c_int), intent(in) :: qidx(nj), stype(ns), sidx(ns)
-    real(c_double), intent(in) :: q(ndof, nm), w(6, nm), p(3, nm)
-    real(c_double), intent(out) :: basis(6, nm, nb), rtool(3, 3, nm)
-    integer(c_int), intent(out) :: info
-    call spring_basis_batch(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q, w, p, basis, &
-        rtool, info)
-end subroutine sk_spring_basis
-
 !> Jacobians jac[6,nd] of every spring at one posture q[ndof], and the
-!> tool frame rt[3,3], pt[3] (sk_chain).
+!> tool frame rt[3,3], pt[3] (the chain's tree model, sk_chain_tree).
 subroutine sk_spring_jacobians(nj, ndof, ns, nd, jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q, &
         jac, rt, pt, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
-    use sk_chain, only: spring_jacobians
+    use sk_chain_tree, only: spring_jacobians
     implicit none
     integer(c_int), intent(in) :: nj, ndof, ns, nd
     real(c_double), intent(in) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), trot(3, 3), tpos(3), q(ndof)

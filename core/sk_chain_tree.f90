@@ -16,21 +16,23 @@
 !> last joint is the tool frame after its spring: the load acts there and
 !> the point rides on it. At zero deflection the six joints of a spring
 !> have the frame of the spring, so their screws are the columns of
-!> sk_chain's spring_jacobian (and the generalised forces J_s^T w).
+!> the columns of the spring's Jacobian J_s (and the generalised forces
+!> J_s^T w): the tool compliance of the chain is the tool point's
+!> compliance of this model (sk_tree_point), sum_s J_s C_s J_s^T.
 module sk_chain_tree
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye
-    use sk_rotation, only: cross
-    use sk_spatial, only: nsym
+    use sk_linalg, only: eye, all_finite, psd_defect, psd_tol
+    use sk_spatial, only: nsym, sym_index
     use sk_laws, only: law_linear, law_spring6
     use sk_tree_check, only: vj_fixed, vj_revolute, vj_prismatic
     use sk_tree_model, only: tree_model, tree_state, model_setup, state_init
     use sk_tree_equil, only: load_state, deflected_frames, posture_values
-    use sk_chain, only: spring_joint, spring_frame, spring_base, spring_tool, spring_ndof
+    use sk_tree_point, only: point_twists, point_compliance, compliance_stiffness
+    use sk_chain, only: spring_joint, spring_frame, spring_base, spring_tool, spring_ndof, check_chain
     implicit none
     private
-    public :: chain_tree_model, chain_tree_rows
+    public :: chain_tree_model, chain_tree_rows, tool_compliance_batch, spring_jacobians
 
 contains
 
@@ -146,32 +148,143 @@ contains
         integer(ip), intent(in) :: stype(:)
         real(dp), intent(in) :: q(:), w(6), p(3)
         real(dp), intent(out) :: g(:, :, :), a(:, :), rt(3, 3)
-        real(dp) :: x(3), u(3), theta(1), lw(6, 1)
-        integer :: s, j, v
+        real(dp) :: lw(6, 1), ge(6, m%ne)
+        integer :: s, j, n
         integer(ip) :: lvj(1)
-        theta = 0.0_dp
-        call posture_values(m, theta, q, st)
-        st%delta = 0.0_dp
-        call deflected_frames(m, st)
+        call zero_state(m, st, q)
         lvj(1) = int(tool, ip)
         lw(:, 1) = w
         call load_state(m, st, [1], lvj, lw)
         rt = st%ra(:, :, tool)
-        x = st%pa(:, tool) + matmul(rt, p)
+        call point_twists(m, st, tool, st%pa(:, tool) + matmul(rt, p), ge)
         do s = 1, size(stype)
-            do j = 1, spring_ndof(stype(s))
-                v = sv(s) + j - 1
-                u = matmul(st%rb(:, :, v), m%axis(:, v))
-                if (m%vtype(v) == vj_revolute) then
-                    g(1:3, j, s) = cross(u, x - st%pb(:, v))
-                    g(4:6, j, s) = u
-                else
-                    g(1:3, j, s) = u
-                    g(4:6, j, s) = 0.0_dp
-                end if
-                a(j, s) = st%wv(v)
+            n = spring_ndof(stype(s))
+            g(:, 1:n, s) = ge(:, m%kfirst(s):m%kfirst(s) + n - 1)
+            do j = 1, n
+                a(j, s) = st%wv(sv(s) + j - 1)
             end do
         end do
     end subroutine chain_tree_rows
+
+    !> The state st of m at posture q without deflection (frames, law
+    !> parameters from theta: the chain's model has none, its one theta
+    !> entry is unused).
+    subroutine zero_state(m, st, q)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(inout) :: st
+        real(dp), intent(in) :: q(:)
+        real(dp) :: theta(1)
+        theta = 0.0_dp
+        call posture_values(m, theta, q, st)
+        st%delta = 0.0_dp
+        call deflected_frames(m, st)
+    end subroutine zero_state
+
+    !> Tool compliance c[6,6,np] = sum_s J_s C_s J_s^T of the chain at np
+    !> postures q[ndof,np] (base axes, about the tool-frame origin): the
+    !> tool point's compliance of the chain's tree model (sk_tree_point),
+    !> joint spring s with the per-posture compliance cj(s, ip), 6-dof
+    !> spring s with the constant cs[6,6,s]. Stiffness k, rank and kinfo of
+    !> each posture: sk_tree_point%compliance_stiffness. info: sk_ok,
+    !> sk_err_argument (check_chain), sk_err_nonfinite, sk_err_indefinite (a
+    !> negative joint compliance or an indefinite 6x6 spring: no spring),
+    !> sk_err_overflow.
+    subroutine tool_compliance_batch(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, cs, cj, &
+            q, c, k, rank, kinfo, info)
+        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3)
+        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:)
+        real(dp), intent(in) :: cs(:, :, :), cj(:, :), q(:, :)
+        real(dp), intent(out) :: c(:, :, :), k(:, :, :)
+        integer(ip), intent(out) :: rank(:), kinfo(:), info
+        type(tree_model) :: m
+        type(tree_state) :: st
+        integer, allocatable :: sv(:)
+        integer :: ipost, s, e, ia, ib, tool
+        c = 0.0_dp
+        k = 0.0_dp
+        rank = 0
+        kinfo = 0
+        call check_chain(jaxis, qidx, size(q, 1, kind=ip), stype, sidx, info)
+        if (info /= sk_ok) return
+        if (.not. (all_finite(q) .and. all_finite(cs) .and. all_finite(cj))) then
+            info = sk_err_nonfinite
+            return
+        end if
+        ! a negative joint compliance or an indefinite 6x6 spring is no spring:
+        ! it would show as a lost rank or a negative tool compliance instead
+        do s = 1, size(stype)
+            if (stype(s) == spring_joint) then
+                if (any(cj(s, :) < 0.0_dp)) info = sk_err_indefinite
+            else if (psd_defect(6, cs(:, :, s)) < -psd_tol) then
+                info = sk_err_indefinite
+            end if
+            if (info /= sk_ok) return
+        end do
+        allocate(sv(size(stype)))
+        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, 1, kind=ip), m, sv, &
+            tool, info)
+        if (info /= sk_ok) return
+        call state_init(m, st)
+        do ipost = 1, size(q, 2)
+            call zero_state(m, st, q(:, ipost))
+            ! the springs' values are the laws' parameters (block s = spring s)
+            do s = 1, size(stype)
+                if (stype(s) == spring_joint) then
+                    st%par(1, s) = cj(s, ipost)
+                else
+                    do e = 1, nsym
+                        call sym_index(e, ia, ib)
+                        st%par(e, s) = cs(ia, ib, s)
+                    end do
+                end if
+            end do
+            call point_compliance(m, st, tool, c(:, :, ipost))
+            call compliance_stiffness(c(:, :, ipost), k(:, :, ipost), rank(ipost), kinfo(ipost), info)
+            if (info /= sk_ok) return
+        end do
+        info = sk_ok
+        if (.not. (all_finite(c) .and. all_finite(k))) info = sk_err_overflow
+    end subroutine tool_compliance_batch
+
+    !> Jacobians of every spring at one posture q: jac[6, nd], the columns of
+    !> spring s (1 for a joint spring, 6 otherwise) one after the other (the
+    !> tool point's twists per elastic coordinate of the chain's tree
+    !> model); rt[3,3], pt[3] the tool frame.
+    subroutine spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q, jac, rt, pt, info)
+        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3), q(:)
+        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:)
+        real(dp), intent(out) :: jac(:, :), rt(3, 3), pt(3)
+        integer(ip), intent(out) :: info
+        type(tree_model) :: m
+        type(tree_state) :: st
+        integer, allocatable :: sv(:)
+        integer :: s, n, tool
+        jac = 0.0_dp
+        rt = 0.0_dp
+        pt = 0.0_dp
+        call check_chain(jaxis, qidx, size(q, kind=ip), stype, sidx, info)
+        if (info /= sk_ok) return
+        n = 0
+        do s = 1, size(stype)
+            n = n + spring_ndof(stype(s))
+        end do
+        if (size(jac, 1) /= 6 .or. size(jac, 2) /= n) then
+            info = sk_err_size
+            return
+        end if
+        if (.not. all_finite(q)) then
+            info = sk_err_nonfinite
+            return
+        end if
+        allocate(sv(size(stype)))
+        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, kind=ip), m, sv, tool, info)
+        if (info /= sk_ok) return
+        call state_init(m, st)
+        call zero_state(m, st, q)
+        rt = st%ra(:, :, tool)
+        pt = st%pa(:, tool)
+        call point_twists(m, st, tool, pt, jac)
+        info = sk_ok
+    end subroutine spring_jacobians
 
 end module sk_chain_tree

@@ -188,7 +188,8 @@ class Model:
     def jacobians(self, q: npt.ArrayLike) -> dict:
         """Jacobians of every spring of the model at posture q (dof,):
         {(stype, joint index): (6, 1) or (6, 6)}; the tool twist per spring
-        deflection (base axes, about the tool-frame origin)."""
+        deflection (base axes, about the tool-frame origin): the tool point's
+        twists per elastic coordinate of the chain's tree model."""
         springs = self.springs()
         if not springs:
             return {}
@@ -210,7 +211,8 @@ class Model:
         self, Q: npt.ArrayLike, return_stiffness: bool = False, wrench: npt.ArrayLike | None = None
     ) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Tool-frame compliance (N, 6, 6) at postures Q (N, dof): base axes,
-        about the tool-frame origin, sum_i J_i C_i J_i^T, one core call.
+        about the tool-frame origin, sum_i J_i C_i J_i^T, one core call: the
+        tool point's compliance of the chain's tree model (core/sk_chain_tree.f90).
 
         With ``return_stiffness`` also (K (N,6,6), rank (N,), ok (N,) bool):
         K = C^-1 where C is positive definite, else zeros and ok False.

@@ -9,12 +9,14 @@ eqs. 17-22 with every spring moved to the tool)
 
 One implementation, two faces:
 
-* the terms J_i C_i J_i^T are computed in core/sk_spatial.f90
-  (``revolute_twist``, ``spring_at``), which both the URDF chain
-  (core/sk_chain.f90, ``stiffkit.load_model(...).tool_compliance``) and the
-  spring-tree evaluator (core/sk_springs.f90, this module) call;
-* the robot's poses come from one forward kinematics, sk_chain's
-  (``Chain.poses``), for a URDF robot: :func:`model_tree` /
+* a URDF model's tool compliance (``stiffkit.load_model(...).tool_compliance``)
+  is the tool point's compliance of the core's one robot model, the tree
+  model of the chain (core/sk_chain_tree.f90, core/sk_tree_point.f90); the
+  spring-tree evaluator (core/sk_springs.f90, this module) sums the terms
+  J_i C_i J_i^T with core/sk_spatial.f90's block forms (``revolute_twist``,
+  ``spring_at``), and tests/test_chain_springs.py checks that the two agree;
+* the robot's poses come from one forward kinematics, the tree's
+  (sk_chain via ``Chain.poses``), for a URDF robot: :func:`model_tree` /
   :func:`model_vjm` build the serial array of a model's springs on those
   poses.
 

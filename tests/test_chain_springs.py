@@ -1,5 +1,5 @@
-"""One serial-chain implementation: the URDF chain (sk_chain,
-Model.tool_compliance) and the generalised-spring serial array (sk_springs,
+"""One serial-chain implementation: the URDF chain (its tree model,
+sk_chain_tree, Model.tool_compliance) and the generalised-spring serial array (sk_springs,
 serial_vjm / model_vjm) agree on the same 6R robot.
 
 Numbers checked: on the KR-270-like robot with 6 joint + 7 link springs
@@ -149,7 +149,7 @@ def test_posture_dependent_joint_compliance_is_refused(robot):
 
 def test_spring_tree_leaves_reuse_the_chain_terms():
     """A joint leaf and a 6x6 leaf through sk_springs equal the sk_spatial
-    terms sk_chain sums (revolute twist, rotated and transferred spring)."""
+    terms (revolute twist, rotated and transferred spring)."""
     rng = np.random.default_rng(4)
     c6 = spd(7)
     R = rot([0.3, -0.2, 0.9] / np.linalg.norm([0.3, -0.2, 0.9]), 0.8)

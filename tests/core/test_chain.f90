@@ -1,14 +1,19 @@
-!> Unit tests of sk_chain: a planar two-link arm against its hand-derived
-!> compliance, the observation basis against the tool compliance (two
-!> code paths of the core), and the block-form terms of the tool compliance
-!> (sk_spatial, shared with sk_springs) against J C J^T of the Jacobians.
+!> Unit tests of a serial chain's elastostatics on its tree model
+!> (sk_chain_tree): a planar two-link arm against its hand-derived
+!> compliance, the deflection rows' basis (their Jacobian, sk_deflect)
+!> against the tool compliance (two code paths of the core), and the tool
+!> compliance and the springs' Jacobians against the closed-form J_s of
+!> every spring type (sk_spatial's block forms at sk_chain's frames).
 program test_chain
     use sk_testing, only: expect, finish
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_rotation, only: skew
     use sk_linalg, only: eye
-    use sk_chain
+    use sk_spatial, only: sym_index, revolute_twist, twist_transfer, blockdiag_rot
+    use sk_chain, only: chain_frames, chain_poses_batch
+    use sk_chain_tree, only: tool_compliance_batch, spring_jacobians
+    use sk_deflect, only: deflection_rows
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     implicit none (type, external)
 
@@ -79,14 +84,15 @@ contains
     end subroutine test_planar_two_link
 
     !> A 3R spatial chain with a joint spring, a link spring and a tool
-    !> spring: the basis times the parameters equals the point deflection
-    !> computed from the tool compliance.
+    !> spring: the deflection rows (sk_deflect) and their basis, the
+    !> Jacobian times the parameters (linear in them), equal the point
+    !> deflection computed from the tool compliance.
     subroutine test_basis_matches_compliance()
         integer, parameter :: nj = 4, nm = 3
         real(dp) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), q(3, nm), w(6, nm), p(3, nm)
-        real(dp) :: cs(6, 6, 3), cj(3, nm), c(6, 6, nm), k(6, 6, nm), basis(6, nm, 1 + 21 + 21), rt(3, 3, nm)
-        real(dp) :: theta(43), a(6, 6), tw(6), d(3), dpred(6)
-        integer(ip) :: qidx(nj), stype(3), sidx(3), rank(nm), kinfo(nm), info
+        real(dp) :: cs(6, 6, 3), cj(3, nm), c(6, 6, nm), k(6, 6, nm), basis(6, nm, 1 + 21 + 21), rt(3, 3)
+        real(dp) :: theta(43), a(6, 6), tw(6), d(3), dpred(6), pred(6, nm), tgeo(5, 3), rf(3, 3, nj), pf(3, nj), pt(3)
+        integer(ip) :: qidx(nj), stype(3), sidx(3), rank(nm), kinfo(nm), info, tint(7, 3), elem(42)
         integer :: m, e, i, j, col
         jrot = 0
         do m = 1, nj
@@ -114,37 +120,48 @@ contains
             theta(22 + e) = 2.0e-7_dp*(1.0_dp - 0.03_dp*e)*merge(1.0_dp, 0.1_dp, i == j)
             cs(i, j, 2) = theta(1 + e); cs(j, i, 2) = theta(1 + e)
             cs(i, j, 3) = theta(22 + e); cs(j, i, 3) = theta(22 + e)
+            elem(e) = int(e, ip)
+            elem(21 + e) = int(e, ip)
         end do
         cj = theta(1)
         call tool_compliance_batch(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, &
             cs, cj, q, c, k, rank, kinfo, info)
         call expect(info == sk_ok, 'basis: compliance info')
-        call spring_basis_batch(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, &
-            q, w, p, basis, rt, info)
+        ! the deflection model's terms: (kind, spring, first value, count, first column, q column, first element)
+        tint(:, 1) = [1, 1, 1, 1, 1, 2, 0]
+        tint(:, 2) = [6, 2, 2, 21, 2, 0, 1]
+        tint(:, 3) = [6, 3, 23, 21, 23, 0, 22]
+        tgeo = 0
+        call deflection_rows(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], stype, sidx, tint, tgeo, &
+            elem, theta, theta, q, w, p, .true., pred, basis, info)
         call expect(info == sk_ok, 'basis: info')
         do m = 1, nm
+            call chain_frames(jrot, jpos, jaxis, qidx, eye(3), [0.0_dp, 0.0_dp, 0.0_dp], q(:, m), rf, pf, rt, pt)
             a = c(:, :, m)
             tw = matmul(a, w(:, m))
-            d = tw(1:3) + matmul(-skew(matmul(rt(:, :, m), p(:, m))), tw(4:6))
+            d = tw(1:3) + matmul(-skew(matmul(rt, p(:, m))), tw(4:6))
             dpred = 0
             do col = 1, 43
                 dpred = dpred + basis(:, m, col)*theta(col)
             end do
             call expect(maxval(abs(dpred(1:3) - d)) < 1e-12_dp*maxval(abs(d)), 'basis: point deflection = (C W) at p')
             call expect(maxval(abs(dpred(4:6) - tw(4:6))) < 1e-12_dp*maxval(abs(tw(4:6))), 'basis: rotation = C W')
+            call expect(maxval(abs(pred(:, m) - dpred)) < 1e-12_dp*maxval(abs(dpred)), 'basis: rows = basis theta')
         end do
     end subroutine test_basis_matches_compliance
 
     !> Every spring type (joint, frame, base, tool) with full 6x6 springs on
-    !> a 4R chain with rotated joint origins: tool_compliance_batch (the
-    !> sk_spatial block forms) equals sum J_s C_s J_s^T with the Jacobians
-    !> of spring_jacobians, and chain_poses_batch equals chain_frames.
+    !> a 4R chain with rotated joint origins: spring_jacobians (the tree
+    !> model's screws) equal the closed forms at sk_chain's frames (joint:
+    !> the revolute twist of its axis; F_k: transfer(pt - p_k) blockdiag(R_k);
+    !> base: transfer(pt); tool: blockdiag(R_t)), tool_compliance_batch
+    !> equals sum J_s C_s J_s^T, and chain_poses_batch equals chain_frames.
     subroutine test_block_terms_equal_jacobian_products()
         integer, parameter :: nj = 5, np = 4, ns = 6
         real(dp) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), q(4, np), trot(3, 3), tpos(3)
         real(dp) :: cs(6, 6, ns), cj(ns, np), c(6, 6, np), k(6, 6, np), ref(6, 6), jac(6, 1 + 1 + 24)
         real(dp) :: rf(3, 3, nj, np), pf(3, nj, np), rtb(3, 3, np), ptb(3, np)
-        real(dp) :: rf1(3, 3, nj), pf1(3, nj), rt(3, 3), pt(3), g(6, 6)
+        real(dp) :: rf1(3, 3, nj), pf1(3, nj), rt(3, 3), pt(3), g(6, 6), jcf(6, 1 + 1 + 24)
         integer(ip) :: qidx(nj), stype(ns), sidx(ns), rank(np), kinfo(np), info
         integer :: m, s, col, a, b
         do m = 1, nj
@@ -182,6 +199,14 @@ contains
         do m = 1, np
             call spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q(:, m), jac, rt, pt, info)
             call expect(info == sk_ok, 'block terms: jacobians info')
+            call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, m), rf1, pf1, rt, pt)
+            jcf(:, 1) = revolute_twist(matmul(rf1(:, :, 1), jaxis(:, 1)), pf1(:, 1), pt)
+            jcf(:, 2) = revolute_twist(matmul(rf1(:, :, 4), jaxis(:, 4)), pf1(:, 4), pt)
+            jcf(:, 3:8) = matmul(twist_transfer(pt - pf1(:, 2)), blockdiag_rot(rf1(:, :, 2)))
+            jcf(:, 9:14) = matmul(twist_transfer(pt - pf1(:, 5)), blockdiag_rot(rf1(:, :, 5)))
+            jcf(:, 15:20) = twist_transfer(pt)
+            jcf(:, 21:26) = blockdiag_rot(rt)
+            call expect(maxval(abs(jac - jcf)) < 1e-14_dp, 'block terms: spring Jacobians = closed forms')
             ref = cj(1, m)*matmul(jac(:, 1:1), transpose(jac(:, 1:1))) &
                 + cj(2, m)*matmul(jac(:, 2:2), transpose(jac(:, 2:2)))
             col = 2
@@ -193,7 +218,6 @@ contains
                 'block terms: tool compliance = sum J C J^T')
             call expect(rank(m) == 6 .and. kinfo(m) == sk_ok, 'block terms: rank 6')
             call expect(maxval(abs(matmul(c(:, :, m), k(:, :, m)) - eye(6))) < 1e-8_dp, 'block terms: K = C^-1')
-            call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, m), rf1, pf1, rt, pt)
             call expect(all(rf(:, :, :, m) == rf1) .and. all(pf(:, :, m) == pf1) .and. &
                 all(rtb(:, :, m) == rt) .and. all(ptb(:, m) == pt), 'poses: batch = chain_frames')
         end do
