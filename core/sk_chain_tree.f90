@@ -1,10 +1,9 @@
 !> A serial chain is a tree: the tree model (sk_tree_model) of a chain
 !> (sk_chain's description: jrot, jpos, jaxis, qidx, trot, tpos) with its
-!> virtual springs (stype, sidx) as elastic coordinates, so that the
-!> deflection model of relative data (sk_deflect) runs on the core's one
-!> robot model: its frames (tree_frames), the generalised forces of a
-!> payload (load_state) and the point's sensitivity to every elastic
-!> coordinate.
+!> virtual springs (stype, sidx) as elastic coordinates and their law
+!> blocks, so that the deflection model of relative data (sk_deflect) is
+!> the core's one robot model with deflection observations (sk_tree_model
+!> obs_deflection, obs_rotation), evaluated by sk_tree_jac evaluate.
 !>
 !> Virtual joints, parent before child: a base spring (stype 3) as six
 !> joints at the base origin (prismatic x, y, z, then revolute x, y, z, base
@@ -27,23 +26,31 @@ module sk_chain_tree
     use sk_laws, only: law_linear, law_spring6
     use sk_tree_check, only: vj_fixed, vj_revolute, vj_prismatic
     use sk_tree_model, only: tree_model, tree_state, model_setup, state_init
-    use sk_tree_equil, only: load_state, deflected_frames, posture_values
+    use sk_tree_equil, only: deflected_frames, posture_values
     use sk_tree_point, only: point_twists, point_compliance, compliance_stiffness
     use sk_chain, only: spring_joint, spring_frame, spring_base, spring_tool, spring_ndof, check_chain
     implicit none
     private
-    public :: chain_tree_model, chain_tree_rows, tool_compliance_batch, spring_jacobians
+    public :: chain_tree_model, tool_compliance_batch, spring_jacobians
 
 contains
 
     !> The tree model m of the chain with its springs; sv(s): the first
     !> virtual joint of spring s (module header); tool: the last joint.
-    subroutine chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, ndof, m, sv, tool, info)
+    !> Optional law blocks (all or none): spring s is block s of law
+    !> bktype(s) with parameters theta(bkpar(:, s)) and width bkw0(s)
+    !> (default: law_linear or law_spring6, every parameter 0), npar the
+    !> length of theta, tpar[6] the tracker's parameters and mpar[3] those
+    !> of one marker on the tool frame (its point).
+    subroutine chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, ndof, m, sv, tool, info, &
+            bktype, bkpar, bkw0, npar, tpar, mpar)
         real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3)
         integer(ip), intent(in) :: qidx(:), stype(:), sidx(:), ndof
         type(tree_model), intent(out) :: m
         integer, intent(out) :: sv(:), tool
         integer(ip), intent(out) :: info
+        integer(ip), intent(in), optional :: bktype(:), bkpar(:, :), npar, tpar(6), mpar(3)
+        real(dp), intent(in), optional :: bkw0(:)
         integer(ip), allocatable :: vparent(:), vtype(:), qcol(:), ktype(:), kvj(:, :), kpar(:, :)
         real(dp), allocatable :: vaxis(:, :), vrot(:, :, :), vpos(:, :), qcoef(:), qconst(:), kw0(:)
         integer(ip) :: none(0), nonem(3, 0)
@@ -108,6 +115,15 @@ contains
             if (stype(s) == spring_tool) call six(s)
         end do
         tool = v
+        if (present(bktype)) then
+            ktype = bktype
+            kpar = bkpar
+            kw0 = bkw0
+            call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, none, none, noner, &
+                ktype, kvj, kpar, kw0, none, noner, noner3, [0.0_dp, 0.0_dp, 0.0_dp], tpar, eye(3), &
+                [int(tool, ip)], reshape(mpar, [3, 1]), ndof, npar, int(ne, ip), info)
+            return
+        end if
         call model_setup(m, vparent, vtype, vaxis, vrot, vpos, qcol, qcoef, qconst, none, none, noner, &
             ktype, kvj, kpar, kw0, none, noner, noner3, [0.0_dp, 0.0_dp, 0.0_dp], [1, 1, 1, 1, 1, 1], eye(3), &
             none, nonem, ndof, 1_ip, int(ne, ip), info)
@@ -134,37 +150,6 @@ contains
             v = v + 6
         end subroutine six
     end subroutine chain_tree_model
-
-    !> One row at posture q under the wrench w (f, m at the tool origin,
-    !> base axes) with the point p (tool coordinates): for every spring s,
-    !> g(1:6, 1:n, s) the point deflection (1:3, base axes) and tool
-    !> rotation (4:6) per unit elastic coordinate, and a(1:n, s) the
-    !> coordinates' generalised forces; rt the tool rotation. st: the
-    !> state of m (state_init), updated.
-    subroutine chain_tree_rows(m, st, sv, stype, tool, q, w, p, g, a, rt)
-        type(tree_model), intent(in) :: m
-        type(tree_state), intent(inout) :: st
-        integer, intent(in) :: sv(:), tool
-        integer(ip), intent(in) :: stype(:)
-        real(dp), intent(in) :: q(:), w(6), p(3)
-        real(dp), intent(out) :: g(:, :, :), a(:, :), rt(3, 3)
-        real(dp) :: lw(6, 1), ge(6, m%ne)
-        integer :: s, j, n
-        integer(ip) :: lvj(1)
-        call zero_state(m, st, q)
-        lvj(1) = int(tool, ip)
-        lw(:, 1) = w
-        call load_state(m, st, [1], lvj, lw)
-        rt = st%ra(:, :, tool)
-        call point_twists(m, st, tool, st%pa(:, tool) + matmul(rt, p), ge)
-        do s = 1, size(stype)
-            n = spring_ndof(stype(s))
-            g(:, 1:n, s) = ge(:, m%kfirst(s):m%kfirst(s) + n - 1)
-            do j = 1, n
-                a(j, s) = st%wv(sv(s) + j - 1)
-            end do
-        end do
-    end subroutine chain_tree_rows
 
     !> The state st of m at posture q without deflection (frames, law
     !> parameters from theta: the chain's model has none, its one theta

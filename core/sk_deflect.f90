@@ -3,12 +3,14 @@
 !> point deflection and tool rotation of every measurement row and their
 !> analytic Jacobian with respect to the model's free parameters,
 !> including the chain rule through a gravity compensator and a point
-!> offset. A joint spring's terms are the slots of one block of the
-!> tree's law_joint (sk_laws: linear, profile, harmonic, compensator,
-!> cubic, dead zone; law_delta/law_derivs); a 6-dof spring's elements are
-!> law_spring6's. The frames, the springs' screws and
-!> their generalised forces come from the chain's tree model
-!> (sk_chain_tree): a chain is a tree.
+!> offset. No evaluator of its own: the terms become the chain's tree
+!> model (sk_chain_tree) with one law block per spring (a joint spring's
+!> terms are the slots of one law_joint block: linear, profile, harmonic,
+!> compensator, cubic, dead zone; a 6-dof spring's elements law_spring6's,
+!> sk_laws), a row is a posture under its load with two observations of
+!> the tree evaluator (sk_tree_jac evaluate: obs_deflection of the point,
+!> obs_rotation of the tool), and the rows and Jacobian are evaluate's;
+!> a chain is a tree, a deflection is an observation.
 !>
 !> Model (terms t = 1..nt, tint[7,nt], tgeo[5,nt]):
 !>   tint(1,t) kind: 1 joint (c), 2 joint_profile (c0..c4 on 1, cos q,
@@ -34,12 +36,12 @@ module sk_deflect
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: all_finite
-    use sk_rotation, only: cross
-    use sk_spatial, only: sym_index, nsym
+    use sk_spatial, only: nsym
     use sk_chain, only: check_chain, spring_joint
-    use sk_tree_model, only: tree_model, tree_state, state_init
-    use sk_chain_tree, only: chain_tree_model, chain_tree_rows
-    use sk_laws, only: law_delta, law_derivs, law_cubic, law_deadzone, law_joint, joint_ceff, js_c, js_cubic, &
+    use sk_tree_model, only: tree_model, tree_problem, problem_setup, obs_deflection, obs_rotation
+    use sk_tree_jac, only: evaluate
+    use sk_chain_tree, only: chain_tree_model
+    use sk_laws, only: law_delta, law_derivs, law_linear, law_cubic, law_deadzone, law_spring6, law_joint, joint_ceff, js_c, js_cubic, &
         js_backlash, js_profile, js_harmonic, js_ks, js_geom
     implicit none
     private
@@ -156,13 +158,17 @@ contains
         logical, intent(in) :: want_jac
         real(dp), intent(out) :: pred(:, :), jac(:, :, :)
         integer(ip), intent(out) :: info
-        real(dp), allocatable :: pv(:), g(:, :, :), a(:, :)
-        real(dp) :: rt(3, 3), r(3), col(6), jpar(nsym), w0, dl(1), dm(1, 1), dpar(1, nsym), dv(1)
-        integer, allocatable :: sv(:)
-        integer :: m, s, t, k, kk, ia, ib, ns, jc, qc, toff, tool
+        real(dp), allocatable :: pv(:), th(:), bkw0(:), predt(:, :), res(:), jt(:, :), delta(:, :), opt(:, :)
+        integer(ip), allocatable :: bktype(:), bkpar(:, :), free(:), opost(:), okind(:), nit(:), eqinfo(:), lpost(:)
+        integer, allocatable :: sv(:), colof(:)
+        integer(ip) :: tpar(6), mpar(3)
+        integer :: m, s, t, k, ns, nm, npall, nth, ig, nfree, c, tool
+        integer, allocatable :: home(:)
         type(tree_model) :: tm
-        type(tree_state) :: st
+        type(tree_problem) :: pr
         ns = size(stype)
+        nm = size(q, 2)
+        npall = size(par)
         pred = 0.0_dp
         if (want_jac) jac = 0.0_dp
         call check_chain(jaxis, qidx, size(q, 1, kind=ip), stype, sidx, info)
@@ -171,89 +177,127 @@ contains
             size(q, 1, kind=ip), info)
         if (info /= sk_ok) return
         info = sk_err_size
-        if (size(w, 2) /= size(q, 2) .or. size(p, 2) /= size(q, 2) .or. size(pred, 2) /= size(q, 2)) return
-        if (want_jac .and. (size(jac, 2) /= size(q, 2) .or. size(jac, 3) /= size(theta))) return
+        if (size(w, 2) /= nm .or. size(p, 2) /= nm .or. size(pred, 2) /= nm) return
+        if (want_jac .and. (size(jac, 2) /= nm .or. size(jac, 3) /= size(theta))) return
         info = sk_err_nonfinite
         if (.not. (all_finite(q) .and. all_finite(w) .and. all_finite(p) .and. all_finite(par) &
             .and. all_finite(theta) .and. all_finite(tgeo))) return
-        allocate(pv(size(par)), g(6, 6, ns), a(6, ns), sv(ns))
-        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, 1, kind=ip), tm, sv, &
-            tool, info)
-        if (info /= sk_ok) return
-        call state_init(tm, st)
+        ! the tree's parameters: every value, the compensators' geometry, the
+        ! sums of values that share a slot (a known and a free 6-dof spring
+        ! element: home(i) is the entry that carries value i), a zero
+        nth = 2*npall + 4*count(tint(1, :) == term_compensator) + 1
+        allocate(pv(npall), th(nth), bktype(ns), bkpar(nsym, ns), bkw0(ns), sv(ns), colof(size(theta)), &
+            free(size(theta)), home(npall))
         call values(tint, par, theta, pv)
-        r = 0.0_dp
-        toff = 0
+        th = 0.0_dp
+        th(1:npall) = pv
+        home = [(k, k = 1, npall)]
+        tpar = int(nth, ip)
+        mpar = int(nth, ip)
+        bktype = merge(law_linear, law_spring6, stype == spring_joint)
+        bkpar = 0
+        bkw0 = 1.0_dp
+        ig = npall
         do t = 1, size(tint, 2)
-            if (tint(1, t) == term_offset) then
-                toff = t
-                r = pv(tint(3, t):tint(3, t) + 2)
-            end if
+            s = tint(2, t)
+            select case (tint(1, t))
+            case (term_joint)
+                call slot(js_c, tint(3, t))
+            case (term_profile)
+                do k = 0, 4
+                    call slot(js_profile + k, tint(3, t) + k)
+                end do
+            case (term_harmonic)
+                call slot(js_harmonic, tint(3, t))
+                call slot(js_harmonic + 1, tint(3, t) + 1)
+            case (term_compensator)
+                call slot(js_ks, tint(3, t))
+                do k = 0, 3
+                    ig = ig + 1
+                    th(ig) = tgeo(k + 1, t)
+                    bkpar(js_geom + k, s) = int(ig, ip)
+                end do
+            case (term_cubic)
+                call slot(js_cubic, tint(3, t))
+            case (term_deadzone)
+                call slot(js_backlash, tint(3, t))
+                bkw0(s) = tgeo(5, t)
+            case (term_six)
+                do k = 0, tint(4, t) - 1
+                    call slot(elem(tint(7, t) + k), tint(3, t) + k)
+                end do
+            case (term_offset)
+                mpar = tint(3, t) + [0, 1, 2]
+            end select
+            if (joint_term(tint(1, t))) bktype(s) = law_joint
         end do
-        do m = 1, size(q, 2)
-            ! every spring's unit columns (point, rotation per unit deflection)
-            ! and generalised force, on the chain's tree model
-            call chain_tree_rows(tm, st, sv, stype, tool, q(:, m), w(:, m), p(:, m) + r, g, a, rt)
-            ! 6-dof springs: columns J E_ab J^T w per element (klimchik eq. 12)
-            do t = 1, size(tint, 2)
-                if (tint(1, t) /= term_six) cycle
-                s = tint(2, t)
-                jc = tint(5, t)
-                do k = 1, tint(4, t)
-                    kk = elem(tint(7, t) + k - 1)
-                    call sym_index(kk, ia, ib)
-                    if (ia == ib) then
-                        col = g(:, ia, s)*a(ia, s)
-                    else
-                        col = g(:, ia, s)*a(ib, s) + g(:, ib, s)*a(ia, s)
-                    end if
-                    pred(:, m) = pred(:, m) + col*pv(tint(3, t) + k - 1)
-                    if (want_jac .and. jc > 0) jac(:, m, jc + k - 1) = col
+        ! the free values: theta's columns in the tree's free list (two free
+        ! values in one sum are not one parameter)
+        colof = 0
+        nfree = 0
+        info = sk_err_argument
+        do t = 1, size(tint, 2)
+            if (tint(5, t) == 0) cycle
+            do k = 0, tint(4, t) - 1
+                c = tint(5, t) + k
+                if (colof(c) /= 0) return
+                if (any(free(1:nfree) == home(tint(3, t) + k))) return
+                nfree = nfree + 1
+                colof(c) = nfree
+                free(nfree) = home(tint(3, t) + k)
+            end do
+        end do
+        if (any(stype /= spring_joint .and. bktype /= law_spring6)) return
+        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, 1, kind=ip), tm, sv, &
+            tool, info, bktype, bkpar, bkw0, int(nth, ip), tpar, mpar)
+        if (info /= sk_ok) return
+        ! row m: posture m under its load at the tool; observations m (the
+        ! point's deflection) and nm + m (the tool's rotation)
+        allocate(predt(3, 2*nm), res(6*nm), jt(6*nm, nfree), delta(tm%ne, nm), nit(nm), eqinfo(nm), &
+            opt(3, 2*nm), opost(2*nm), okind(2*nm), lpost(nm))
+        lpost = [(int(m, ip), m = 1, nm)]
+        opost = [lpost, lpost]
+        okind = [(obs_deflection, m = 1, nm), (obs_rotation, m = 1, nm)]
+        opt(:, 1:nm) = p
+        opt(:, nm + 1:) = p
+        call problem_setup(pr, tm, q, lpost, spread(int(tool, ip), 1, nm), w, opost, spread(1_ip, 1, 2*nm), &
+            spread([0.0_dp, 0.0_dp, 0.0_dp], 2, 2*nm), spread(1.0_dp, 1, 2*nm), free(1:nfree), info, okind, opt)
+        if (info /= sk_ok) return
+        call evaluate(pr, th, 1_ip, 0.0_dp, want_jac, predt, res, jt, delta, nit, eqinfo, info)
+        if (info /= sk_ok) return
+        pred(1:3, :) = predt(:, 1:nm)
+        pred(4:6, :) = predt(:, nm + 1:)
+        if (want_jac) then
+            do c = 1, size(theta)
+                if (colof(c) == 0) cycle
+                do m = 1, nm
+                    jac(1:3, m, c) = jt(3*m - 2:3*m, colof(c))
+                    jac(4:6, m, c) = jt(3*(nm + m) - 2:3*(nm + m), colof(c))
                 end do
             end do
-            ! joint springs: delta = law_joint(tau) at the posture
-            do s = 1, ns
-                if (stype(s) /= spring_joint) cycle
-                if (.not. any(tint(2, :) == s .and. joint_term(tint(1, :)))) cycle
-                call joint_block(s, tint, tgeo, pv, jpar, w0, qc)
-                call law_delta(law_joint, jpar, w0, q(qc, m), a(1:1, s), dl)
-                pred(:, m) = pred(:, m) + g(:, 1, s)*dl(1)
-                if (.not. want_jac) cycle
-                call law_derivs(law_joint, jpar, w0, q(qc, m), a(1:1, s), dm, dpar, dv)
-                do t = 1, size(tint, 2)
-                    jc = tint(5, t)
-                    if (tint(2, t) /= s .or. jc == 0) cycle
-                    select case (tint(1, t))
-                    case (term_joint)
-                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_c)
-                    case (term_profile)
-                        do k = 1, 5
-                            jac(:, m, jc + k - 1) = g(:, 1, s)*dpar(1, js_profile + k - 1)
-                        end do
-                    case (term_harmonic)
-                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_harmonic)
-                        jac(:, m, jc + 1) = g(:, 1, s)*dpar(1, js_harmonic + 1)
-                    case (term_compensator)
-                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_ks)
-                    case (term_cubic)
-                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_cubic)
-                    case (term_deadzone)
-                        jac(:, m, jc) = g(:, 1, s)*dpar(1, js_backlash)
-                    end select
-                end do
-            end do
-            ! point offset: d(dt + dphi x R (p + r))/dr = [dphi]x R
-            if (want_jac .and. toff > 0) then
-                jc = tint(5, toff)
-                if (jc > 0) then
-                    do k = 1, 3
-                        jac(1:3, m, jc + k - 1) = cross(pred(4:6, m), rt(:, k))
-                    end do
-                end if
-            end if
-        end do
+        end if
         info = sk_ok
         if (.not. all_finite(pred)) info = sk_err_overflow
+
+    contains
+
+        !> Slot j of spring s's block takes value i (pv); a slot taken
+        !> already takes the sum, a new entry of th.
+        subroutine slot(j, i)
+            integer, intent(in) :: j
+            integer(ip), intent(in) :: i
+            integer :: old
+            old = bkpar(j, s)
+            if (old == 0) then
+                bkpar(j, s) = i
+                return
+            end if
+            ig = ig + 1
+            th(ig) = th(old) + pv(i)
+            where (home == old) home = ig
+            home(i) = ig
+            bkpar(j, s) = int(ig, ip)
+        end subroutine slot
     end subroutine deflection_rows
 
     !> Compliance cj[ns,np] of every joint spring at postures q[ndof,np]

@@ -122,18 +122,19 @@ module sk_tree
     use sk_tree_check, only: is_rotation, vj_fixed, vj_revolute, vj_prismatic
     use sk_laws, only: law_linear, law_cubic, law_deadzone, law_spring6
     use sk_tree_model, only: frame_step, tree_frames, tree_model, tree_state, tree_problem, model_setup, &
-        problem_setup, state_init, model_body_params, body_effective
+        problem_setup, state_init, model_body_params, body_effective, obs_position, obs_deflection, obs_rotation
     use sk_tree_fold, only: model_fold, fold_for_frames
     use sk_tree_equil, only: load_state, deflected_frames, apply_laws, posture_values, deflection_change, &
         solve_posture, elastic_sensitivity
-    use sk_tree_jac, only: tracker_pose, point_jacobian, frame_jacobian, q_drivers, poses_batch, evaluate, &
-        frame_jacobian_batch
+    use sk_tree_jac, only: tracker_pose, point_jacobian, deflection_jacobian, frame_jacobian, q_drivers, &
+        poses_batch, evaluate, frame_jacobian_batch
     implicit none
     private
     public :: frame_step, tree_frames
     public :: tree_model, tree_state, tree_problem
     public :: model_setup, problem_setup, state_init, solve_posture
-    public :: elastic_sensitivity, tracker_pose, point_jacobian, frame_jacobian
+    public :: elastic_sensitivity, tracker_pose, point_jacobian, deflection_jacobian, frame_jacobian
+    public :: obs_position, obs_deflection, obs_rotation
     public :: poses_batch, evaluate, frame_jacobian_batch
     public :: is_rotation, group_by, q_drivers, posture_values, deflected_frames, load_state, apply_laws
     public :: deflection_change, model_fold, fold_for_frames

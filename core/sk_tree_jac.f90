@@ -11,12 +11,13 @@ module sk_tree_jac
     use sk_linalg, only: eye, cross, all_finite, lu_solve, group_by
     use sk_spatial, only: nsym
     use sk_tree_check, only: vj_fixed, vj_revolute
-    use sk_tree_model, only: tree_model, tree_state, tree_problem, state_init
+    use sk_tree_model, only: tree_model, tree_state, tree_problem, state_init, obs_position, obs_deflection
     use sk_tree_fold, only: fold_for_frames
-    use sk_tree_equil, only: solve_posture, elastic_sensitivity
+    use sk_tree_equil, only: solve_posture, elastic_sensitivity, deflected_frames
+    use sk_tree_point, only: point_twists
     implicit none
     private
-    public :: tracker_pose, point_jacobian, frame_jacobian, q_drivers
+    public :: tracker_pose, point_jacobian, deflection_jacobian, frame_jacobian, q_drivers
     public :: poses_batch, evaluate, frame_jacobian_batch
 
 contains
@@ -107,6 +108,39 @@ contains
             a = m%parent(a)
         end do
     end subroutine point_jacobian
+
+    !> A deflection observation (sk_tree_model obs_deflection, obs_rotation:
+    !> kind) of marker mk with the point pt[3] (marker frame, added to the
+    !> marker's) at the undeflected frames of st under the deflections
+    !> d[ne]: jdel[3,ne] the motion of the point (obs_deflection) or the
+    !> rotation of the marker's frame (obs_rotation), base axes, per unit
+    !> elastic coordinate (the twists of the elastic joints on its path;
+    !> klimchik eqs. 4-5), y = jdel d, and jrow[3,nfree] its direct
+    !> Jacobian (the marker's point, [dphi]x R, dphi the rotation).
+    pure subroutine deflection_jacobian(m, st, theta, mk, pt, kind, d, colof, y, jrow, jdel)
+        type(tree_model), intent(in) :: m
+        type(tree_state), intent(in) :: st
+        real(dp), intent(in) :: theta(:), pt(3), d(:)
+        integer, intent(in) :: mk, kind, colof(:)
+        real(dp), intent(out) :: y(3), jrow(:, :), jdel(:, :)
+        real(dp) :: x(3), dphi(3), rf(3, 3), g(6, m%ne)
+        integer :: f, k, c
+        f = m%mvj(mk)
+        rf = eye(3)
+        if (f > 0) rf = st%ra(:, :, f)
+        x = matmul(rf, theta(m%mpar(:, mk)) + pt)
+        if (f > 0) x = x + st%pa(:, f)
+        call point_twists(m, st, f, x, g)
+        jdel = g(merge(1, 4, kind == obs_deflection):merge(3, 6, kind == obs_deflection), :)
+        y = matmul(jdel, d)
+        jrow = 0.0_dp
+        if (kind /= obs_deflection) return
+        dphi = matmul(g(4:6, :), d)
+        do k = 1, 3
+            c = colof(m%mpar(k, mk))
+            if (c > 0) jrow(:, c) = jrow(:, c) + cross(dphi, rf(:, k))
+        end do
+    end subroutine deflection_jacobian
 
     !> Pose of frame f (rf[3,3], pf[3], base) at a solved posture and its
     !> Jacobian jq[6,ndof] w.r.t. the joint coordinates q: twist (velocity
@@ -234,7 +268,10 @@ contains
     !> filled), sk_err_singular (an unstable equilibrium), size/NaN codes.
     !> Optional warm[ne,np]: deflections to start each posture's iteration
     !> from (eqit >= 2), e.g. those at a nearby theta; the fixed point and
-    !> the tolerance are the same, only fewer steps are taken.
+    !> the tolerance are the same, only fewer steps are taken. A posture
+    !> whose observations are deflections (pr%pdefl; sk_tree_model obs_*)
+    !> is solved at first order whatever eqit, and its rows are
+    !> deflection_jacobian's at the undeflected frames (pred: base axes).
     subroutine evaluate(pr, theta, eqit, etol, want_jac, pred, res, jac, delta, nit, eqinfo, info, warm)
         type(tree_problem), intent(in) :: pr
         real(dp), intent(in) :: theta(:), etol
@@ -281,8 +318,13 @@ contains
         do ipost = 1, pr%np
             if (present(warm)) st%delta = warm(:, ipost)
             call solve_posture(pr%m, theta, pr%q(:, ipost), pr%lidx(pr%lstart(ipost):pr%lstart(ipost + 1) - 1), &
-                pr%lvj, pr%lw, eqit, etol, present(warm), st)
+                pr%lvj, pr%lw, merge(1_ip, eqit, pr%pdefl(ipost)), etol, present(warm), st)
             delta(:, ipost) = st%delta
+            if (pr%pdefl(ipost)) then
+                ! the undeflected frames (the loads and laws stay at delta = 0)
+                st%delta = 0.0_dp
+                call deflected_frames(pr%m, st)
+            end if
             nit(ipost) = st%nit
             if (.not. st%conv) eqinfo(ipost) = sk_err_noconv
             if (pr%ostart(ipost + 1) == pr%ostart(ipost)) cycle
@@ -299,7 +341,12 @@ contains
             nrow = 0
             do k = pr%ostart(ipost), pr%ostart(ipost + 1) - 1
                 i = pr%oidx(k)
-                call point_jacobian(pr%m, st, theta, rt, tt, tw, pr%omark(i), pr%colof, y, jrow, jd)
+                if (pr%okind(i) == obs_position) then
+                    call point_jacobian(pr%m, st, theta, rt, tt, tw, pr%omark(i), pr%colof, y, jrow, jd)
+                else
+                    call deflection_jacobian(pr%m, st, theta, pr%omark(i), pr%opt(:, i), pr%okind(i), &
+                        delta(:, ipost), pr%colof, y, jrow, jd)
+                end if
                 lam(:, nrow + 1:nrow + 3) = transpose(jd)
                 nrow = nrow + 3
                 pred(:, i) = y

@@ -20,6 +20,14 @@ module sk_tree_model
     public :: model_setup, problem_setup, state_init, ancestor
     public :: model_body_params, body_effective, body_rhs
 
+    !> observation kinds (tree_problem okind; three rows each): the tracker
+    !> position of a marker; the deflection of a marker point under the
+    !> posture's known loads (base axes, first order: the point's motion
+    !> per unit deflection at the undeflected frames times the first-order
+    !> deflections, klimchik eqs. 4-5, docs/calibration.md section 3); the
+    !> rotation of the marker's frame under those loads (base axes)
+    integer, parameter, public :: obs_position = 1, obs_deflection = 2, obs_rotation = 3
+
     !> A validated tree model (everything but theta and the postures).
     type :: tree_model
         integer :: nv = 0, ndof = 0, npar = 0, ne = 0, nk = 0, nb = 0, nm = 0
@@ -92,6 +100,12 @@ module sk_tree_model
         real(dp), allocatable :: lw(:, :)
         integer, allocatable :: ostart(:), oidx(:), omark(:)
         real(dp), allocatable :: oxyz(:, :), osw(:)           !< sqrt of the row weights
+        !> observation kinds (obs_*) [nobs]; a deflection's point in the
+        !> marker frame, added to the marker's [3,nobs]; postures whose
+        !> observations are deflections (solved at first order) [np]
+        integer, allocatable :: okind(:)
+        real(dp), allocatable :: opt(:, :)
+        logical, allocatable :: pdefl(:)
         integer, allocatable :: free(:), colof(:)             !< free list; theta index -> column
         !> columns whose parameters move joints or laws (deflection drivers):
         !> zcol(1:nz) their Jacobian columns; entries (vj, Z column, coef)
@@ -343,13 +357,21 @@ contains
     !> (lpost posture, lvj frame, lw[6] = (f, m) at the frame origin, base
     !> axes), observations (opost posture, omark marker, oxyz[3] measured in
     !> the tracker frame, owt weight >= 0) and the free parameters
-    !> free[nfree] (indices into theta, distinct).
-    subroutine problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info)
+    !> free[nfree] (indices into theta, distinct). Optional okind[no]
+    !> (obs_*, default obs_position) and opt[3,no] (the point of a
+    !> deflection observation in its marker's frame, added to the
+    !> marker's; default 0): a posture observes positions or deflections,
+    !> not both, and deflections take no free geometric parameter (the
+    !> change of the point's motion per unit deflection with the geometry
+    !> is not modelled): sk_err_argument.
+    subroutine problem_setup(pr, m, q, lpost, lvj, lw, opost, omark, oxyz, owt, free, info, okind, opt)
         type(tree_problem), intent(out) :: pr
         type(tree_model), intent(in) :: m
         real(dp), intent(in) :: q(:, :), lw(:, :), oxyz(:, :), owt(:)
         integer(ip), intent(in) :: lpost(:), lvj(:), opost(:), omark(:), free(:)
         integer(ip), intent(out) :: info
+        integer(ip), intent(in), optional :: okind(:)
+        real(dp), intent(in), optional :: opt(:, :)
         integer :: np, nl, no, i, k, c, v, nz, j
         integer, allocatable :: zof(:)
         np = size(q, 2)
@@ -379,6 +401,29 @@ contains
         pr%oxyz = oxyz
         pr%osw = sqrt(owt)
         pr%free = free
+        allocate(pr%okind(no), pr%opt(3, no), pr%pdefl(np))
+        pr%okind = obs_position
+        pr%opt = 0.0_dp
+        info = sk_err_size
+        if (present(okind)) then
+            if (size(okind) /= no) return
+            pr%okind = okind
+        end if
+        if (present(opt)) then
+            if (any(shape(opt) /= [3, no])) return
+            pr%opt = opt
+        end if
+        info = sk_err_nonfinite
+        if (.not. all_finite(pr%opt)) return
+        info = sk_err_argument
+        if (any(pr%okind < obs_position) .or. any(pr%okind > obs_rotation)) return
+        pr%pdefl = .false.
+        do i = 1, no
+            if (pr%okind(i) /= obs_position) pr%pdefl(opost(i)) = .true.
+        end do
+        do i = 1, no
+            if (pr%okind(i) == obs_position .and. pr%pdefl(opost(i))) return
+        end do
         allocate(pr%colof(m%npar), zof(pr%nfree))
         pr%colof = 0
         info = sk_err_argument
@@ -386,6 +431,9 @@ contains
             if (pr%colof(free(c)) /= 0) return
             pr%colof(free(c)) = c
         end do
+        if (any(pr%pdefl)) then
+            if (any(pr%colof(m%gpar) > 0)) return
+        end if
         ! deflection drivers: free geometric and law parameters
         zof = 0
         nz = 0
