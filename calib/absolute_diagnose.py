@@ -55,7 +55,7 @@ from .absolute_candidates import (
     params_of,
 )
 from .absolute_data import AbsoluteData, row_values
-from .absolute_diagnose_report import AbsoluteDiagnosis, format_absolute_diagnosis, plan_command
+from .absolute_diagnose_report import AbsoluteDiagnosis, format_absolute_diagnosis
 from .absolute_fit import (
     AbsoluteFit,
     _loads,
@@ -81,6 +81,7 @@ from .diagnosis import (
     judged_fit,
     score_blocks,
 )
+from .plan_hint import plan_command
 
 __all__ = [
     "AbsoluteDiagnosis",

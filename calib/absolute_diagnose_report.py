@@ -6,7 +6,6 @@ act and why, the backward steps, the proposal as a ready [[effect]] table.
 from __future__ import annotations
 
 import math
-import shlex
 from dataclasses import dataclass, field
 
 from .absolute_fit import AbsoluteFit, position_stats
@@ -15,23 +14,7 @@ from .diagnose_candidates import Candidate
 from .diagnosis import ALPHA
 from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines, verdict_line
 
-__all__ = ["AbsoluteDiagnosis", "format_absolute_diagnosis", "plan_command"]
-
-#: the postures suggested to tell tied candidates apart: as many again as measured, within these bounds
-PLAN_SELECT = (5, 30)
-
-
-def plan_command(model_path: object, meas_path: object, n_postures: int, tied: object = None) -> tuple[str, int]:
-    """The command that plans the postures telling tied candidates apart
-    (``stiffkit plan --discriminate``, calib/plan_discriminate.py) and the
-    K it suggests: as many postures again as measured, within PLAN_SELECT.
-    ``tied``: the labels of the tie (kind:target...), named after
-    --discriminate (without them the command takes the diagnosis's first tie)."""
-    k = min(max(int(n_postures), PLAN_SELECT[0]), PLAN_SELECT[1])
-    model = shlex.quote(str(model_path)) if model_path else "MODEL.toml"
-    meas = shlex.quote(str(meas_path)) if meas_path else "MEAS.csv"
-    which = f" {shlex.quote(','.join(map(str, tied)))}" if tied else ""
-    return f"stiffkit plan {model} --discriminate{which} --measured {meas} --select {k}", k
+__all__ = ["AbsoluteDiagnosis", "format_absolute_diagnosis"]
 
 
 @dataclass

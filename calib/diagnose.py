@@ -52,7 +52,6 @@ from .._core import calib as core
 from ..robot.model import Model, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
-from .absolute_diagnose_report import plan_command
 from .backward import backward_steps, held_for_addition
 from .diagnose_candidates import Candidate, candidate_tables, inert_reasons
 from .diagnose_rank import (
@@ -95,6 +94,7 @@ from .diagnosis import (
 )
 from .fit import FitResult, Problem, as_inputs, fit, identified_model
 from .measure import Measurements
+from .plan_hint import plan_command
 from .robust import check_data
 
 __all__ = [

@@ -16,7 +16,7 @@ import numpy as np
 from ..robot import catalogue
 from ..robot.model import Model
 
-__all__ = ["Candidate", "candidate_tables", "inert_reasons", "ZERO_COLUMN"]
+__all__ = ["Candidate", "effect_label", "candidate_tables", "inert_reasons", "ZERO_COLUMN"]
 
 #: a candidate's columns all below this fraction of the largest column of its kind: zero (round-off)
 ZERO_COLUMN = 1e-9
@@ -80,6 +80,12 @@ class Candidate:
     def inert_json(self) -> dict:
         """The entry of a non-identifiable candidate: kind, target, effect and why."""
         return {"kind": self.kind, "target": self.target, "effect": self.effect, "reason": self.reason}
+
+
+def effect_label(effect: dict) -> str:
+    """The diagnosis's label of an [[effect]] table, ``kind:target[:template]``
+    (:attr:`Candidate.label`; plan --discriminate names tied candidates by it)."""
+    return Candidate(kind=effect["kind"], target=effect.get("target", effect["kind"]), effect=effect).label
 
 
 def candidate_tables(model: Model, tau0: dict | None = None) -> list[tuple[dict, str]]:

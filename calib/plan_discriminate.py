@@ -27,17 +27,12 @@ from ..robot.tree_model import TreeModel
 from .absolute_candidates import absolute_candidates, extended_model, params_of
 from .absolute_data import AbsoluteData
 from .absolute_fit import AbsoluteFit, fit_absolute, predict
-from .diagnose_candidates import Candidate
+from .diagnose_candidates import effect_label
 
 __all__ = ["plan_discriminate", "hypothesis_effects"]
 
 #: singular values of a hypothesis's Jacobian below this fraction of the largest: directions no row informs
 RANK_TOL = 1e-9
-
-
-def _label(effect: dict) -> str:
-    """The diagnosis's label of a candidate (``Candidate.label``)."""
-    return Candidate(kind=effect["kind"], target=effect.get("target", effect["kind"]), effect=effect).label
 
 
 def hypothesis_effects(model: TreeModel, tied: object) -> list[dict]:
@@ -58,7 +53,7 @@ def tied_effects(tied: object, lacking: list[dict]) -> list[dict]:
     catalogue = {}
     for c in lacking:  # the label with and without a spring's template
         catalogue.setdefault(f"{c['kind']}:{c.get('target', c['kind'])}", c)
-        catalogue[_label(c)] = c
+        catalogue[effect_label(c)] = c
     out = []
     for i, it in enumerate(items):
         if isinstance(it, dict) and "kind" in it:
@@ -70,7 +65,7 @@ def tied_effects(tied: object, lacking: list[dict]) -> list[dict]:
                 f"tied[{i}]: {it!r} is neither an [[effect]] table nor a candidate the model lacks "
                 f"(labels kind:target[:template], e.g. {next(iter(catalogue), 'link:LINK')})"
             )
-    names = [_label(e) for e in out]
+    names = [effect_label(e) for e in out]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise InputError(f"tied: {', '.join(dup)} given twice")
@@ -146,7 +141,7 @@ def _hypotheses(
     f, jh = [], []
     for h, e in enumerate(effects):
         if not own[h]:
-            raise InputError(f"tied: {_label(e)} adds no parameter to the model")
+            raise InputError(f"tied: {effect_label(e)} adds no parameter to the model")
         Jh = J[:, [where[c] for c in base + own[h]]]
         coef = core_calib.wls(np.asfortranarray(Jh[:n0]), -r, 1e-10, 1e-6)[0]  # the fit's rank-revealing solve
         f.append(pred + Jh @ coef)
@@ -187,7 +182,7 @@ def plan_discriminate(
         "selected": np.asarray(res.selected, dtype=int),
         "value": float(res.value),
         "pairs": np.asarray(res.pairs, dtype=float),
-        "hypotheses": [_label(e) for e in effects],
+        "hypotheses": [effect_label(e) for e in effects],
         "effects": effects,
         "sigma_position_m": float(sig),
         "rows": (f, jh, n0, nobs),

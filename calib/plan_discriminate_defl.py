@@ -23,10 +23,10 @@ import numpy as np
 from .._core import calib as core_calib
 from ..errors import InputError
 from ..robot.model import Model, default_tau0, expand_effect
-from .diagnose_candidates import candidate_tables
+from .diagnose_candidates import candidate_tables, effect_label
 from .fit import fit
 from .measure import Measurements
-from .plan_discriminate import _label, tied_effects
+from .plan_discriminate import tied_effects
 from .problem import Problem
 
 __all__ = ["plan_discriminate_deflection", "deflection_effects", "hypothesis_rows"]
@@ -80,7 +80,7 @@ def _hypotheses(
     for h, e in enumerate(effects):
         ts = expand_effect(model.chain, e, n0 + h, "candidate")
         if not any(t.free for t in ts):
-            raise InputError(f"tied: {_label(e)} adds no parameter to the model")
+            raise InputError(f"tied: {effect_label(e)} adds no parameter to the model")
         terms = list(model.terms) + ts
         layout = Problem._layout(terms)
         theta = np.concatenate([res.theta, np.zeros(sum(len(t.names) for t in ts if t.free))])
@@ -143,7 +143,7 @@ def plan_discriminate_deflection(
         "selected": np.asarray(res.selected, dtype=int),
         "value": float(res.value),
         "pairs": np.asarray(res.pairs, dtype=float),
-        "hypotheses": [_label(e) for e in effects],
+        "hypotheses": [effect_label(e) for e in effects],
         "effects": effects,
         "sigma_position_m": float(sig),
         "rows": (f, jh, n0, nobs),

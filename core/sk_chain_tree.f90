@@ -21,7 +21,8 @@
 module sk_chain_tree
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, all_finite, psd_defect, psd_tol
+    use sk_linalg, only: eye, all_finite
+    use sk_small_sym, only: psd_defect, psd_tol
     use sk_spatial, only: nsym, sym_index
     use sk_laws, only: law_linear, law_spring6
     use sk_tree_check, only: vj_fixed, vj_revolute, vj_prismatic

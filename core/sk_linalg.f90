@@ -7,19 +7,14 @@
 !> sk_errors (never the raw LAPACK code).
 !>
 !> The 3-D geometry (sk_rotation) and the small symmetric kernels
-!> (sk_small_sym) live in their own modules; their names are re-exported
-!> here so that `use sk_linalg, only: rot_exp` keeps working.
+!> (sk_small_sym) live in their own modules: use them from there.
 module sk_linalg
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_rotation, only: skew, cross, det3, inv3, rot_exp, rot_log, left_jacobian_inv
-    use sk_small_sym, only: psd_tol, chol_small, spd_inverse_small, jacobi_eig, sym_eigvals_small, psd_defect
     implicit none
     private
-    public :: psd_tol
-    public :: skew, cross, det3, rot_exp, rot_log, left_jacobian_inv
     public :: inverse, svd, sym_eig, spd_inverse, pinv, all_finite
-    public :: eye, jacobi_eig, sym_eigvals_small, inv3, spd_inverse_small, chol_small, matmul_tn, psd_defect
+    public :: eye, matmul_tn
     public :: solve_inplace, lu_factor, lu_solve, qr_triangle, lstsq, group_by
 
     interface all_finite

@@ -8,7 +8,8 @@
 module sk_tree_equil
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: cross, lu_factor, lu_solve
+    use sk_linalg, only: lu_factor, lu_solve
+    use sk_rotation, only: cross
     use sk_spatial, only: nsym
     use sk_laws, only: law_delta, law_derivs, law_nslot
     use sk_tree_check, only: vj_revolute, vj_prismatic

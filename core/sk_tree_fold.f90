@@ -4,7 +4,8 @@
 !> few frames only (the frame Jacobian, compensation).
 module sk_tree_fold
     use sk_kinds, only: dp, ip
-    use sk_linalg, only: eye, rot_exp
+    use sk_linalg, only: eye
+    use sk_rotation, only: rot_exp
     use sk_tree_check, only: vj_revolute, vj_prismatic
     use sk_tree_model, only: tree_model, model_setup, body_effective
     implicit none

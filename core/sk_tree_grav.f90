@@ -22,7 +22,7 @@
 !> (a subtree's factor) sums their columns. Cost: O(depth) per entry and
 !> posture.
 submodule(sk_tree_model) sk_tree_grav
-    use sk_linalg, only: cross
+    use sk_rotation, only: cross
     implicit none
 
 contains

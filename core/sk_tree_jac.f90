@@ -8,7 +8,8 @@
 module sk_tree_jac
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, cross, all_finite, lu_solve, group_by
+    use sk_linalg, only: eye, all_finite, lu_solve, group_by
+    use sk_rotation, only: cross
     use sk_spatial, only: nsym
     use sk_tree_check, only: vj_fixed, vj_revolute
     use sk_tree_model, only: tree_model, tree_state, tree_problem, state_init, obs_position, obs_deflection

@@ -9,7 +9,8 @@
 module sk_tree_model
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: rot_exp, all_finite, group_by
+    use sk_linalg, only: all_finite, group_by
+    use sk_rotation, only: rot_exp
     use sk_spatial, only: nsym
     use sk_laws, only: law_ndof
     use sk_tree_check, only: model_check, vj_revolute, vj_prismatic

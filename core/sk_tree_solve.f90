@@ -35,7 +35,9 @@
 module sk_tree_solve
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: rot_log, all_finite, qr_triangle, lstsq, jacobi_eig, spd_inverse_small
+    use sk_linalg, only: all_finite, qr_triangle, lstsq
+    use sk_rotation, only: rot_log
+    use sk_small_sym, only: jacobi_eig, spd_inverse_small
     use sk_spatial, only: nsym
     use sk_tree
     use sk_lm, only: lm_state, lm_start, lm_step, lm_accept, lm_running, lm_ftol, lm_xtol, lm_gtol, lm_zero, &

@@ -278,7 +278,8 @@ def test_planned_postures_tell_the_springs_apart_10_seeds(robot):
 def test_diagnose_names_the_plan_command_on_a_tie(robot):
     """A tie of the absolute diagnosis (text and JSON) names `stiffkit plan --discriminate`
     with K = the postures measured (within 5..30); the tie as reported goes to plan_discriminate."""
-    from stiffkit.calib.absolute_diagnose_report import format_absolute_diagnosis, plan_command
+    from stiffkit.calib.absolute_diagnose_report import format_absolute_diagnosis
+    from stiffkit.calib.plan_hint import plan_command
 
     # the first data seed (from 130) whose 18 rows tie two candidates
     for seed in range(130, 190):

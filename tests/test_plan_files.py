@@ -349,7 +349,7 @@ def test_diagnose_names_each_tie_in_its_plan_command():
     reads them back as the labels."""
     import shlex
 
-    from stiffkit.calib.absolute_diagnose_report import plan_command
+    from stiffkit.calib.plan_hint import plan_command
     from stiffkit.cli.app import build_parser
 
     tied = ["link:l_link1", "joint:left_2"]
