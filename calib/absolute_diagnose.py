@@ -21,7 +21,8 @@ effect of the model no longer earns its place?
    error: K-fold cross-validation by configuration of the model plus the
    candidate, linearised at the fit (one Gauss-Newton step per fold).
 3. A candidate is proposed only when it is significant after the
-   multiplicity of the candidates (Bonferroni over them) and lowers the
+   multiplicity of the candidates (max-score test, calib/diagnosis.py; the
+   best candidate's corrected test is part of the verdict) and lowers the
    held-out error of the model by more than its noise; candidates whose
    held-out errors are within that margin of the leader's are reported as
    tied. Without a declared sigma the residual cannot be called noise by a
@@ -74,6 +75,7 @@ from .diagnosis import (
     Noise,
     bonferroni,
     check_residual,
+    corrected_p,
     distinct_rows,
     few_dof_warning,
     fill_scores,
@@ -240,9 +242,25 @@ def diagnose_absolute(
     )
     # 2. candidates: score tests in one core call (the held-out errors below)
     ranked = [] if prune else _score_candidates(dg, ext, cands, cand_cols, J, col, A, r, s2, sig_decl, nres, w)
-    # the multiplicity of the candidates: a proposal must pass alpha / n_tests (absolute_propose)
+    # the multiplicity of the candidates (one rule, both kinds: diagnosis.corrected_p): the best
+    # candidate's corrected test is part of the verdict, and a proposal must pass its own
     dg.n_tests = len(ranked)
-    dg.bonferroni_p = dg.multiplicity_p = bonferroni(ranked[0][0].p_value, len(ranked)) if ranked else None
+    dg.bonferroni_p = bonferroni(ranked[0][0].p_value, len(ranked)) if ranked else None
+    blocks = [J[:, [col[x] for x in cols]] for _c, cols in ranked]
+    corrected: dict[int, float] = {}
+
+    def significant(c: Candidate) -> bool:
+        """Significant after the multiplicity of the candidates (max-score test)."""
+        if id(c) not in corrected:
+            corrected[id(c)], _ = corrected_p(A, blocks, c.log_p, alpha, 0 if sig_decl else nres)
+        return corrected[id(c)] < alpha
+
+    if ranked:
+        dg.multiplicity_p, dg.nsim = corrected_p(A, blocks, ranked[0][0].log_p, alpha, 0 if sig_decl else nres)
+        corrected[id(ranked[0][0])] = dg.multiplicity_p
+        dg.best_inadequate = dg.multiplicity_p < alpha
+        if dg.best_inadequate:
+            dg.verdict = "inadequate"
     top = ranked[:CV_TOP]
     # every held-out error of the diagnosis (the model's, without each of its effects, with each
     # leading candidate) on one factorisation per fold of the model's and those candidates' columns
@@ -281,7 +299,24 @@ def diagnose_absolute(
             cand.cv_rms_position_m = cv_of(np.concatenate([np.arange(p_a), [at[col[x]] for x in cols]]).astype(int))
         # 3. the proposal
         propose(
-            dg, ranked, top, m, theta, kept_names, data, w, A, r, J, col, cv_base, ext.names, sig_decl, log_p, alpha
+            dg,
+            ranked,
+            top,
+            m,
+            theta,
+            kept_names,
+            data,
+            w,
+            A,
+            r,
+            J,
+            col,
+            cv_base,
+            ext.names,
+            sig_decl,
+            log_p,
+            alpha,
+            significant,
         )
     held_for_addition(dg)
     for i, t in enumerate(dg.ties):  # name the command that plans the postures to tell them apart

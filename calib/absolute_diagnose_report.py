@@ -12,7 +12,14 @@ from .absolute_fit import AbsoluteFit, position_stats
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
 from .diagnosis import ALPHA
-from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines, verdict_line
+from .diagnosis_report import (
+    multiplicity_line,
+    multiplicity_method,
+    nothing_fits_line,
+    pipeline_json,
+    proposal_lines,
+    verdict_line,
+)
 
 __all__ = ["AbsoluteDiagnosis", "format_absolute_diagnosis"]
 
@@ -48,7 +55,9 @@ class AbsoluteDiagnosis:
     n_copied: int = 0  # exact copies of earlier rows, dropped before the fit
     n_tests: int = 0  # candidates scored
     bonferroni_p: float | None = None  # the best candidate's p times n_tests (at most 1)
-    multiplicity_p: float | None = None  # the p the proposal rule corrects by: Bonferroni's
+    multiplicity_p: float | None = None  # the best candidate's p corrected by the max-score test
+    nsim: int = 0  # its Monte Carlo draws (0: Bonferroni's bound, far below alpha)
+    best_inadequate: bool = False  # the corrected test rejects at alpha
 
     @property
     def floor(self) -> float:
@@ -84,7 +93,8 @@ class AbsoluteDiagnosis:
             "fit": self.fit.to_json(),
             "n_tests": self.n_tests,
             "multiplicity_p": self.multiplicity_p,
-            "multiplicity_method": f"Bonferroni over {self.n_tests} candidates",
+            "multiplicity_method": multiplicity_method(self.n_tests, self.nsim),
+            "best_candidate_inadequate": self.best_inadequate,
             "bonferroni_p": self.bonferroni_p,
             **pipeline_json("absolute", self.n_rows_distinct, self.n_copied, self.residual_dof, self.alpha),
         }
@@ -119,6 +129,8 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
     )
     if dg.test == "chi2":
         lines.append(f"chi-square {dg.statistic:.1f} on {dg.dof:.0f} dof: log10 p = {dg.log_p / math.log(10):.1f}")
+    if dg.multiplicity_p is not None:
+        lines.append(multiplicity_line(dg.multiplicity_p, dg.bonferroni_p, dg.n_tests, dg.nsim, dg.best_inadequate))
     lines.append(verdict_line(dg.verdict))
     for w in dg.warnings:
         lines.append(f"warning: {w}")

@@ -1,5 +1,6 @@
 """The proposal of the absolute diagnosis (``calib.absolute_diagnose``): a
-candidate significant after the multiplicity of the candidates that lowers
+candidate significant after the multiplicity of the candidates (the
+max-score test, ``diagnosis.corrected_p``) that lowers
 the held-out error by more than CV_GAIN, checked by a fit with it (a
 compliance that would have to be negative is held at 0 there, and then
 nothing changes); the simpler of two nested candidates first; rivals within
@@ -9,6 +10,7 @@ the margin reported as tied; else why nothing is proposed.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -21,6 +23,7 @@ from .absolute_fit import _nonnegative, _solve, predict
 from .absolute_structure import structure_verdict
 from .diagnose_candidates import Candidate
 from .diagnosis import CV_GAIN, NO_HELD_OUT, ZTOL, lowers_held_out
+from .diagnosis_report import not_significant
 
 if TYPE_CHECKING:
     from .absolute_diagnose_report import AbsoluteDiagnosis
@@ -55,12 +58,12 @@ def propose(
     sig_decl: float | None,
     log_p: float,
     alpha: float,
+    significant: Callable[[Candidate], bool],
 ) -> None:
     """The proposal: significant after multiplicity, lowers the held-out
     error, and a fit with it realises the improvement; ties; or why none."""
     fit = dg.fit
-    crit = math.log(alpha / max(len(ranked), 1))
-    useful = [c for c, _ in top if c.log_p < crit and lowers_held_out(c.cv_rms_position_m, cv_base)]
+    useful = [c for c, _ in top if significant(c) and lowers_held_out(c.cv_rms_position_m, cv_base)]
     best = None
     tried: set[str] = set()
     notes: list[str] = []
@@ -110,9 +113,15 @@ def propose(
         dg.proposal = best
         dg.verdict = "inadequate"
         return
-    if cv_base is None and ranked:
+    if (
+        ranked
+        and not significant(ranked[0][0])
+        and (dg.verdict == "inadequate" or (sig_decl and log_p < math.log(alpha)))
+    ):
+        dg.reasons.append(not_significant(ranked[0][0].log_p, dg.multiplicity_p, dg.n_tests))
+    elif cv_base is None and ranked:
         dg.reasons.append(NO_HELD_OUT)
-    elif ranked and ranked[0][0].log_p < crit and not tried:
+    elif ranked and significant(ranked[0][0]) and not tried:
         dg.reasons.append(
             "the leading candidates are significant but none lowers the held-out error by more than "
             f"{CV_GAIN:.0%}: they would fit noise or the fit's own flexibility"

@@ -48,7 +48,6 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .._core import calib as core
 from ..robot.model import Model, default_tau0, expand_effect
 from . import crossval as CV
 from . import residual_map as RM
@@ -85,6 +84,7 @@ from .diagnose_stats import (
 from .diagnosis import (
     Noise,
     bonferroni,
+    corrected_p,
     distinct_rows,
     few_dof_warning,
     fill_scores,
@@ -196,7 +196,7 @@ def diagnose(
     # candidate columns, linearised at the fit
     fitted = identified_model(res)
     base_terms = fitted.terms
-    Z, cstart = [], [1]
+    Z = []
     for ts in cterms:
         terms = base_terms + ts
         layout, k = {}, 0
@@ -209,13 +209,10 @@ def diagnose(
             # round-off test compares columns across candidates
             J = J / max(float(np.mean(pb.torques[:, ts[0].joint] ** 2)), 1e-300)
         Z.append(pb.weighted(J))
-        cstart.append(cstart[-1] + Z[-1].shape[1])
     A = res.A if res.A.shape[1] else np.zeros((nobs, 1))
     # candidates that cannot act (zero columns) are listed, never scored
     inert = inert_reasons(cands, Z)
     act = [c for c in range(len(cands)) if not inert[c]]
-    Zall = np.hstack([Z[c] for c in act]) if act else np.zeros((nobs, 0))
-    cstart = np.cumsum([1] + [Z[c].shape[1] for c in act]).astype(np.int32)
     stat_c, dof_c = np.zeros(len(cands)), np.zeros(len(cands), int)
     pr = np.zeros((nobs, len(cands)))
     if act:
@@ -246,17 +243,8 @@ def diagnose(
     mult_p = bonf_p = None
     nsim_used = 0
     if ranked:
-        lobs = ranked[0].log_p
         bonf_p = bonferroni(ranked[0].p_value, len(ranked))
-        # the corrected p lies between the best p (one test) and Bonferroni's bound:
-        # when both sides of alpha are settled, fewer draws give its value
-        settled = ranked[0].p_value >= alpha or bonf_p < alpha
-        nsim_used = min(nsim, 199) if settled else nsim
-        if bonf_p < 0.01 * alpha:
-            # Bonferroni's bound is far below alpha: the alarm is certain, the bound is reported
-            mult_p, nsim_used = bonf_p, 0
-        else:
-            mult_p = core.max_score(A, Zall, cstart, 1e-10, ZTOL, lobs, d_pe or 0, nsim_used, seed)
+        mult_p, nsim_used = corrected_p(A, [Z[c] for c in act], ranked[0].log_p, alpha, d_pe or 0, nsim, seed)
     best_alarm = mult_p is not None and mult_p < alpha
     verdict = "inadequate" if (omnibus or best_alarm) else "adequate"
 

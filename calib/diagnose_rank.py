@@ -16,6 +16,7 @@ from ..robot.model import Model, compensator_h
 from .diagnose_candidates import Candidate
 from .diagnose_stats import TIE_LOG10, ZTOL, _cos, _cv_better, _nested, logsf_chi2
 from .diagnosis import CV_GAIN, NO_HELD_OUT, lowers_held_out
+from .diagnosis_report import not_significant
 from .fit import FitResult, Problem, identified_model
 from .measure import Measurements
 
@@ -137,10 +138,9 @@ def _rank_honestly(
         dg.reasons.append(
             f"{L.label} does not lower the held-out error by {CV_GAIN:.0%} ({cv0 * 1e3:.4g} -> {after} mm)"
         )
-    if L.log_p >= sig:
-        dg.reasons.append(
-            f"no single candidate is significant on its own (best log10 p = {L.log_p / math.log(10):.3g})"
-        )
+    if not (dg.multiplicity_p is not None and dg.multiplicity_p < dg.alpha):
+        # unified rule (issue 15): significant after the multiplicity of the candidates (was: on its own)
+        dg.reasons.append(not_significant(L.log_p, dg.multiplicity_p, dg.n_tests))
     if not dg.reasons:
         dg.proposal = L
         if L.kind == "joint_profile":

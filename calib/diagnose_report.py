@@ -16,7 +16,14 @@ from . import residual_map as RM
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
 from .diagnose_stats import ALPHA, TIE_LOG10
-from .diagnosis_report import nothing_fits_line, pipeline_json, proposal_lines, verdict_line
+from .diagnosis_report import (
+    multiplicity_line,
+    multiplicity_method,
+    nothing_fits_line,
+    pipeline_json,
+    proposal_lines,
+    verdict_line,
+)
 from .fit import FitResult, Problem
 from .robust import DataChecks, format_checks
 
@@ -90,11 +97,7 @@ class Diagnosis:
             "non_identifiable_candidates": [c.inert_json() for c in self.non_identifiable],
             "omnibus_inadequate": self.omnibus_inadequate,
             "multiplicity_p": self.multiplicity_p,
-            "multiplicity_method": (
-                f"max-score test over {self.n_tests} candidates, Monte Carlo ({self.nsim} draws)"
-                if self.nsim
-                else f"Bonferroni bound over {self.n_tests} candidates (far below alpha)"
-            ),
+            "multiplicity_method": multiplicity_method(self.n_tests, self.nsim),
             "bonferroni_p": self.bonferroni_p,
             "n_tests": self.n_tests,
             "best_candidate_inadequate": self.best_inadequate,
@@ -192,17 +195,7 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
         f"log10 p = {dg.log_p / math.log(10):.3g}  ->  {dg.verdict.upper()} (alpha {dg.alpha:g})",
     ]
     if dg.multiplicity_p is not None:
-        if dg.nsim:
-            bound = dg.multiplicity_p <= 1.0 / (dg.nsim + 1) + 1e-12
-            how = (
-                f"p {'<=' if bound else '='} {dg.multiplicity_p:.3g} (max-score test; Bonferroni {dg.bonferroni_p:.3g})"
-            )
-        else:
-            how = f"p <= {max(dg.bonferroni_p, 1e-300):.3g} (Bonferroni bound)"
-        lines.append(
-            f"best candidate, corrected for looking at all {dg.n_tests}: {how}"
-            + ("  -> alarm" if dg.best_inadequate else "")
-        )
+        lines.append(multiplicity_line(dg.multiplicity_p, dg.bonferroni_p, dg.n_tests, dg.nsim, dg.best_inadequate))
     cv = dg.cv_rms_position_m
     lines.append(
         f"noise sigma {dg.sigma_position * 1e3:.4g} mm ({dg.sigma_source}); noise floor "

@@ -31,7 +31,14 @@ The one rule of each decision, both kinds (docs/calibration.md 7.2):
   least CV_GAIN below the model's (:func:`lowers_held_out`); ``--cv 0``
   (or fewer than two configurations) switches the cross-validation off,
   and then nothing is proposed (NO_HELD_OUT); each kind may check its
-  proposal further (tracker data: by a fit with it).
+  proposal further (tracker data: by a fit with it);
+- multiplicity: a candidate's p-value is corrected for having looked at
+  every candidate by the max-score test (:func:`corrected_p`, Monte Carlo
+  in the core with the candidates' correlations; Bonferroni's bound when
+  that is far below alpha); the best candidate's corrected test rejecting
+  at alpha makes the verdict inadequate, and only a candidate whose own
+  corrected test rejects is proposed (both report ``multiplicity_p``,
+  ``multiplicity_method``, ``bonferroni_p``).
 
 What the two kinds still decide each their own way (to be made one rule
 each; today's tests pin both):
@@ -40,10 +47,6 @@ each; today's tests pin both):
   the pure error of replicated rows (no replicates: cannot judge); tracker
   data have no test, the verdict rests on the held-out error and the
   residual's structure (calib/absolute_structure.py);
-- multiplicity: deflections raise the alarm on the best candidate by the
-  max-score test (Monte Carlo in the core); tracker data only require a
-  proposal to pass alpha / n_tests (Bonferroni); both report
-  ``bonferroni_p`` and ``multiplicity_p``;
 - ties: deflections tie candidates of other targets within TIE_LOG10 in
   log10 p or significantly better held out (paired), with the posture and
   load that would separate them; tracker data tie useful candidates
@@ -95,6 +98,8 @@ __all__ = [
     "bonferroni",
     "few_dof_warning",
     "CV_GAIN",
+    "NSIM",
+    "corrected_p",
     "NO_HELD_OUT",
     "folds_of",
     "lowers_held_out",
@@ -107,6 +112,10 @@ CV_FOLDS = 5
 #: a proposal must lower the model's held-out RMS by at least this fraction (both kinds): less is
 #: within what the held-out estimate itself varies by, or the fit's own flexibility
 CV_GAIN = 0.02
+#: Monte Carlo draws of the max-score test (199 when the answer is settled on either side of alpha)
+NSIM = 999
+#: the seed of its draws (reproducible)
+SEED = 20240601
 #: why nothing is proposed without cross-validation (both kinds)
 NO_HELD_OUT = (
     "no held-out check (cross-validation off: --cv 0, or fewer than two configurations): nothing is proposed without it"
@@ -286,6 +295,37 @@ def lowers_held_out(cv: float | None, cv_base: float | None) -> bool:
     """The proposal's held-out check, both kinds: the candidate's held-out
     RMS is at least CV_GAIN below the model's (False when either is unknown)."""
     return cv is not None and cv_base is not None and cv < cv_base * (1.0 - CV_GAIN)
+
+
+def corrected_p(
+    A: np.ndarray,
+    blocks: Sequence[np.ndarray],
+    log_p: float,
+    alpha: float,
+    d_pe: int = 0,
+    nsim: int = NSIM,
+    seed: int = SEED,
+) -> tuple[float, int]:
+    """A candidate's p-value (``log_p``) corrected for having looked at every
+    candidate (the columns ``blocks``, against the model's ``A``), both
+    kinds: the max-score test of the core (the probability, under the model
+    with Gaussian noise, that any candidate's score test reaches ``log_p``,
+    with the candidates' correlations; chi-square without ``d_pe``, else F
+    against a variance on ``d_pe`` degrees of freedom), or Bonferroni's
+    bound when that is far below alpha (the alarm is certain). Returns
+    (p, draws; 0: Bonferroni's bound)."""
+    p = math.exp(log_p)
+    bonf = bonferroni(p, len(blocks))
+    if bonf < 0.01 * alpha:
+        return bonf, 0
+    # the corrected p lies between the best p (one test) and Bonferroni's bound:
+    # when both sides of alpha are settled, fewer draws give its value
+    settled = p >= alpha or bonf < alpha
+    ns = min(nsim, 199) if settled else nsim
+    Z = np.hstack(list(blocks))
+    cstart = np.cumsum([1] + [b.shape[1] for b in blocks]).astype(np.int32)
+    A = A if A.shape[1] else np.zeros((A.shape[0], 1))
+    return float(core.max_score(A, Z, cstart, 1e-10, ZTOL, log_p, int(d_pe), ns, seed)), ns
 
 
 def bonferroni(p_best: float, n_tests: int) -> float:

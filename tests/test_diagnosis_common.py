@@ -298,8 +298,9 @@ def test_cv_0_is_off_on_both_kinds_and_then_nothing_is_proposed(cases, tmp_path,
     assert code == 0, err
     d = json.loads(js.read_text())
     assert d["cv_folds"] == 0 and d["cv_rms_position_m"] is None
+    # tracker data without a declared sigma: the best candidate's corrected (max-score) test decides
+    assert d["verdict"] == "inadequate" and d["best_candidate_inadequate"] is True
     assert d["proposal"] is None and not d["nothing_fits"]
-    assert d["verdict"] == "inadequate" or kind == "absolute"  # no sigma: the max-score test decides (b)
     assert D.NO_HELD_OUT in d["no_proposal_reasons"]
     assert D.PROPOSAL_LINE not in out
 
