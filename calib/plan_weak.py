@@ -22,7 +22,8 @@ the design core: ``design.covariance`` and ``design.weakness``, core/sk_design_w
   the plan's postures barely load it, where other candidates would); and
   ``task_excitation``, sqrt(M_jj / T_jj) with T_jj the sum of squares of its
   task column (low: the plan sees it weakly for how much it moves the task
-  points, even when no candidate loads it more). Below WEAK_EXCITATION its
+  points; ``candidates_task_excitation`` the same over all candidates says
+  whether any candidate loads it more). Below WEAK_EXCITATION its
   variance is more than ~11 x what the median parameter's excitation would
   give. A parameter that does not move the task points (the tracker's own)
   has no task excitation (None).
@@ -97,7 +98,8 @@ def weak_parameters(res: PlanResult) -> list[dict]:
     """The weak parameters of the plan, each with ``reasons`` (``not
     identifiable``, ``correlated``, ``weakly excited``), ``why`` (a sentence
     with the numbers) and the numbers: ``std`` (expected), ``std_uncorrelated``,
-    ``inflation`` (their ratio), ``vif``, ``excitation``, ``correlated_with``
+    ``inflation`` (their ratio), ``vif``, ``excitation``, ``task_excitation``,
+    ``candidates_task_excitation`` (module docstring), ``correlated_with``
     [{name, r}], ``null_share`` and ``null_with`` [{name, share}]; the
     parameters the fit's reduction sets aside last (``source``
     "reduction"). Not identifiable first, then the most inflated."""
@@ -106,6 +108,7 @@ def weak_parameters(res: PlanResult) -> list[dict]:
     w = res.weakness
     exc = excitation(res)
     texc = task_excitation(res)
+    pool_texc = np.full(len(names), np.nan) if w is None else _relative(w.pool, w.task)
     std0 = _uncorrelated(res)
     nnull = 0 if w is None else w.nnull
     regular = np.all(np.isfinite(res.vif))
@@ -122,6 +125,7 @@ def weak_parameters(res: PlanResult) -> list[dict]:
             "vif": _num(res.vif[j]),
             "excitation": _num(e),
             "task_excitation": _num(et),
+            "candidates_task_excitation": _num(pool_texc[j]),
         }
         parts = []
         if nnull and w.null[j, j] > NULL_SHARE:
@@ -157,12 +161,19 @@ def weak_parameters(res: PlanResult) -> list[dict]:
                     "parameter's (columns scaled over all candidates)"
                 )
             if low[1]:
+                pe = pool_texc[j]
                 how.append(
                     f"for its effect on the task the plan sees it {et:.3g} x as strongly as the median parameter"
+                    + (
+                        f" (all candidates together: {pe:.3g} x; add candidate postures, or for deflection data "
+                        "[plan] loads, that load it)"
+                        if pe < WEAK_EXCITATION
+                        else f" (all candidates together: {pe:.3g} x: the plan left out the ones that load it)"
+                    )
                 )
             elif math.isfinite(et) and et > 1.0 / WEAK_EXCITATION:
                 how.append(f"it matters little to the task ({et:.3g} x the median, for its effect on the task)")
-            sd = f"expected std {res.std[j]:.3g}, " if not d["reasons"][1:] else ""
+            sd = f"expected std {res.std[j]:.3g}, " if not d["reasons"][1:] and math.isfinite(res.std[j]) else ""
             parts.insert(0, f"weakly excited: {'; '.join(how)} ({sd}uncorrelated std {std0[j]:.3g})")
         if d["reasons"]:
             d["why"] = "; and ".join(parts)
@@ -172,7 +183,8 @@ def weak_parameters(res: PlanResult) -> list[dict]:
         if "not identifiable" in d["reasons"]:
             return (0, -d["null_share"])
         e = min(v for v in (d["excitation"], d["task_excitation"], math.inf) if v is not None)
-        return (1, -max(d["vif"] or 0.0, 1.0 / e**2 if 0 < e < math.inf else 0.0))
+        weak = math.inf if e == 0 else 1.0 / e**2 if e < math.inf else 0.0
+        return (1, -max(d["vif"] or 0.0, weak))
 
     found.sort(key=rank)
     found += [

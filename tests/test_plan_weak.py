@@ -38,9 +38,10 @@ def _numbers(s: P.PlanSetup, chosen: np.ndarray) -> dict:
     std = np.sqrt(np.diag(cov))
     ex = np.sqrt(np.diag(M) / pool)
     tex = np.sqrt(np.diag(M) / task)
+    ptex = np.sqrt(pool / task)
     return dict(
         std=std, std0=1 / np.sqrt(np.diag(M)), vif=np.diag(cov) * np.diag(M), corr=cov / np.outer(std, std),
-        excitation=ex / np.median(ex), task_excitation=tex / np.median(tex),
+        excitation=ex / np.median(ex), task_excitation=tex / np.median(tex), pool_task=ptex / np.median(ptex),
     )  # fmt: skip
 
 
@@ -67,6 +68,9 @@ def test_weakly_excited_and_correlated_synthetic():
     assert w0["std_uncorrelated"] == pytest.approx(ref["std0"][0], rel=1e-9)
     assert w0["vif"] == pytest.approx(ref["vif"][0], rel=1e-8) and w0["vif"] < WEAK_VIF
     assert f"{w0['task_excitation']:.3g} x as strongly as the median parameter" in w0["why"]
+    # no candidate loads it more: the report says to add some
+    assert w0["candidates_task_excitation"] == pytest.approx(ref["pool_task"][0], rel=1e-9)
+    assert f"all candidates together: {w0['candidates_task_excitation']:.3g} x; add candidate postures" in w0["why"]
     for a, b in (("p1", "p2"), ("p2", "p1")):
         w = weak[a]
         assert w["reasons"] == ["correlated"]
@@ -143,6 +147,9 @@ def test_kr_joint_barely_loaded(kr_weak, tmp_path, capsys):
     assert w["reasons"] == ["weakly excited"]
     assert w["task_excitation"] == pytest.approx(ref["task_excitation"][j1], rel=1e-8)
     assert w["task_excitation"] < 0.1
+    # the [plan] loads barely load joint 1 whichever posture: add loads that do
+    assert w["candidates_task_excitation"] == pytest.approx(ref["pool_task"][j1], rel=1e-8)
+    assert w["candidates_task_excitation"] < WEAK_EXCITATION and "[plan] loads, that load it" in w["why"]
     assert w["vif"] == pytest.approx(ref["vif"][j1], rel=1e-6) and w["vif"] < WEAK_VIF
     # the most inflated parameter the plan excites well: correlated, naming numpy's strongest partner
     ok = [j for j in range(s.npar) if min(ref["excitation"][j], ref["task_excitation"][j]) >= WEAK_EXCITATION]
