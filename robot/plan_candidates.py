@@ -60,7 +60,7 @@ LIMIT_TOL = 1e-9
 _HINTS = {
     "joint limit": "loosen the [plan] limits of the mimic leaders or followers",
     "self-collision": "loosen [plan] margin or radius",
-    "floor": "lower [plan] floor_z or loosen margin",
+    "floor": "lower [plan] floor_z (or loosen [plan] margin)",
     "out of view": "widen [plan] tracker cone_deg or point the tracker at the workspace",
     "occluded": "move the [plan] tracker or reduce the radius of the occluding links",
 }
@@ -319,6 +319,8 @@ def _loads(settings: PlanSettings) -> np.ndarray | None:
 def _nothing(tried: int, rejected: dict[str, int], settings: PlanSettings) -> InputError:
     parts = [f"{n:,} {r}" for r, n in sorted(rejected.items(), key=lambda x: -x[1]) if n]
     hints = [_HINTS[r] for r, n in sorted(rejected.items(), key=lambda x: -x[1]) if n]
+    if rejected.get("self-collision") and rejected.get("floor"):  # one piece of advice on the margin
+        hints = [h.replace(" (or loosen [plan] margin)", "") for h in hints]
     return InputError(
         f"{settings.where}: no feasible candidate: {tried:,} tried, {', '.join(parts)}; {'; '.join(hints[:2])}"
     )
