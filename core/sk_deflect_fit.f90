@@ -18,12 +18,14 @@
 !> structural zeros only). Once a compensated c turns positive, or a column
 !> that was zero when they were set (k_s and the offset at theta = 0) is
 !> not any more, they are stale: sk_lm starts again in new ones (the
-!> restart's first factorisation is not counted twice).
+!> restart's first factorisation is not counted twice). The loop is the
+!> core's one (sk_lm_solve lm_solve); this module is the problem: its
+!> variables, evaluation, staleness and restarts.
 module sk_deflect_fit
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_deflect, only: deflection_rows
-    use sk_lm, only: lm_state, lm_start, lm_step, lm_accept, lm_running
+    use sk_lm_solve, only: lm_problem, lm_solve
     implicit none
     private
     public :: deflection_lm
@@ -33,6 +35,25 @@ module sk_deflect_fit
         logical, allocatable :: use(:), pending(:)
         real(dp), allocatable :: f(:)
     end type lm_vars
+
+    !> deflection_lm's problem for the core's one LM loop (sk_lm_solve):
+    !> the model and data (deflection_rows' arguments, the weighted data
+    !> and masks), the variables v, the accepted theta with its weighted
+    !> Jacobian a and residual res, the last trial with a2, res2.
+    type, extends(lm_problem) :: defl_fit
+        real(dp), allocatable :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(:, :), tpos(:), tgeo(:, :), par(:), &
+            q(:, :), w(:, :), p(:, :), y(:), wrow(:)
+        integer(ip), allocatable :: qidx(:), stype(:), sidx(:), tint(:, :), elem(:)
+        logical, allocatable :: neg(:), nlmask(:), inv(:)
+        real(dp), allocatable :: theta(:), trial(:), pred(:, :), jac(:, :, :), a(:, :), res(:), a2(:, :), res2(:)
+        type(lm_vars) :: v
+    contains
+        procedure :: eval => defl_eval
+        procedure :: accepted => defl_accepted
+        procedure :: stale => defl_stale
+        procedure :: restart => defl_restart
+        procedure :: variables => defl_variables
+    end type defl_fit
 
 contains
 
@@ -116,13 +137,9 @@ contains
         logical, intent(in) :: neg(:), nlmask(:), inv(:)
         real(dp), intent(inout) :: theta(:)
         integer(ip), intent(out) :: niter, reason, info
-        real(dp), allocatable :: pred(:, :), jac(:, :, :), a(:, :), res(:), a2(:, :), res2(:), az(:, :), &
-            u(:), du(:), z(:), trial(:), dummy(:, :)
-        type(lm_vars) :: v
-        type(lm_state) :: st
+        type(defl_fit) :: df
+        real(dp), allocatable :: az(:, :), res(:), x(:)
         integer :: nm, n, nobs
-        integer(ip) :: einfo
-        logical :: stale, accepted
         nm = size(q, 2)
         n = size(theta)
         nobs = size(wrow)*nm
@@ -131,57 +148,85 @@ contains
         info = sk_err_size
         if (size(y) /= nobs .or. size(wrow) > 6 .or. size(neg) /= n .or. size(nlmask) /= n .or. size(inv) /= n) &
             return
-        allocate(pred(6, nm), jac(6, nm, n), a(nobs, n), res(nobs), a2(nobs, n), res2(nobs), az(nobs, n), &
-            u(n), du(n), z(n), trial(n), dummy(1, n))
-        dummy = 0.0_dp
+        df = defl_fit(jrot=jrot, jpos=jpos, jaxis=jaxis, qidx=qidx, trot=trot, tpos=tpos, stype=stype, sidx=sidx, &
+            tint=tint, tgeo=tgeo, elem=elem, par=par, q=q, w=w, p=p, y=y, wrow=wrow, neg=neg, nlmask=nlmask, inv=inv, &
+            theta=theta, trial=theta)
+        allocate(df%pred(6, nm), df%jac(6, nm, n), df%a(nobs, n), df%res(nobs), df%a2(nobs, n), df%res2(nobs), &
+            az(nobs, n))
         call deflection_rows(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, theta, &
-            q, w, p, .true., pred, jac, info)
+            q, w, p, .true., df%pred, df%jac, info)
         if (info /= sk_ok) return
-        call weigh(pred, jac, y, wrow, neg, a, res)
-        do
-            call var_set(theta, a, inv, nlmask, v)
-            call var_jacobian(v, theta, a, az)
-            call lm_start(st, az, res, maxit - niter, ftol, xtol, gtol, info)
-            if (info /= sk_ok) return
-            stale = .false.
-            do while (st%reason == lm_running .and. .not. stale)
-                u = theta
-                where (v%use) u = 1.0_dp/theta
-                u = u/v%f
-                call lm_step(st, u, du, info)
-                if (info /= sk_ok) return
-                z = (u + du)*v%f
-                if (any(v%use .and. z <= 0.0_dp)) then
-                    call lm_accept(st, .false., dummy, dummy(:, 1), accepted, info)
-                    if (info /= sk_ok) return
-                    cycle
-                end if
-                trial = z
-                where (v%use) trial = 1.0_dp/z
-                call deflection_rows(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, &
-                    trial, q, w, p, .true., pred, jac, einfo)
-                if (einfo /= sk_ok) then
-                    call lm_accept(st, .false., dummy, dummy(:, 1), accepted, info)
-                    if (info /= sk_ok) return
-                    cycle
-                end if
-                call weigh(pred, jac, y, wrow, neg, a2, res2)
-                call var_jacobian(v, trial, a2, az)
-                call lm_accept(st, .true., az, res2, accepted, info)
-                if (info /= sk_ok) return
-                if (accepted) then
-                    theta = trial
-                    a = a2
-                    res = res2
-                    stale = st%reason == lm_running .and. is_stale(v, theta, a, inv)
-                end if
-            end do
-            niter = niter + st%niter - merge(1, 0, stale)
-            if (.not. stale) exit
-        end do
-        reason = st%reason
+        call weigh(df%pred, df%jac, y, wrow, neg, df%a, df%res)
+        call var_set(theta, df%a, inv, nlmask, df%v)
+        call var_jacobian(df%v, theta, df%a, az)
+        res = df%res
+        x = df%variables()
+        call lm_solve(df, x, az, res, maxit, ftol, xtol, gtol, niter, reason, info)
+        theta = df%theta
+        if (info /= sk_ok) return
         info = sk_ok
     end subroutine deflection_lm
+
+    !> The variables u = z / f at the accepted theta (module header).
+    pure function defl_variables(self) result(u)
+        class(defl_fit), intent(in) :: self
+        real(dp) :: u(size(self%theta))
+        u = self%theta
+        where (self%v%use) u = 1.0_dp/self%theta
+        u = u/self%v%f
+    end function defl_variables
+
+    !> The weighted rows and their Jacobian in the variables at u (a
+    !> compensated compliance must stay positive; a failed evaluation is a
+    !> rejected trial).
+    subroutine defl_eval(self, x, jac, res, ok)
+        class(defl_fit), intent(inout) :: self
+        real(dp), intent(in) :: x(:)
+        real(dp), intent(out) :: jac(:, :), res(:)
+        logical, intent(out) :: ok
+        real(dp) :: z(size(x))
+        integer(ip) :: einfo
+        jac = 0.0_dp
+        res = 0.0_dp
+        z = x*self%v%f
+        ok = .not. any(self%v%use .and. z <= 0.0_dp)
+        if (.not. ok) return
+        self%trial = z
+        where (self%v%use) self%trial = 1.0_dp/z
+        call deflection_rows(self%jrot, self%jpos, self%jaxis, self%qidx, self%trot, self%tpos, self%stype, &
+            self%sidx, self%tint, self%tgeo, self%elem, self%par, self%trial, self%q, self%w, self%p, .true., &
+            self%pred, self%jac, einfo)
+        ok = einfo == sk_ok
+        if (.not. ok) return
+        call weigh(self%pred, self%jac, self%y, self%wrow, self%neg, self%a2, self%res2)
+        call var_jacobian(self%v, self%trial, self%a2, jac)
+        res = self%res2
+    end subroutine defl_eval
+
+    !> An accepted trial: theta, its rows; the variables recomputed there.
+    subroutine defl_accepted(self, x)
+        class(defl_fit), intent(inout) :: self
+        real(dp), intent(inout) :: x(:)
+        self%theta = self%trial
+        self%a = self%a2
+        self%res = self%res2
+        x = self%variables()
+    end subroutine defl_accepted
+
+    !> Stale variables at the accepted theta (module header).
+    logical function defl_stale(self)
+        class(defl_fit), intent(inout) :: self
+        defl_stale = is_stale(self%v, self%theta, self%a, self%inv)
+    end function defl_stale
+
+    !> New variables at the accepted theta: x and the Jacobian jac in them.
+    subroutine defl_restart(self, x, jac)
+        class(defl_fit), intent(inout) :: self
+        real(dp), intent(inout) :: x(:), jac(:, :)
+        call var_set(self%theta, self%a, self%inv, self%nlmask, self%v)
+        call var_jacobian(self%v, self%theta, self%a, jac)
+        x = self%variables()
+    end subroutine defl_restart
 
     !> Have the variables gone stale at theta (module header)?
     pure logical function is_stale(v, theta, a, inv)

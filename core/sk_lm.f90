@@ -2,10 +2,12 @@
 !> residual r and Jacobian J the caller evaluates: the damped step, its
 !> predicted reduction, the acceptance test with the update of lambda, and
 !> the stopping tests, on a state (lm_state) the caller keeps and passes
-!> back. One implementation for every fit: tree_lm (sk_tree_solve) calls
-!> these routines around its tree model, and the relative-data fit
-!> (calib/fit.py) drives them by reverse communication through
-!> sk_api_calib, with the state flattened to two arrays (lm_save, lm_load).
+!> back. One implementation for every fit: the core's one loop around
+!> them (sk_lm_solve lm_solve) runs both fits, the tree model's on tracker
+!> data (sk_tree_solve tree_lm) and the deflection model's on relative
+!> data (sk_deflect_fit deflection_lm); the entry points of sk_api_calib
+!> expose them by reverse communication, with the state flattened to two
+!> arrays (lm_save, lm_load).
 !>
 !> Protocol: lm_start(st, J, r) at the start x0; then, while st%reason is
 !> lm_running, lm_step(st, x, dx) gives the trial x + dx, the caller

@@ -11,7 +11,8 @@
 !> J), from the triangular factor of the QR decomposition of [J r], so the
 !> normal equations (and the squared condition number) are never formed.
 !> lambda follows Nielsen's rule (down by max(1/10, 1 - (2 rho - 1)^3) on
-!> success, up by 2, 4, 8, ... on failure). Row weights let the caller wrap
+!> success, up by 2, 4, 8, ... on failure): sk_lm's, in the core's one
+!> loop (sk_lm_solve lm_solve; tree_fit is the problem). Row weights let the caller wrap
 !> iteratively reweighted least squares (Huber, Cauchy) around it.
 !>
 !> Compensation: for each row, Newton on q' with the total Jacobian of the
@@ -40,11 +41,28 @@ module sk_tree_solve
     use sk_small_sym, only: jacobi_eig, spd_inverse_small
     use sk_spatial, only: nsym
     use sk_tree
-    use sk_lm, only: lm_state, lm_start, lm_step, lm_accept, lm_running, lm_ftol, lm_xtol, lm_gtol, lm_zero, &
-        lm_maxit, lm_lambda
+    use sk_lm, only: lm_ftol, lm_xtol, lm_gtol, lm_zero, lm_maxit, lm_lambda
+    use sk_lm_solve, only: lm_problem, lm_solve
     implicit none
     private
     public :: tree_lm, compensate_batch
+
+    !> tree_lm's problem for the core's one LM loop (sk_lm_solve): the tree
+    !> problem and theta at the last accepted step, its deflections (the
+    !> trials' warm start) and data rows, the prior rows (pp, pm, pw); the
+    !> last trial's theta, deflections and data rows.
+    type, extends(lm_problem) :: tree_fit
+        type(tree_problem) :: pl
+        integer(ip) :: eqit = 0
+        real(dp) :: etol = 0.0_dp
+        real(dp), allocatable :: theta(:), thetat(:), dacc(:, :), dlast(:, :), jac(:, :), res(:), jlast(:, :), &
+            rlast(:), pred(:, :), pm(:), pw(:)
+        integer(ip), allocatable :: pp(:), nit(:), eqinfo(:)
+    contains
+        procedure :: eval => tree_fit_eval
+        procedure :: accepted => tree_fit_accepted
+        procedure :: augment => tree_fit_augment
+    end type tree_fit
 
     !> joint-space tolerance (rad or m) of the least-norm condition of a
     !> redundant chain: the null-space component of q_cmd - q' (1e-8 rad
@@ -90,16 +108,10 @@ contains
         integer(ip), intent(in) :: eqit, maxit
         real(dp), intent(out) :: theta(:), hist(:), jac(:, :), res(:), rref(3, 3)
         integer(ip), intent(out) :: nhist, niter, reason, info
-        type(tree_problem) :: pl
-        type(lm_state) :: lm
-        real(dp) :: rt(3, 3), tt(3), tw(3, 3)
-        real(dp), allocatable :: pred(:, :), delta(:, :), dx(:), thetat(:), jact(:, :), rest(:), dacc(:, :)
-        real(dp), allocatable :: jaug(:, :), raug(:)
-        integer(ip), allocatable :: nit(:), eqinfo(:), pp(:)
-        real(dp), allocatable :: pm(:), pw(:)
-        integer(ip) :: tinfo
-        integer :: n, mrow, npri, i
-        logical :: accepted
+        type(tree_fit) :: tf
+        real(dp), allocatable :: delta(:, :), jaug(:, :), raug(:), x(:)
+        integer(ip), allocatable :: nit(:), eqinfo(:)
+        integer :: n, mrow, npri
         n = pr%nfree
         mrow = 3*pr%nobs
         theta = 0.0_dp
@@ -117,7 +129,7 @@ contains
         if (maxit < 0 .or. .not. (ftol >= 0.0_dp .and. xtol >= 0.0_dp .and. gtol >= 0.0_dp)) return
         npri = 0
         if (present(ppar)) npri = size(ppar)
-        allocate(pp(npri), pm(npri), pw(npri))
+        allocate(tf%pp(npri), tf%pm(npri), tf%pw(npri))
         if (npri > 0) then
             info = sk_err_size
             if (.not. (present(pmu) .and. present(psw))) return
@@ -127,71 +139,87 @@ contains
             if (.not. all(psw >= 0.0_dp)) return
             info = sk_err_nonfinite
             if (.not. (all_finite(pmu) .and. all_finite(psw))) return
-            pp = ppar
-            pm = pmu
-            pw = psw
+            tf%pp = ppar
+            tf%pm = pmu
+            tf%pw = psw
         end if
-        allocate(jaug(mrow + npri, n), raug(mrow + npri))
-        allocate(pred(3, pr%nobs), delta(pr%m%ne, pr%np), nit(pr%np), eqinfo(pr%np), dx(n), thetat(pr%m%npar), &
-            jact(mrow, n), rest(mrow), dacc(pr%m%ne, pr%np))
-        theta = theta0
-        pl = pr
-        call evaluate(pl, theta, eqit, etol, .true., pred, res, jac, delta, nit, eqinfo, info)
+        allocate(jaug(mrow + npri, n), raug(mrow + npri), delta(pr%m%ne, pr%np), nit(pr%np), eqinfo(pr%np))
+        allocate(tf%pred(3, pr%nobs), tf%dlast(pr%m%ne, pr%np), tf%nit(pr%np), tf%eqinfo(pr%np), &
+            tf%jlast(mrow, n), tf%rlast(mrow))
+        tf%pl = pr
+        tf%eqit = eqit
+        tf%etol = etol
+        tf%theta = theta0
+        call evaluate(tf%pl, tf%theta, eqit, etol, .true., tf%pred, res, jac, delta, nit, eqinfo, info)
         if (info /= sk_ok) return
-        call augment(theta, jac, res)
+        call tf%augment(tf%theta, jac, res, jaug, raug)
         ! trials start their equilibria from the deflections at the last
         ! accepted theta (sk_tree%evaluate, warm): the same fixed point to
         ! etol in a few steps instead of a cold start's many
-        dacc = delta
-        call lm_start(lm, jaug, raug, maxit, ftol, xtol, gtol, info)
+        tf%dacc = delta
+        tf%jac = jac
+        tf%res = res
+        tf%thetat = tf%theta
+        x = tf%theta(pr%free)
+        call lm_solve(tf, x, jaug, raug, maxit, ftol, xtol, gtol, niter, reason, info, hist, nhist)
+        theta = tf%theta
+        jac = tf%jac
+        res = tf%res
+        rref = tf%pl%m%rref
         if (info /= sk_ok) return
-        nhist = 1
-        hist(1) = lm%cost
-        do while (lm%reason == lm_running)
-            call lm_step(lm, theta(pr%free), dx, info)
-            if (info /= sk_ok) return
-            thetat = theta
-            thetat(pr%free) = thetat(pr%free) + dx
-            call evaluate(pl, thetat, eqit, etol, .true., pred, rest, jact, delta, nit, eqinfo, tinfo, warm=dacc)
-            call augment(thetat, jact, rest)
-            call lm_accept(lm, tinfo == sk_ok, jaug, raug, accepted, info)
-            if (accepted) then
-                theta = thetat
-                dacc = delta
-                res = rest
-                jac = jact
-                ! re-centre the tracker rotation: rref <- rref Rx Ry Rz, angles
-                ! 0 (the same poses and Jacobian columns; never near gimbal lock)
-                call tracker_pose(pl%m, theta, rt, tt, tw)
-                pl%m%rref = rt
-                theta(pl%m%tpar(4:6)) = 0.0_dp
-                nhist = nhist + 1
-                hist(nhist) = lm%cost
-            end if
-            niter = lm%niter
-            if (info /= sk_ok) return
-        end do
-        niter = lm%niter
-        reason = lm%reason
-        rref = pl%m%rref
         info = merge(sk_err_noconv, sk_ok, reason == lm_maxit .or. reason == lm_lambda)
-
-    contains
-
-        !> The data rows (j, r) at th followed by the prior rows, in jaug, raug.
-        subroutine augment(th, j, r)
-            real(dp), intent(in) :: th(:), j(:, :), r(:)
-            integer :: c
-            jaug(1:mrow, :) = j
-            raug(1:mrow) = r
-            jaug(mrow + 1:, :) = 0.0_dp
-            do i = 1, npri
-                raug(mrow + i) = pw(i)*(th(pp(i)) - pm(i))
-                c = pr%colof(pp(i))
-                if (c > 0) jaug(mrow + i, c) = pw(i)
-            end do
-        end subroutine augment
     end subroutine tree_lm
+
+    !> tree_lm's residual at the free values x: the data rows at theta with
+    !> theta(free) = x (equilibria warm from the last accepted ones), then
+    !> the prior rows.
+    subroutine tree_fit_eval(self, x, jac, res, ok)
+        class(tree_fit), intent(inout) :: self
+        real(dp), intent(in) :: x(:)
+        real(dp), intent(out) :: jac(:, :), res(:)
+        logical, intent(out) :: ok
+        integer(ip) :: tinfo
+        self%thetat = self%theta
+        self%thetat(self%pl%free) = x
+        call evaluate(self%pl, self%thetat, self%eqit, self%etol, .true., self%pred, self%rlast, self%jlast, &
+            self%dlast, self%nit, self%eqinfo, tinfo, warm=self%dacc)
+        call self%augment(self%thetat, self%jlast, self%rlast, jac, res)
+        ok = tinfo == sk_ok
+    end subroutine tree_fit_eval
+
+    !> An accepted trial: its theta, deflections and data rows; then the
+    !> tracker rotation re-centred, rref <- rref Rx Ry Rz, angles 0 (the
+    !> same poses and Jacobian columns; never near gimbal lock).
+    subroutine tree_fit_accepted(self, x)
+        class(tree_fit), intent(inout) :: self
+        real(dp), intent(inout) :: x(:)
+        real(dp) :: rt(3, 3), tt(3), tw(3, 3)
+        self%theta = self%thetat
+        self%dacc = self%dlast
+        self%res = self%rlast
+        self%jac = self%jlast
+        call tracker_pose(self%pl%m, self%theta, rt, tt, tw)
+        self%pl%m%rref = rt
+        self%theta(self%pl%m%tpar(4:6)) = 0.0_dp
+        x = self%theta(self%pl%free)
+    end subroutine tree_fit_accepted
+
+    !> The data rows (j, r) at th followed by the prior rows, in jaug, raug.
+    pure subroutine tree_fit_augment(self, th, j, r, jaug, raug)
+        class(tree_fit), intent(in) :: self
+        real(dp), intent(in) :: th(:), j(:, :), r(:)
+        real(dp), intent(out) :: jaug(:, :), raug(:)
+        integer :: c, i, mrow
+        mrow = size(r)
+        jaug(1:mrow, :) = j
+        raug(1:mrow) = r
+        jaug(mrow + 1:, :) = 0.0_dp
+        do i = 1, size(self%pp)
+            raug(mrow + i) = self%pw(i)*(th(self%pp(i)) - self%pm(i))
+            c = self%pl%colof(self%pp(i))
+            if (c > 0) jaug(mrow + i, c) = self%pw(i)
+        end do
+    end subroutine tree_fit_augment
 
     !> Compensation of n rows: for row i, the joint command qout(:,i) that
     !> puts frame(i) of the identified model (theta, equilibrium with the
