@@ -6,14 +6,16 @@ stops the command before any work with one line naming the option."""
 from __future__ import annotations
 
 import argparse
+import textwrap
 from collections.abc import Callable, Collection
 
 import numpy as np
 
 from ..errors import InputError
 from ..io import validate as V
+from ..robot import catalogue
 
-__all__ = ["number", "count", "vector", "numbers_list", "choice_list"]
+__all__ = ["number", "count", "vector", "numbers_list", "choice_list", "kinds_help"]
 
 
 def _float(text: str, option: str) -> float:
@@ -92,3 +94,53 @@ def choice_list(text: str, option: str, choices: Collection[str]) -> list[str]:
     if bad:
         raise InputError(f"{option}: unknown {', '.join(bad)}; choose from {', '.join(choices)}")
     return items
+
+
+def kinds_help(data: str, indent: int = 2, width: int = 100) -> str:
+    """The kinds of data kind ``data`` for a command's --help (``stiffkit fit
+    --help``), one entry each, from the catalogue (robot/catalogue.py): its law, its target, its parameters as
+    printed after ``<target>.`` with their units, what its other keys mean
+    (``usage``, else their names) and whether it needs a ``joint`` effect
+    on its joint."""
+    nb = "\xa0"  # a unit or a parenthesis is not broken across lines
+
+    def keep(text: str) -> str:
+        out, depth = [], 0
+        for ch in text.replace("`", ""):
+            depth += (ch == "(") - (ch == ")")
+            out.append(nb if ch == " " and depth > 0 else ch)
+        return "".join(out)
+
+    out = []
+    for e in catalogue.ENTRIES:
+        if data not in e.data:
+            continue
+        groups: list[tuple[list[str], str]] = []  # consecutive parameters of one unit
+        for p in e.params:
+            if groups and groups[-1][1] == p.unit:
+                groups[-1][0].append(p.suffix)
+            else:
+                groups.append(([p.suffix], p.unit))
+        params = e.params_text or ", ".join(f"{', '.join(names)} ({unit})" for names, unit in groups)
+        parts = [e.formula]
+        if e.target != "none":
+            parts.append(f"target = {e.target}")
+        parts.append(f"parameters {params}")
+        if e.value_key != "value":
+            parts.append(f"a known value as {e.value_key} = ...")
+        extra = sorted(e.keys[data] - {"target", "value", e.value_key})
+        if e.usage:
+            parts.append(e.usage)
+        elif extra:
+            parts.append(f"keys {', '.join(extra)}")
+        if data in e.needs_joint:
+            parts.append("needs a joint effect on the same joint")
+        lines = textwrap.wrap(
+            keep("; ".join(parts)),
+            width,
+            initial_indent=f"{' ' * indent}{e.name:20s} ",
+            subsequent_indent=" " * (indent + 21),
+            break_on_hyphens=False,
+        )
+        out += [line.replace(nb, " ") for line in lines]
+    return "\n".join(out)

@@ -53,6 +53,7 @@ from ..calib.robust import format_checks, robust_fit
 from ..errors import InputError
 from ..io import validate as V
 from ..io.files import check_plots_folder, model_inputs, write_json
+from ..robot import catalogue
 from ..robot.model import KINDS, Model, load_model
 from ..robot.tree_model import model_kind
 from . import args as A
@@ -80,20 +81,8 @@ inputs:
                (wrench at the tool-frame origin in base axes; point in tool
                coordinates; deflection in base axes; SI units)
 
-effects (where each virtual spring acts; parameter names as printed):
-  joint             target = joint name or "all": rotation about the axis, c (rad/(N m)) -> J.c
-  link              target = link: 6x6 spring at the link's distal joint frame (before that
-                    joint's rotation); template = full (21) | beam (8, eq. 13; axis = x|y|z)
-                    | diagonal (6) -> link.cIJ, I<=J over (dx dy dz rx ry rz)
-  base / tool       6x6 spring at the base_link origin / the tool frame
-  joint_profile     c(q) = c0 + c1 cos q + c2 sin q + c3 cos 2q + c4 sin 2q
-  gravity_compensator  spring between the bodies of a joint: give a, b, beta, s0 (m, rad);
-                    identifies k_s (N/m); needs a joint effect on the same joint
-  point_offset      the measured points sit at p + r (tool frame): identifies r (m)
-  joint_cubic       (extension) a joint stiffening or softening with the load: adds c3 tau^3 to its
-                    rotation, tau the torque of the row's wrench about the joint -> J.cubic (rad/(N m)^3)
-  joint_deadzone    (extension) backlash: adds b tanh(tau / tau0) (b in rad; tau0 in N m, default 5 % of
-                    the RMS torque about the joint in the data, written back) -> J.backlash
+effects (robot/catalogue.py; a parameter is printed as <target>.<name>, e.g. joint_a2.c):
+{effects}
   every kind of both data kinds, its parameters and law: docs/calibration.md section 8
   a parameter that the loads do not excite (its joint's torque, or its spring column, below 1e-6 of
   the best-excited of its kind) is non-identifiable: value 0 (a placeholder) and a reason
@@ -134,7 +123,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "fit",
         help="identify a robot's elastostatic parameters from measurements",
         description=__doc__,
-        epilog=HELP.replace("{kinds}", _kinds_text()),
+        epilog=HELP.replace("{kinds}", _kinds_text()).replace("{effects}", A.kinds_help(catalogue.DEFLECTION)),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("model", help="model TOML")

@@ -29,8 +29,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .model_bodies import BODY_KEYS, MASS_MAX, body_candidates
-
 if TYPE_CHECKING:
     from .model import Model
     from .tree_model import TreeModel
@@ -67,6 +65,10 @@ LAWS = {
     "LAW_HARMONIC": LAW_HARMONIC,
     "LAW_JOINT": LAW_JOINT,
 }
+#: bounds of the gravity parameters (robot/model_bodies.py): a mass factor in [0, MASS_MAX], a centre
+#: offset within COM_MAX m
+MASS_MAX, COM_MAX = 100.0, 1.0
+_BODY_KEYS = frozenset({"target", "value", "prior"})
 #: default smoothing of joint_deadzone: tau0 = this fraction of the RMS torque about the joint in the data
 DEADZONE_TAU0_FRACTION = 0.05
 
@@ -139,6 +141,8 @@ class Kind:
     candidate_in: tuple[str, ...] = DATA_KINDS
     #: how the candidates are generated (docs)
     candidates_text: str = ""
+    #: what its table's other keys mean, for a command's --help (:func:`help_text`)
+    usage: str = ""
 
     @property
     def names(self) -> list[str]:
@@ -220,7 +224,25 @@ def _offset_candidates(model: Model, data: str, ctx: dict, kind: Kind) -> list[t
 
 
 def _body_candidates(model: TreeModel, data: str, ctx: dict, kind: Kind) -> list[tuple[dict, str]]:
-    return [(t, "") for t in body_candidates(model)]  # mass factors (robot/model_bodies.py)
+    """Mass factors (robot/model_bodies.py): on every link with mass the
+    model lacks one on, ``mass`` on ``all``, and ``subtree_mass`` on every
+    link whose subtree holds two links with mass or more. Only when the
+    model has an elastic effect (else they move nothing); bodies that load
+    no elastic effect have zero columns and are listed as non-identifiable
+    by the diagnosis."""
+    if not getattr(model, "elastic", False):
+        return []
+    tree = model.tree
+    have = {(p.kind, p.target) for p in model.params}
+    massive = [ln for ln in tree.links if ln in tree.inertials and tree.inertials[ln].mass > 0 and ln != tree.root]
+    missing = [ln for ln in massive if ("mass", ln) not in have]
+    out = [{"kind": "mass", "target": "all"}] if len(missing) > 1 else []
+    out += [{"kind": "mass", "target": ln} for ln in missing]
+    for ln in tree.links:
+        if ln != tree.root and ("subtree_mass", ln) not in have:
+            if sum(x in massive for x in tree.subtree(ln)) >= 2:
+                out.append({"kind": "subtree_mass", "target": ln})
+    return [(t, "") for t in out]
 
 
 def links_carrying_mass(model: TreeModel) -> list[str]:
@@ -239,6 +261,10 @@ def links_carrying_mass(model: TreeModel) -> list[str]:
 _SIX_KEYS = frozenset({"target", "template", "axis", "value", "rpy"})
 _SIX_PARAMS = "`cIJ`, I <= J over (dx dy dz rx ry rz) (m/N, rad/(N m), 1/N): 21 (`full`), 8 (`beam`), 6 (`diagonal`)"
 _JOINTS = "every joint lacking it (absolute: and `all`)"
+_SIX_USAGE = (
+    "template = full | beam (axis = x | y | z, eq. 13) | diagonal; value = 6 rows of 6 numbers or a link JSON, "
+    "rpy = axes turned from the spring frame's"
+)
 
 ENTRIES: tuple[Kind, ...] = (
     Kind(
@@ -298,6 +324,7 @@ ENTRIES: tuple[Kind, ...] = (
         scalar=True,
         candidates=_joint_candidates,
         candidates_text=_JOINTS,
+        usage="rotation about the joint's axis; target = all: one per actuated joint",
     ),
     Kind(
         "joint_profile",
@@ -327,6 +354,7 @@ ENTRIES: tuple[Kind, ...] = (
         value_key="k_s",
         scalar=True,
         candidates_text="through its generic form joint_profile (a hint names it)",
+        usage="a spring between the bodies of the joint of geometry a, b, beta, s0 (m, m, rad, m)",
     ),
     Kind(
         "lateral",
@@ -376,6 +404,8 @@ ENTRIES: tuple[Kind, ...] = (
         candidate_in=(DEFLECTION,),
         candidates_text=f"deflection data: every actuated joint lacking it (tau0 {DEADZONE_TAU0_FRACTION:.0%} "
         "of the RMS torque)",
+        usage=f"backlash +-b; tau0 (N m) defaults to {DEADZONE_TAU0_FRACTION:.0%} of the RMS torque about the joint "
+        "in the data (written back)",
     ),
     Kind(
         "joint_harmonic",
@@ -405,6 +435,7 @@ ENTRIES: tuple[Kind, ...] = (
         candidates=_link_candidates,
         candidates_text="deflection: every link, templates beam, diagonal, full; "
         "absolute: every link carrying mass, beam",
+        usage=_SIX_USAGE + "; the link's spring frame is its distal joint's frame before that joint's motion",
     ),
     Kind(
         "base",
@@ -417,6 +448,7 @@ ENTRIES: tuple[Kind, ...] = (
         law="LAW_SPRING6",
         candidates=_end_candidates,
         candidates_text="deflection: diagonal, full; absolute: full (when a link carries mass)",
+        usage=_SIX_USAGE,
     ),
     Kind(
         "tool",
@@ -428,6 +460,7 @@ ENTRIES: tuple[Kind, ...] = (
         params_text=_SIX_PARAMS,
         candidates=_end_candidates,
         candidates_text="diagonal, full",
+        usage=_SIX_USAGE,
     ),
     Kind(
         "point_offset",
@@ -445,9 +478,10 @@ ENTRIES: tuple[Kind, ...] = (
         "mass",
         (ABSOLUTE,),
         "link with mass or `all`",
-        {ABSOLUTE: frozenset(BODY_KEYS["mass"])},
-        (Param("mass", "factor", lo=0.0, hi=MASS_MAX, default=1.0),),
+        {ABSOLUTE: _BODY_KEYS},
+        (Param("mass", "factor", lo=0.0, hi=MASS_MAX, default=1.0, label="mass factor"),),
         "mass = URDF mass * factor",
+        scalar=True,
         candidates=_body_candidates,
         candidates_text="every link with mass lacking it, `all`; subtree_mass on subtrees of 2+ massive links",
     ),
@@ -455,17 +489,18 @@ ENTRIES: tuple[Kind, ...] = (
         "subtree_mass",
         (ABSOLUTE,),
         "link",
-        {ABSOLUTE: frozenset(BODY_KEYS["subtree_mass"])},
-        (Param("subtree_mass", "factor", lo=0.0, hi=MASS_MAX, default=1.0),),
+        {ABSOLUTE: _BODY_KEYS},
+        (Param("subtree_mass", "factor", lo=0.0, hi=MASS_MAX, default=1.0, label="mass factor"),),
         "every mass of the subtree * factor",
+        scalar=True,
         candidates_text="with mass (above)",
     ),
     Kind(
         "com",
         (ABSOLUTE,),
         "link with mass or `all`",
-        {ABSOLUTE: frozenset(BODY_KEYS["com"])},
-        (Param("com_x", "m"), Param("com_y", "m"), Param("com_z", "m")),
+        {ABSOLUTE: _BODY_KEYS},
+        tuple(Param(f"com_{a}", "m", lo=-COM_MAX, hi=COM_MAX, label=f"d{a}") for a in "xyz"),
         "centre of mass = URDF centre + (com_x, com_y, com_z)",
     ),
 )

@@ -53,6 +53,11 @@ def _limits(p: Param) -> dict:
     return {"lo": p.lo if p.lo > -math.inf else None, "hi": p.hi if p.hi < math.inf else None}
 
 
+def _two_sided(p: Param) -> bool:
+    """Bounded on both sides (a mass factor, a centre offset): the message names the bound it passed."""
+    return p.lo > -math.inf and p.hi < math.inf
+
+
 def _unit(p: Param) -> dict:
     return {} if p.quantity else {"unit": p.unit}
 
@@ -70,7 +75,14 @@ def effect_values(table: dict, kind: str, where: str) -> np.ndarray | None:
     v = table[key]
     if e.scalar:
         p = e.params[0]
-        return np.array([V.number(v, f"{where}: {key}", p.quantity or None, **_limits(p), **_unit(p))])
+        if isinstance(v, bool):
+            raise InputError(f"{where}: {key} must be a finite number, got {v!r} (a boolean)")
+        if not _two_sided(p):
+            return np.array([V.number(v, f"{where}: {key}", p.quantity or None, **_limits(p), **_unit(p))])
+        x = V.number(v, f"{where}: {key}", p.quantity or None, **_unit(p))
+        if not p.lo <= x <= p.hi:
+            raise InputError(f"{where}: {key} = {x:g}: a {p.label or p.suffix} must be in [{p.lo:g}, {p.hi:g}]")
+        return np.array([x])
     n = len(e.params)
     if e.broadcast and isinstance(v, (int, float)) and not isinstance(v, bool):
         v = [v] * n
@@ -82,6 +94,13 @@ def effect_values(table: dict, kind: str, where: str) -> np.ndarray | None:
     vals = V.array(v, f"{where}: {key}", (n,), q)
     for k, (x, p) in enumerate(zip(vals, e.params)):
         bad = (p.lo > -math.inf and x < p.lo) or (p.hi < math.inf and x > p.hi)
+        if bad and _two_sided(p):
+            edge = p.hi if x > p.hi else p.lo
+            slip = " (in mm? the file is in m)" if p.unit == "m" else ""
+            raise InputError(
+                f"{where}: {key}[{k}] = {x:g} {p.unit} ({p.suffix}) is beyond {edge:g} {p.unit}: it must be in "
+                f"[{p.lo:g}, {p.hi:g}]{slip}; got {v!r}"
+            )
         if bad:
             lo, hi = _limits(p).values()
             need = f">= {lo:g}" if hi is None else (f"<= {hi:g}" if lo is None else f"in [{lo:g}, {hi:g}]")

@@ -35,29 +35,21 @@ import math
 import numpy as np
 
 from ..errors import InputError
+from .catalogue import COM_MAX, MASS_MAX
+from .effect_values import effect_values
 
 __all__ = [
     "BODY_KINDS",
-    "BODY_KEYS",
     "MASS_PRIOR",
     "COM_PRIOR",
     "body_entries",
     "prior_rows",
-    "body_candidates",
     "body_table",
-    "subtree_links",
 ]
 
 BODY_KINDS = ("mass", "subtree_mass", "com")
-BODY_KEYS = {
-    "mass": {"target", "value", "prior"},
-    "subtree_mass": {"target", "value", "prior"},
-    "com": {"target", "value", "prior"},
-}
 #: default prior sigmas: a mass factor (dimensionless), a centre offset (m)
 MASS_PRIOR, COM_PRIOR = 0.5, 0.05
-#: bounds: a mass factor in [0, MASS_MAX], a centre offset within COM_MAX m
-MASS_MAX, COM_MAX = 100.0, 1.0
 #: the position sigma (m) that weighs the prior rows when the model declares none
 PRIOR_POSITION_SCALE = 1e-4
 COM_NAMES = ("com_x", "com_y", "com_z")
@@ -67,23 +59,6 @@ def _number(v: object, where: str, what: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
         raise InputError(f"{where}: {what} must be a finite number, got {v!r}")
     return float(v)
-
-
-def subtree_links(tree: object, link: str) -> list[str]:
-    """The link and every link below it."""
-    out, todo = [], [link]
-    while todo:
-        ln = todo.pop()
-        out.append(ln)
-        todo += [j.child for j in tree.children(ln)]
-    return out
-
-
-def _factor(table: dict, where: str) -> float:
-    val = _number(table["value"], where, "value")
-    if not 0 <= val <= MASS_MAX:
-        raise InputError(f"{where}: a mass factor must be in [0, {MASS_MAX:g}], got {val:g}")
-    return val
 
 
 def _prior(table: dict, where: str, default: float, bound: float, unit: str) -> float:
@@ -131,22 +106,12 @@ def body_entries(b: object, tree: object, by_kind: dict, bodies: list[str], wher
                 links = [target]
             if kind == "mass":
                 sigma = _prior(table, w, MASS_PRIOR, MASS_MAX, "(a factor)")
-                val = None
-                if "value" in table:
-                    val = _factor(table, w)
             else:
                 sigma = _prior(table, w, COM_PRIOR, COM_MAX, "m")
-                val = None
-                if "value" in table:
-                    v = table["value"]
-                    val = np.asarray(v, float) if isinstance(v, list) and len(v) == 3 else None
-                    if val is None or not np.all(np.isfinite(val)):
-                        raise InputError(f"{w}: value must be [dx, dy, dz] in m, got {v!r}")
-                    if np.any(np.abs(val) > COM_MAX):
-                        raise InputError(
-                            f"{w}: a centre offset beyond {COM_MAX:g} m ({list(val)}) is not an error of an "
-                            f"inertial (in mm? the file is in m)"
-                        )
+            # the known value: the one check of every kind's values, its bounds the catalogue's
+            val = effect_values(table, kind, w)
+            if val is not None and kind == "mass":
+                val = float(val[0])
             for ln in links:
                 done[ln] = w
                 if kind == "mass":
@@ -168,11 +133,12 @@ def body_entries(b: object, tree: object, by_kind: dict, bodies: list[str], wher
         if target in seen:
             raise InputError(f"{w}: link {target!r} already has a subtree_mass effect ({seen[target]})")
         seen[target] = w
-        members = [ln for ln in subtree_links(tree, target) if mass.get(ln, 0.0) > 0]
+        members = [ln for ln in tree.subtree(target) if mass.get(ln, 0.0) > 0]
         if not members:
             raise InputError(f"{w}: no link of the subtree of {target!r} has mass in the URDF")
         sigma = _prior(table, w, MASS_PRIOR, MASS_MAX, "(a factor)")
-        val = _factor(table, w) if "value" in table else None
+        val = effect_values(table, "subtree_mass", w)
+        val = None if val is None else float(val[0])
         name = f"{target}.subtree_mass"
         pi = b.add_param(name, "subtree_mass", target, i, 1.0 if val is None else val, val is None)
         entries += [(body_of[ln], 1, pi) for ln in members]
@@ -194,30 +160,6 @@ def prior_rows(model: object, free: np.ndarray, sigma_position: float | None = N
     mu = np.array([1.0 if model.params[i].kind != "com" else 0.0 for i in idx])
     sw = np.array([s / priors[model.params[i].name] for i in idx])
     return np.array(idx, int), mu, sw
-
-
-def body_candidates(model: object) -> list[dict]:
-    """Diagnosis candidates (calib/absolute_diagnose.py): a mass factor on
-    every link with mass the model lacks one on, ``mass`` on ``all``, and
-    ``subtree_mass`` on every link whose subtree holds two links with mass
-    or more. Only when the model has an elastic effect (else they move
-    nothing); bodies that load no elastic effect have zero columns and
-    are listed as non-identifiable by the diagnosis."""
-    if not getattr(model, "elastic", False):
-        return []
-    tree = model.tree
-    have = {(p.kind, p.target) for p in model.params}
-    massive = [ln for ln in tree.links if ln in tree.inertials and tree.inertials[ln].mass > 0 and ln != tree.root]
-    missing = [ln for ln in massive if ("mass", ln) not in have]
-    out = [{"kind": "mass", "target": "all"}] if len(missing) > 1 else []
-    out += [{"kind": "mass", "target": ln} for ln in missing]
-    for ln in tree.links:
-        if ln == tree.root or ("subtree_mass", ln) in have:
-            continue
-        members = [x for x in subtree_links(tree, ln) if x in massive]
-        if len(members) >= 2:
-            out.append({"kind": "subtree_mass", "target": ln})
-    return out
 
 
 def body_table(kind: str, target: str, vals: dict[str, float]) -> tuple[dict, list[str]]:

@@ -131,6 +131,15 @@ class Tree:
         """The joints whose parent is ``link`` (breadth-first order)."""
         return list(self._kids.get(link, ()))
 
+    def subtree(self, link: str) -> list[str]:
+        """The link and every link below it."""
+        out, todo = [], [link]
+        while todo:
+            ln = todo.pop()
+            out.append(ln)
+            todo += [j.child for j in self.children(ln)]
+        return out
+
     def leader(self, name: str) -> tuple[str, float, float]:
         """(actuated joint, multiplier, offset) that drives joint ``name``:
         itself with (1, 0) when it is actuated; mimic chains are followed."""

@@ -201,7 +201,7 @@ def test_written_model_reads_back_with_the_same_numbers(masses, tmp_path):
         ({"kind": "mass", "target": "all", "value": 1.1}, "needs one target link"),
         ({"kind": "mass", "target": "l1", "prior": -0.1}, "prior = -0.1 must be a sigma in [0, 100]"),
         ({"kind": "com", "target": "l1", "value": [30, 0, 0]}, "beyond 1 m"),
-        ({"kind": "com", "target": "l1", "value": [0.1, 0]}, "value must be [dx, dy, dz] in m"),
+        ({"kind": "com", "target": "l1", "value": [0.1, 0]}, "value must be [dx, dy, dz] (m)"),
         ({"kind": "com", "target": "l1", "prior": 2.0}, "must be a sigma in [0, 1] m"),
         ({"kind": "subtree_mass", "target": "l_tcp"}, "no link of the subtree of 'l_tcp' has mass"),
         ({"kind": "mass", "target": "l1", "scale": 2}, "unknown key(s) scale"),

@@ -63,6 +63,29 @@ def test_docs_table_is_the_catalogue():
     assert rows[: len(catalogue.ENTRIES)] == [e.name for e in catalogue.ENTRIES]
 
 
+def test_fit_help_is_the_catalogue():
+    """stiffkit fit --help lists every deflection kind once, in catalogue
+    order, with its law, its parameters and units and what its keys mean,
+    as the catalogue says them."""
+    from stiffkit.cli.app import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    epilog = sub.choices["fit"].epilog
+    section = epilog[epilog.index("effects (robot/catalogue.py") : epilog.index("  every kind of both data kinds")]
+    heads = list(re.finditer(r"^  ([a-z_0-9]+) ", section, flags=re.M))
+    assert [m.group(1) for m in heads] == list(catalogue.kinds(catalogue.DEFLECTION))
+    ends = [m.start() for m in heads[1:]] + [len(section)]
+    for m, end in zip(heads, ends):
+        e = catalogue.KIND[m.group(1)]
+        entry = " ".join(section[m.end() : end].split())  # the wrapping aside
+        assert entry.startswith(" ".join(e.formula.split()) + ";"), e.name
+        for p in e.params:
+            assert p.suffix in entry and p.unit in entry, (e.name, p.suffix)
+        if e.usage:
+            assert " ".join(e.usage.split()) in entry, e.name
+        assert ("needs a joint effect" in entry) == (catalogue.DEFLECTION in e.needs_joint), e.name
+
+
 def test_readers_take_the_catalogue():
     """Both readers' kind lists and key tables are the catalogue's, and the
     dead-zone fraction is defined once."""
