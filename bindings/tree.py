@@ -237,6 +237,21 @@ def lm(
     }
 
 
+def compliance(
+    model: PackedTree, theta: np.ndarray, frame: int, q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Compliance C (np, 6, 6) of virtual joint ``frame``'s frame (1-based;
+    base axes, about its origin) at postures q (np, ndof), theta (np, npar)
+    the parameters of each posture, at the undeflected frames with every
+    law's tangent at zero load (core/sk_tree_point.f90); its stiffness K
+    (np, 6, 6; zero where C is singular), rank (np,) and kinfo (np,: 0 where
+    K = C^-1)."""
+    args = dict(theta=_f(np.asarray(theta, float).T), q=_f(np.asarray(q, float).T))
+    c, k, rank, kinfo, info, errloc = _tree.sk_tree_compliance(model.mi, model.mr, **args, frame=int(frame))
+    _check(info, errloc, "compliance (sk_tree_compliance)", dict(args, model=model.arrays, ne=model.ne))
+    return np.transpose(c, (2, 0, 1)), np.transpose(k, (2, 0, 1)), rank, kinfo
+
+
 def frame_jacobian(
     model: PackedTree,
     theta: np.ndarray,

@@ -22,13 +22,12 @@ module sk_chain_tree
     use sk_kinds, only: dp, ip
     use sk_errors
     use sk_linalg, only: eye, all_finite
-    use sk_small_sym, only: psd_defect, psd_tol
     use sk_spatial, only: nsym, sym_index
     use sk_laws, only: law_linear, law_spring6
     use sk_tree_check, only: vj_fixed, vj_revolute, vj_prismatic
     use sk_tree_model, only: tree_model, tree_state, model_setup, state_init
     use sk_tree_equil, only: deflected_frames, posture_values
-    use sk_tree_point, only: point_twists, point_compliance, compliance_stiffness
+    use sk_tree_point, only: point_twists, compliance_batch
     use sk_chain, only: spring_joint, spring_frame, spring_base, spring_tool, spring_ndof, check_chain
     implicit none
     private
@@ -168,10 +167,11 @@ contains
 
     !> Tool compliance c[6,6,np] = sum_s J_s C_s J_s^T of the chain at np
     !> postures q[ndof,np] (base axes, about the tool-frame origin): the
-    !> tool point's compliance of the chain's tree model (sk_tree_point),
-    !> joint spring s with the per-posture compliance cj(s, ip), 6-dof
-    !> spring s with the constant cs[6,6,s]. Stiffness k, rank and kinfo of
-    !> each posture: sk_tree_point%compliance_stiffness. info: sk_ok,
+    !> tool point's compliance of the chain's tree model, its springs law
+    !> blocks whose parameters are each posture's values (joint spring s:
+    !> the compliance cj(s, ip); 6-dof spring s: the constant cs[6,6,s]),
+    !> with its stiffness k, rank and kinfo (sk_tree_point%compliance_batch,
+    !> the one evaluator of a point's compliance). info: sk_ok,
     !> sk_err_argument (check_chain), sk_err_nonfinite, sk_err_indefinite (a
     !> negative joint compliance or an indefinite 6x6 spring: no spring),
     !> sk_err_overflow.
@@ -183,53 +183,48 @@ contains
         real(dp), intent(out) :: c(:, :, :), k(:, :, :)
         integer(ip), intent(out) :: rank(:), kinfo(:), info
         type(tree_model) :: m
-        type(tree_state) :: st
         integer, allocatable :: sv(:)
-        integer :: ipost, s, e, ia, ib, tool
+        integer(ip), allocatable :: bktype(:), bkpar(:, :)
+        real(dp), allocatable :: theta(:, :)
+        integer :: s, e, ia, ib, tool, ns, npar
         c = 0.0_dp
         k = 0.0_dp
         rank = 0
         kinfo = 0
         call check_chain(jaxis, qidx, size(q, 1, kind=ip), stype, sidx, info)
         if (info /= sk_ok) return
-        if (.not. (all_finite(q) .and. all_finite(cs) .and. all_finite(cj))) then
-            info = sk_err_nonfinite
-            return
-        end if
-        ! a negative joint compliance or an indefinite 6x6 spring is no spring:
-        ! it would show as a lost rank or a negative tool compliance instead
-        do s = 1, size(stype)
+        ns = size(stype)
+        ! theta of each posture: one slot per joint spring, 21 per 6-dof spring
+        allocate(bktype(ns), bkpar(nsym, ns), sv(ns))
+        bkpar = 0
+        npar = 0
+        do s = 1, ns
             if (stype(s) == spring_joint) then
-                if (any(cj(s, :) < 0.0_dp)) info = sk_err_indefinite
-            else if (psd_defect(6, cs(:, :, s)) < -psd_tol) then
-                info = sk_err_indefinite
+                bktype(s) = law_linear
+                bkpar(1, s) = int(npar + 1, ip)
+                npar = npar + 1
+            else
+                bktype(s) = law_spring6
+                bkpar(:, s) = [(int(npar + e, ip), e = 1, nsym)]
+                npar = npar + nsym
             end if
-            if (info /= sk_ok) return
         end do
-        allocate(sv(size(stype)))
+        allocate(theta(max(npar, 1), size(q, 2)))
+        theta = 0.0_dp
+        do s = 1, ns
+            if (stype(s) == spring_joint) then
+                theta(bkpar(1, s), :) = cj(s, :)
+            else
+                do e = 1, nsym
+                    call sym_index(e, ia, ib)
+                    theta(bkpar(e, s), :) = cs(ia, ib, s)
+                end do
+            end if
+        end do
         call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, 1, kind=ip), m, sv, &
-            tool, info)
+            tool, info, bktype, bkpar, [(1.0_dp, s = 1, ns)], int(max(npar, 1), ip), [1, 1, 1, 1, 1, 1], [1, 1, 1])
         if (info /= sk_ok) return
-        call state_init(m, st)
-        do ipost = 1, size(q, 2)
-            call zero_state(m, st, q(:, ipost))
-            ! the springs' values are the laws' parameters (block s = spring s)
-            do s = 1, size(stype)
-                if (stype(s) == spring_joint) then
-                    st%par(1, s) = cj(s, ipost)
-                else
-                    do e = 1, nsym
-                        call sym_index(e, ia, ib)
-                        st%par(e, s) = cs(ia, ib, s)
-                    end do
-                end if
-            end do
-            call point_compliance(m, st, tool, c(:, :, ipost))
-            call compliance_stiffness(c(:, :, ipost), k(:, :, ipost), rank(ipost), kinfo(ipost), info)
-            if (info /= sk_ok) return
-        end do
-        info = sk_ok
-        if (.not. (all_finite(c) .and. all_finite(k))) info = sk_err_overflow
+        call compliance_batch(m, theta, tool, q, c, k, rank, kinfo, info)
     end subroutine tool_compliance_batch
 
     !> Jacobians of every spring at one posture q: jac[6, nd], the columns of

@@ -10,15 +10,17 @@
 module sk_tree_point
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: sym_eig, spd_inverse
+    use sk_linalg, only: sym_eig, spd_inverse, all_finite
+    use sk_small_sym, only: psd_defect, psd_tol
     use sk_rotation, only: cross
     use sk_laws, only: law_derivs, law_nslot
     use sk_spatial, only: nsym
     use sk_tree_check, only: vj_revolute
-    use sk_tree_model, only: tree_model, tree_state, ancestor
+    use sk_tree_model, only: tree_model, tree_state, ancestor, state_init
+    use sk_tree_equil, only: posture_values, deflected_frames
     implicit none
     private
-    public :: point_twists, point_compliance, compliance_stiffness
+    public :: point_twists, point_compliance, compliance_stiffness, compliance_batch
 
 contains
 
@@ -53,22 +55,32 @@ contains
     !> axes) at the state st (frames without deflection, law parameters
     !> st%par): sum over the blocks k of G_k D_k G_k^T, D_k = d delta/dw of
     !> block k's law at zero load (sk_laws%law_derivs), G = point_twists;
-    !> symmetrised.
-    pure subroutine point_compliance(m, st, vj, c)
+    !> symmetrised. Optional ok: every block's D is positive semi-definite
+    !> (a negative compliance is no spring).
+    pure subroutine point_compliance(m, st, vj, c, ok)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(in) :: st
         integer, intent(in) :: vj
         real(dp), intent(out) :: c(6, 6)
+        logical, intent(out), optional :: ok
         real(dp) :: g(6, m%ne), d(6, 6), dpar(6, nsym), dval(6), w(6), gk(6, 6)
         integer :: k, e0, n, a, b
         call point_twists(m, st, vj, st%pa(:, vj), g)
         c = 0.0_dp
         w = 0.0_dp
+        if (present(ok)) ok = .true.
         do k = 1, m%nk
             e0 = m%kfirst(k)
             n = m%kdim(k)
             call law_derivs(m%ktype(k), st%par(:, k), m%kw0(k), st%val(m%evj(e0)), w(1:n), d(1:n, 1:n), &
                 dpar(1:n, 1:law_nslot(m%ktype(k))), dval(1:n))
+            if (present(ok)) then
+                if (n == 1) then
+                    if (d(1, 1) < 0.0_dp) ok = .false.
+                else if (psd_defect(6, d) < -psd_tol) then
+                    ok = .false.
+                end if
+            end if
             if (n == 1) then
                 do b = 1, 6
                     do a = 1, 6
@@ -113,5 +125,50 @@ contains
         rank = count(ev > 1.0e-12_dp*max(maxval(abs(ev)), tiny(1.0_dp)))
         kinfo = sk_err_singular
     end subroutine compliance_stiffness
+
+    !> Compliance c[6,6,np] of the frame of joint frame (1..nv; base axes,
+    !> about its origin) at np postures q[ndof,np], theta[npar,np] the
+    !> parameters of each posture (a law's value may vary from posture to
+    !> posture): point_compliance at the undeflected frames, every law's
+    !> tangent at zero load; the stiffness k, rank and kinfo of each
+    !> posture (compliance_stiffness). info: sk_ok, sk_err_size,
+    !> sk_err_argument (frame), sk_err_nonfinite, sk_err_indefinite (a
+    !> block's compliance with a negative eigenvalue: no spring),
+    !> sk_err_overflow.
+    subroutine compliance_batch(m, theta, frame, q, c, k, rank, kinfo, info)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:, :), q(:, :)
+        integer, intent(in) :: frame
+        real(dp), intent(out) :: c(:, :, :), k(:, :, :)
+        integer(ip), intent(out) :: rank(:), kinfo(:), info
+        type(tree_state) :: st
+        integer :: ipost
+        logical :: ok
+        c = 0.0_dp
+        k = 0.0_dp
+        rank = 0
+        kinfo = 0
+        info = sk_err_size
+        if (size(theta, 1) /= m%npar .or. size(theta, 2) /= size(q, 2) .or. size(q, 1) /= m%ndof) return
+        info = sk_err_argument
+        if (frame < 1 .or. frame > m%nv) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(theta) .and. all_finite(q))) return
+        call state_init(m, st)
+        do ipost = 1, size(q, 2)
+            call posture_values(m, theta(:, ipost), q(:, ipost), st)
+            st%delta = 0.0_dp
+            call deflected_frames(m, st)
+            call point_compliance(m, st, frame, c(:, :, ipost), ok)
+            if (.not. ok) then
+                info = sk_err_indefinite
+                return
+            end if
+            call compliance_stiffness(c(:, :, ipost), k(:, :, ipost), rank(ipost), kinfo(ipost), info)
+            if (info /= sk_ok) return
+        end do
+        info = sk_ok
+        if (.not. (all_finite(c) .and. all_finite(k))) info = sk_err_overflow
+    end subroutine compliance_batch
 
 end module sk_tree_point

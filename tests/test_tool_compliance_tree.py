@@ -145,3 +145,35 @@ def test_tree_route_gives_the_former_chain_numbers(chain, name):
         _close(K, np.array([_sym(u) for u in REF_K_FULL]))
     else:
         assert ok.all() or not K.any()  # no stiffness where C is singular
+
+
+@pytest.mark.parametrize("name", sorted(cases()))
+def test_the_chains_tree_model_gives_the_same_compliance(chain, name):
+    """TreeModel.compliance (the core's point compliance on a packed tree
+    model) of the chain's TreeModel (robot/compensate.py builds it for
+    compensation) at the tool frame equals Model.tool_compliance, posture
+    by posture, the varying joint compliances as per-posture parameters."""
+    from stiffkit.robot.compensate import relative_tree_model
+
+    m = model_from_tables(chain, cases()[name])
+    C, K, rank, ok = m.stiffness(Q)
+    tm, varying, _tree = relative_tree_model(m)
+    theta = np.tile(tm.theta0, (len(Q), 1))
+    jc = m.joint_compliances(Q)
+    for i, j in varying:
+        theta[:, i] = jc[j]
+    Ct, Kt, rank_t, ok_t = tm.compliance(Q, chain.tool_frame, theta)
+    assert rank_t.tolist() == rank.tolist() and (ok_t == ok).all()
+    np.testing.assert_allclose(Ct, C, rtol=1e-12, atol=1e-12 * (np.abs(C).max() + 1e-300))
+    np.testing.assert_allclose(Kt, K, rtol=1e-9, atol=1e-9 * (np.abs(K).max() + 1e-300))
+
+
+def test_tree_compliance_refuses_an_unknown_frame_and_bad_postures(chain):
+    from stiffkit.errors import InputError
+    from stiffkit.robot.compensate import relative_tree_model
+
+    tm, _varying, _tree = relative_tree_model(model_from_tables(chain, cases()["joints"]))
+    with pytest.raises(InputError, match="unknown frame 'nowhere'"):
+        tm.compliance(Q, "nowhere")
+    with pytest.raises(InputError, match=r"postures must have shape \(N, 6\)"):
+        tm.compliance(np.zeros((2, 5)), chain.tool_frame)
