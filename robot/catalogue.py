@@ -69,6 +69,8 @@ LAWS = {
 #: offset within COM_MAX m
 MASS_MAX, COM_MAX = 100.0, 1.0
 _BODY_KEYS = frozenset({"target", "value", "prior"})
+#: slots of law_joint's parameters (core/sk_laws.f90 js_*, 1-based): the profile's five, k_s
+JS_PROFILE, JS_KS = 4, 11
 #: default smoothing of joint_deadzone: tau0 = this fraction of the RMS torque about the joint in the data
 DEADZONE_TAU0_FRACTION = 0.05
 
@@ -115,6 +117,8 @@ class Kind:
     params_text: str = ""
     #: the core law of its block on absolute data ("" none)
     law: str = ""
+    #: the core's 1-based slots of its parameters in that block (default: 2, 3, ... after the joint's c)
+    slots: tuple[int, ...] = ()
     #: serial model: the code of its term in core/sk_deflect.f90 (term_*; 0: none)
     term: int = 0
     #: serial model: a term of the joint's linear compliance c(q) (at zero load)
@@ -328,17 +332,21 @@ ENTRIES: tuple[Kind, ...] = (
     ),
     Kind(
         "joint_profile",
-        (DEFLECTION,),
+        BOTH,
         "actuated joint",
-        {DEFLECTION: frozenset({"target", "value"})},
+        {DEFLECTION: frozenset({"target", "value"}), ABSOLUTE: frozenset({"target", "value"})},
         tuple(Param(f"c{m}", C_UNIT) for m in range(5)),
         "c(q) = c0 + c1 cos q + c2 sin q + c3 cos 2q + c4 sin 2q",
+        law="LAW_JOINT",
+        slots=tuple(range(JS_PROFILE, JS_PROFILE + 5)),
         term=2,
         compliance=True,
         posture_dependent=True,
+        needs_joint=(ABSOLUTE,),
         per_joint=True,
         candidates=_joint_candidates,
-        candidates_text="every actuated joint lacking it",
+        candidate_in=(DEFLECTION,),
+        candidates_text="deflection data: every actuated joint lacking it",
     ),
     Kind(
         "gravity_compensator",

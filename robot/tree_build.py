@@ -196,7 +196,7 @@ def _joint_law(b: Builder, jn: str, slot: dict, vj: int) -> tuple:
         v2 = effect_values(t2, kind, w2)
         for s, p in enumerate(e.params):
             start = p.default if v2 is None else v2[s]
-            kp[1 + s] = b.add_param(f"{jn}.{p.suffix}", kind, jn, i2, start, v2 is None)
+            kp[e.slots[s] - 1 if e.slots else 1 + s] = b.add_param(f"{jn}.{p.suffix}", kind, jn, i2, start, v2 is None)
         law = catalogue.law_code(kind)
         if e.w0_key:
             w0 = effect_w0(t2, kind, w2) or 0.0  # 0: set from the data's torque scale before the first evaluation
