@@ -238,15 +238,20 @@ def lm(
 
 
 def compliance(
-    model: PackedTree, theta: np.ndarray, frame: int, q: np.ndarray
+    model: PackedTree, theta: np.ndarray, frame: int, q: np.ndarray, vary: tuple | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Compliance C (np, 6, 6) of virtual joint ``frame``'s frame (1-based;
-    base axes, about its origin) at postures q (np, ndof), theta (np, npar)
-    the parameters of each posture, at the undeflected frames with every
-    law's tangent at zero load (core/sk_tree_point.f90); its stiffness K
-    (np, 6, 6; zero where C is singular), rank (np,) and kinfo (np,: 0 where
-    K = C^-1)."""
-    args = dict(theta=_f(np.asarray(theta, float).T), q=_f(np.asarray(q, float).T))
+    base axes, about its origin) at postures q (np, ndof) with the
+    parameters theta (npar,), at the undeflected frames with every law's
+    tangent at zero load (core/sk_tree_point.f90); ``vary``: (indices
+    (nvar,) 0-based, values (np, nvar)), parameters that take a value per
+    posture. Returns C, its stiffness K (np, 6, 6; zero where C is
+    singular), rank (np,) and kinfo (np,: 0 where K = C^-1)."""
+    q = np.asarray(q, float)
+    idx, val = (np.zeros(0, int), np.zeros((len(q), 0))) if vary is None else vary
+    if len(idx) == 0:  # f2py takes no empty (0, np) array: parameter 1 varies to its own value
+        idx, val = [0], np.full((len(q), 1), float(np.asarray(theta, float).ravel()[0]))
+    args = dict(theta=_f(theta), vidx=_i(np.asarray(idx) + 1), vval=_f(np.asarray(val, float).T), q=_f(q.T))
     c, k, rank, kinfo, info, errloc = _tree.sk_tree_compliance(model.mi, model.mr, **args, frame=int(frame))
     _check(info, errloc, "compliance (sk_tree_compliance)", dict(args, model=model.arrays, ne=model.ne))
     return np.transpose(c, (2, 0, 1)), np.transpose(k, (2, 0, 1)), rank, kinfo

@@ -65,19 +65,20 @@ subroutine sk_tree_poses(nmi, nmr, nv, ne, ndof, npar, np, nl, mi, mr, theta, q,
 end subroutine sk_tree_poses
 
 !> Compliance c[6,6,np] of the frame of joint frame (base axes, about its
-!> origin) at postures q[ndof,np], theta[npar,np] the parameters of each
-!> posture, at the undeflected frames with every law's tangent at zero
-!> load; its stiffness k, rank and kinfo (sk_tree_point%compliance_batch).
-subroutine sk_tree_compliance(nmi, nmr, nv, ne, ndof, npar, np, mi, mr, theta, frame, q, c, k, rank, kinfo, &
-        info, errloc)
+!> origin) at postures q[ndof,np] with the parameters theta[npar], those of
+!> vidx[nvar] taking each posture's values vval[nvar,np], at the undeflected
+!> frames with every law's tangent at zero load; its stiffness k, rank and
+!> kinfo (sk_tree_point%compliance_batch).
+subroutine sk_tree_compliance(nmi, nmr, nv, ne, ndof, npar, np, nvar, mi, mr, theta, vidx, vval, frame, q, &
+        c, k, rank, kinfo, info, errloc)
     use, intrinsic :: iso_c_binding, only: c_double, c_int
     use sk_errors, only: sk_ok
     use sk_tree, only: tree_model
     use sk_tree_pack, only: unpack_with_inputs
     use sk_tree_point, only: compliance_batch
     implicit none
-    integer(c_int), intent(in) :: nmi, nmr, nv, ne, ndof, npar, np, mi(nmi), frame
-    real(c_double), intent(in) :: mr(nmr), theta(npar, np), q(ndof, np)
+    integer(c_int), intent(in) :: nmi, nmr, nv, ne, ndof, npar, np, nvar, mi(nmi), vidx(nvar), frame
+    real(c_double), intent(in) :: mr(nmr), theta(npar), vval(nvar, np), q(ndof, np)
     real(c_double), intent(out) :: c(6, 6, np), k(6, 6, np)
     integer(c_int), intent(out) :: rank(np), kinfo(np), info, errloc(2)
     type(tree_model) :: m
@@ -87,9 +88,9 @@ subroutine sk_tree_compliance(nmi, nmr, nv, ne, ndof, npar, np, mi, mr, theta, f
     k = 0
     rank = 0
     kinfo = 0
-    call unpack_with_inputs(mi, mr, nv, ne, theta(:, 1), q, none, none, nonew, 0.0_c_double, m, info, errloc)
+    call unpack_with_inputs(mi, mr, nv, ne, theta, q, none, none, nonew, 0.0_c_double, m, info, errloc)
     if (info /= sk_ok) return
-    call compliance_batch(m, theta, int(frame), q, c, k, rank, kinfo, info)
+    call compliance_batch(m, theta, vidx, vval, int(frame), q, c, k, rank, kinfo, info)
 end subroutine sk_tree_compliance
 
 !> Predicted points pred[3,no], weighted residuals res[3*no] and Jacobian

@@ -185,8 +185,9 @@ contains
         type(tree_model) :: m
         integer, allocatable :: sv(:)
         integer(ip), allocatable :: bktype(:), bkpar(:, :)
-        real(dp), allocatable :: theta(:, :)
-        integer :: s, e, ia, ib, tool, ns, npar
+        integer(ip), allocatable :: vidx(:)
+        real(dp), allocatable :: theta(:), vval(:, :)
+        integer :: s, e, ia, ib, tool, ns, npar, nvar
         c = 0.0_dp
         k = 0.0_dp
         rank = 0
@@ -209,22 +210,26 @@ contains
                 npar = npar + nsym
             end if
         end do
-        allocate(theta(max(npar, 1), size(q, 2)))
+        ! the 6-dof springs' values are constant, the joint springs' vary per posture
+        allocate(theta(max(npar, 1)), vidx(count(stype == spring_joint)), vval(count(stype == spring_joint), size(q, 2)))
         theta = 0.0_dp
+        nvar = 0
         do s = 1, ns
             if (stype(s) == spring_joint) then
-                theta(bkpar(1, s), :) = cj(s, :)
+                nvar = nvar + 1
+                vidx(nvar) = bkpar(1, s)
+                vval(nvar, :) = cj(s, :)
             else
                 do e = 1, nsym
                     call sym_index(e, ia, ib)
-                    theta(bkpar(e, s), :) = cs(ia, ib, s)
+                    theta(bkpar(e, s)) = cs(ia, ib, s)
                 end do
             end if
         end do
         call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, 1, kind=ip), m, sv, &
             tool, info, bktype, bkpar, [(1.0_dp, s = 1, ns)], int(max(npar, 1), ip), [1, 1, 1, 1, 1, 1], [1, 1, 1])
         if (info /= sk_ok) return
-        call compliance_batch(m, theta, tool, q, c, k, rank, kinfo, info)
+        call compliance_batch(m, theta, vidx, vval, tool, q, c, k, rank, kinfo, info)
     end subroutine tool_compliance_batch
 
     !> Jacobians of every spring at one posture q: jac[6, nd], the columns of

@@ -127,21 +127,24 @@ contains
     end subroutine compliance_stiffness
 
     !> Compliance c[6,6,np] of the frame of joint frame (1..nv; base axes,
-    !> about its origin) at np postures q[ndof,np], theta[npar,np] the
-    !> parameters of each posture (a law's value may vary from posture to
+    !> about its origin) at np postures q[ndof,np] with the parameters
+    !> theta[npar], those of the list vidx[nvar] taking each posture's
+    !> values vval[nvar,np] (a law's value that varies from posture to
     !> posture): point_compliance at the undeflected frames, every law's
     !> tangent at zero load; the stiffness k, rank and kinfo of each
     !> posture (compliance_stiffness). info: sk_ok, sk_err_size,
-    !> sk_err_argument (frame), sk_err_nonfinite, sk_err_indefinite (a
-    !> block's compliance with a negative eigenvalue: no spring),
+    !> sk_err_argument (frame, vidx), sk_err_nonfinite, sk_err_indefinite
+    !> (a block's compliance with a negative eigenvalue: no spring),
     !> sk_err_overflow.
-    subroutine compliance_batch(m, theta, frame, q, c, k, rank, kinfo, info)
+    subroutine compliance_batch(m, theta, vidx, vval, frame, q, c, k, rank, kinfo, info)
         type(tree_model), intent(in) :: m
-        real(dp), intent(in) :: theta(:, :), q(:, :)
+        real(dp), intent(in) :: theta(:), vval(:, :), q(:, :)
+        integer(ip), intent(in) :: vidx(:)
         integer, intent(in) :: frame
         real(dp), intent(out) :: c(:, :, :), k(:, :, :)
         integer(ip), intent(out) :: rank(:), kinfo(:), info
         type(tree_state) :: st
+        real(dp) :: th(size(theta))
         integer :: ipost
         logical :: ok
         c = 0.0_dp
@@ -149,14 +152,17 @@ contains
         rank = 0
         kinfo = 0
         info = sk_err_size
-        if (size(theta, 1) /= m%npar .or. size(theta, 2) /= size(q, 2) .or. size(q, 1) /= m%ndof) return
+        if (size(theta) /= m%npar .or. size(q, 1) /= m%ndof .or. size(vval, 1) /= size(vidx) &
+            .or. size(vval, 2) /= size(q, 2)) return
         info = sk_err_argument
-        if (frame < 1 .or. frame > m%nv) return
+        if (frame < 1 .or. frame > m%nv .or. any(vidx < 1) .or. any(vidx > m%npar)) return
         info = sk_err_nonfinite
-        if (.not. (all_finite(theta) .and. all_finite(q))) return
+        if (.not. (all_finite(theta) .and. all_finite(vval) .and. all_finite(q))) return
         call state_init(m, st)
+        th = theta
         do ipost = 1, size(q, 2)
-            call posture_values(m, theta(:, ipost), q(:, ipost), st)
+            th(vidx) = vval(:, ipost)
+            call posture_values(m, th, q(:, ipost), st)
             st%delta = 0.0_dp
             call deflected_frames(m, st)
             call point_compliance(m, st, frame, c(:, :, ipost), ok)

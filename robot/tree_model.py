@@ -185,22 +185,22 @@ class TreeModel:
         return pack(self.ne, self.arrays)
 
     def compliance(
-        self, Q: ArrayLike, frame: str, theta: ArrayLike | None = None
+        self, Q: ArrayLike, frame: str, theta: ArrayLike | None = None, vary: tuple | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(C, K, rank, ok) of link ``frame``'s frame at postures Q (N, dof):
         its compliance C (N, 6, 6; base axes, about the frame's origin) at
         the undeflected pose, every effect's law at zero load (one core call,
         core/sk_tree_point.f90), K = C^-1 where C is positive definite (else
-        zeros, ok False) and the rank of C. ``theta``: the parameters (npar,)
-        or one row per posture (N, npar); default theta0."""
+        zeros, ok False) and the rank of C. ``theta``: the parameters
+        (default theta0); ``vary``: (parameter indices (nvar,), values (N,
+        nvar)) that take a value per posture (a posture-dependent compliance)."""
         if frame not in self.vj_of_link:
             raise InputError(f"unknown frame {frame!r}; links of the model: {', '.join(self.vj_of_link)}")
         Q = np.atleast_2d(V.array(Q, "postures", None, "angle"))
         if Q.ndim != 2 or Q.shape[1] != len(self.actuated) or Q.shape[0] < 1:
             raise InputError(f"postures must have shape (N, {len(self.actuated)}), got {np.shape(Q)}")
-        th = self.theta0 if theta is None else V.array(theta, "theta", None)
-        th = np.broadcast_to(th, (Q.shape[0], len(self.params)))
-        C, K, rank, kinfo = core_tree.compliance(self.packed, th, self.vj_of_link[frame], Q)
+        th = self.theta0 if theta is None else V.array(theta, "theta", (len(self.params),))
+        C, K, rank, kinfo = core_tree.compliance(self.packed, th, self.vj_of_link[frame], Q, vary)
         return C, K, rank.astype(int), kinfo == 0
 
     def index(self, name: str) -> int:

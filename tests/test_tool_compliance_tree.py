@@ -158,11 +158,9 @@ def test_the_chains_tree_model_gives_the_same_compliance(chain, name):
     m = model_from_tables(chain, cases()[name])
     C, K, rank, ok = m.stiffness(Q)
     tm, varying, _tree = relative_tree_model(m)
-    theta = np.tile(tm.theta0, (len(Q), 1))
     jc = m.joint_compliances(Q)
-    for i, j in varying:
-        theta[:, i] = jc[j]
-    Ct, Kt, rank_t, ok_t = tm.compliance(Q, chain.tool_frame, theta)
+    vary = ([i for i, _j in varying], np.array([jc[j] for _i, j in varying]).reshape(-1, len(Q)).T)
+    Ct, Kt, rank_t, ok_t = tm.compliance(Q, chain.tool_frame, vary=vary)
     assert rank_t.tolist() == rank.tolist() and (ok_t == ok).all()
     np.testing.assert_allclose(Ct, C, rtol=1e-12, atol=1e-12 * (np.abs(C).max() + 1e-300))
     np.testing.assert_allclose(Kt, K, rtol=1e-9, atol=1e-9 * (np.abs(K).max() + 1e-300))
