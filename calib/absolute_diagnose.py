@@ -296,7 +296,8 @@ def diagnose_absolute(
     else:
         # held-out errors by linearised CV of the leading candidates
         for cand, cols in top:
-            cand.cv_rms_position_m = cv_of(np.concatenate([np.arange(p_a), [at[col[x]] for x in cols]]).astype(int))
+            e = cvf.held_out(np.concatenate([np.arange(p_a), [at[col[x]] for x in cols]]).astype(int))
+            cand.cv_rms_position_m, cand._cv = _cv_rms(e, w), _cv_per_posture(e, w, data.posture)
         # 3. the proposal
         propose(
             dg,
@@ -319,6 +320,8 @@ def diagnose_absolute(
             significant,
         )
     held_for_addition(dg)
+    for c in dg.candidates:
+        del c._pr, c._cols, c._cv
     for i, t in enumerate(dg.ties):  # name the command that plans the postures to tell them apart
         # (bare --discriminate takes the first tie; the others are named by their labels)
         tied = t.get("candidates") if i else None
@@ -448,6 +451,8 @@ def _score_candidates(
             continue
         fill_scores(cand, float(st[k]), d, noise, rss)
         cand.rms_after_m = math.sqrt(max(rss - st[k], 0.0) / max(np.sum(w > 0), 1))
+        # for the tie rule (diagnosis.tie_rivals): explained part, columns, held-out error per posture
+        cand._pr, cand._cols, cand._cv = _pr[:, k], J[:, [col[x] for x in cols]], None
         ranked.append((cand, cols))
     ranked.sort(key=lambda x: x[0].log_p)
     dg.candidates = [c for c, _ in ranked]
@@ -465,6 +470,21 @@ def _rms_points(e: np.ndarray, w: np.ndarray) -> float:
     use = w > 0
     d2 = np.sum(e[use] ** 2, axis=1) / w[use]
     return float(math.sqrt(np.mean(d2))) if d2.size else 0.0
+
+
+def _cv_per_posture(e: np.ndarray, w: np.ndarray, posture: np.ndarray) -> np.ndarray | None:
+    """Mean squared held-out point error (m^2) of each posture (for the
+    paired comparison of the tie rule); None when no fold could be fitted."""
+    e = e.reshape(-1, 3)
+    sw = np.sqrt(np.where(w > 0, w, np.nan))
+    d2 = np.sum((e / sw[:, None]) ** 2, axis=1)
+    ok = np.isfinite(d2)
+    if not ok.any():
+        return None
+    n = int(posture.max()) + 1
+    tot = np.bincount(posture[ok], weights=d2[ok], minlength=n)
+    cnt = np.bincount(posture[ok], minlength=n)
+    return np.where(cnt > 0, tot / np.maximum(cnt, 1), np.nan)
 
 
 def _cv_rms(e: np.ndarray, w: np.ndarray) -> float | None:

@@ -18,6 +18,7 @@ from .diagnosis_report import (
     nothing_fits_line,
     pipeline_json,
     proposal_lines,
+    tie_line,
     verdict_line,
 )
 
@@ -156,7 +157,7 @@ def format_absolute_diagnosis(dg: AbsoluteDiagnosis, top: int = 10) -> str:
             more = f" and {len(labels) - 12} more" if len(labels) > 12 else ""
             lines.append(f"  {reason}: {', '.join(labels[:12])}{more}")
     for t in dg.ties:
-        lines.append("tied (held-out errors within the margin): " + ", ".join(t["candidates"]))
+        lines.append(tie_line(t["candidates"]))
         if t.get("plan_command"):
             lines.append(f"  postures that would tell them apart: {t['plan_command']}")
     st = dg.residual_structure or {}

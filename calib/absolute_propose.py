@@ -22,8 +22,8 @@ from .absolute_data import AbsoluteData
 from .absolute_fit import _nonnegative, _solve, predict
 from .absolute_structure import structure_verdict
 from .diagnose_candidates import Candidate
-from .diagnosis import CV_GAIN, NO_HELD_OUT, ZTOL, lowers_held_out
-from .diagnosis_report import not_significant
+from .diagnosis import CV_GAIN, NO_HELD_OUT, ZTOL, lowers_held_out, tie_rivals
+from .diagnosis_report import not_significant, undecidable
 
 if TYPE_CHECKING:
     from .absolute_diagnose_report import AbsoluteDiagnosis
@@ -91,33 +91,30 @@ def propose(
             )
         if best is not None:
             break
-    useful = [c for c in useful if c.label not in tried or c is best]
     if best is None:
         dg.reasons += notes
     else:
         dg.warnings += [f"not proposed: {n}" for n in notes]
     if best is not None:
-        margin = best.cv_rms_position_m * CV_GAIN
-        rivals = [
-            c
-            for c in useful
-            if c is not best and c.cv_rms_position_m <= best.cv_rms_position_m + margin and not _nested(best, c)
-        ]
-        if rivals:
-            dg.ties.append(
-                {
-                    "candidates": [best.label] + [c.label for c in rivals],
-                    "cv_rms_position_m": [best.cv_rms_position_m] + [c.cv_rms_position_m for c in rivals],
-                }
-            )
-        dg.proposal = best
+        # the one tie rule (diagnosis.tie_rivals; was: useful rivals within CV_GAIN of its held-out
+        # error, and the proposal made): rivals that failed the check by a fit are no rivals
+        failed = tried - {best.label}
+        rivals = [c for c in tie_rivals(best, [c for c, _ in ranked], A, alpha) if c.label not in failed]
         dg.verdict = "inadequate"
+        if not rivals:
+            dg.proposal = best
+            return
+        dg.ties.append(
+            {
+                "candidates": [best.label] + [c.label for c in rivals],
+                "log10_p_values": [best.log_p / math.log(10)] + [c.log_p / math.log(10) for c in rivals],
+                "cv_rms_position_m": [best.cv_rms_position_m] + [c.cv_rms_position_m for c in rivals],
+            }
+        )
+        dg.reasons.append(undecidable([best.label] + [c.label for c in rivals]))
         return
-    if (
-        ranked
-        and not significant(ranked[0][0])
-        and (dg.verdict == "inadequate" or (sig_decl and log_p < math.log(alpha)))
-    ):
+    if ranked and not significant(ranked[0][0]) and sig_decl and log_p < math.log(alpha):
+        # the chi-square rejects, the best candidate does not pass its corrected test
         dg.reasons.append(not_significant(ranked[0][0].log_p, dg.multiplicity_p, dg.n_tests))
     elif cv_base is None and ranked:
         dg.reasons.append(NO_HELD_OUT)
@@ -214,8 +211,3 @@ def _smaller_first(
         f"{best.cv_rms_position_m * 1e3:.4g} mm): the simpler effect first"
     )
     return pick
-
-
-def _nested(a: Candidate, b: Candidate) -> bool:
-    """One candidate contains the other (a kind on ``all`` and on one joint)."""
-    return a.kind == b.kind and "all" in (a.target, b.target)

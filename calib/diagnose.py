@@ -56,7 +56,6 @@ from .diagnose_candidates import Candidate, candidate_tables, inert_reasons
 from .diagnose_rank import (
     COMPENSATOR_MATCH,
     CV_TOP,
-    DUPLICATE_COS,
     EQUIVALENT,
     HINT_COMPENSATOR,
     NOTHING_FITS,
@@ -82,6 +81,7 @@ from .diagnose_stats import (
     pure_error,
 )
 from .diagnosis import (
+    DUPLICATE_COS,
     Noise,
     bonferroni,
     corrected_p,

@@ -14,9 +14,9 @@ import numpy as np
 from .._core import calib as core
 from ..robot.model import Model, compensator_h
 from .diagnose_candidates import Candidate
-from .diagnose_stats import TIE_LOG10, ZTOL, _cos, _cv_better, _nested, logsf_chi2
-from .diagnosis import CV_GAIN, NO_HELD_OUT, lowers_held_out
-from .diagnosis_report import not_significant
+from .diagnose_stats import ZTOL, logsf_chi2
+from .diagnosis import CV_GAIN, NO_HELD_OUT, lowers_held_out, tie_rivals
+from .diagnosis_report import not_significant, undecidable
 from .fit import FitResult, Problem, identified_model
 from .measure import Measurements
 
@@ -27,7 +27,6 @@ if TYPE_CHECKING:
 
 __all__ = ["separating_measurements", "compensator_shape_match"]
 
-DUPLICATE_COS = 0.99
 CV_TOP = 5  # held-out error for this many leading candidates (and every tied one)
 NOTHING_FITS = 0.5  # the leader explains less than this fraction of the excess residual
 TOGETHER_FITS = 0.8  # ... unless the leading few together explain this much
@@ -61,19 +60,7 @@ def _rank_honestly(
         return
     L = ranked[0]
     cv0 = dg.cv_rms_position_m
-    tied = []
-    if L.log_p < sig:
-        for c in ranked[1:]:
-            if c.family == L.family or c.log_p >= sig:
-                continue
-            if c.dof > L.dof and _cos(L._pr, c._pr) > DUPLICATE_COS and _nested(A, L._cols, c._cols):
-                continue  # the leader's columns plus more: the leader is the parsimonious choice
-            close_p = (c.log_p - L.log_p) / math.log(10) <= TIE_LOG10
-            # held-out error contradicting the ranking: c predicts new configurations significantly better
-            close_cv = _cv_better(L._cv, c._cv)
-            if close_p or close_cv:
-                if all(t.family != c.family for t in tied):
-                    tied.append(c)
+    tied = tie_rivals(L, ranked, A, dg.alpha) if L.log_p < sig else []
     if tied:
         sep = separating_measurements(pb, res, model, cterms, [L] + tied)
         # the same deflections in every probed posture and load: the same effect
@@ -129,7 +116,7 @@ def _rank_honestly(
             f"of the residual above the noise"
         )
     if tied:
-        dg.reasons.append(f"undecidable: {', '.join([L.label] + [c.label for c in tied])} fit these data about as well")
+        dg.reasons.append(undecidable([L.label] + [c.label for c in tied]))
     if cv0 is None:
         dg.reasons.append(NO_HELD_OUT)
     elif not lowers_held_out(L.cv_rms_position_m, cv0):

@@ -15,13 +15,14 @@ from ..io.tomlw import effect_toml
 from . import residual_map as RM
 from .backward import BackwardStep, format_backward_steps
 from .diagnose_candidates import Candidate
-from .diagnose_stats import ALPHA, TIE_LOG10
+from .diagnose_stats import ALPHA
 from .diagnosis_report import (
     multiplicity_line,
     multiplicity_method,
     nothing_fits_line,
     pipeline_json,
     proposal_lines,
+    tie_line,
     verdict_line,
 )
 from .fit import FitResult, Problem
@@ -222,10 +223,7 @@ def format_diagnosis(dg: Diagnosis, top: int = 10) -> str:
                 lines.append(f"{'':6s}the data cannot tell it apart from: {', '.join(c.indistinguishable_from)}")
     for t in dg.ties:
         lines.append("")
-        lines.append(
-            f"undecidable: {', '.join(t['candidates'])} fit these data about as well (within "
-            f"{TIE_LOG10:g} in log10 p, or better on held-out configurations); adding one of them would be a guess."
-        )
+        lines.append(tie_line(t["candidates"]))
         if t.get("plan_command"):
             lines.append(f"  postures and loads that would tell them apart: {t['plan_command']}")
         for s in t["separate_by"]:

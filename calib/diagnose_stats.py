@@ -15,13 +15,22 @@ from .._core import calib as core
 from ..errors import InputError
 from . import crossval as CV
 from .checks import cannot_judge
-from .diagnosis import ALPHA, CV_FOLDS, LOW_DOF, ZTOL, check_residual
+from .diagnosis import (  # noqa: F401 (the tie rule's pieces, re-exported)
+    ALPHA,
+    CV_FOLDS,
+    LOW_DOF,
+    TIE_LOG10,
+    ZTOL,
+    _cos,
+    _cv_better,
+    _nested,
+    check_residual,
+)
 from .fit import FitResult, Problem
 from .measure import Measurements
 
 __all__ = ["pure_error", "logsf_chi2", "logsf_f", "ALPHA", "CV_FOLDS", "LOW_DOF"]
 
-TIE_LOG10 = 1.0  # within a factor 10 of the leader's p-value: undecidable
 OVERFIT = 0.8  # an adequate RMS below this fraction of the noise floor: warn
 NSIM = 999  # Monte Carlo draws of the max-score test
 
@@ -92,20 +101,6 @@ def _adequacy(
     return "lack-of-fit F", stat, dof, log_p, math.sqrt(s2), "pure error", s2, d_pe
 
 
-def _nested(A: np.ndarray, Zs: np.ndarray, Zb: np.ndarray) -> bool:
-    """Do the columns Zb span Zs off the model A (the smaller candidate is
-    part of the bigger one, e.g. a joint's column in the next link's
-    spring)?"""
-    AZ = np.hstack([A, Zb])
-    _, dof, _ = core.score(AZ, np.zeros(AZ.shape[0]), Zs, np.array([1, Zs.shape[1] + 1], np.int32), 1e-10, ZTOL)
-    return int(dof[0]) == 0
-
-
-def _cos(a: np.ndarray, b: np.ndarray) -> float:
-    na, nb = np.linalg.norm(a), np.linalg.norm(b)
-    return float(a @ b) / (na * nb) if na > 0 and nb > 0 else 0.0
-
-
 def _cv(
     A: np.ndarray,
     r: np.ndarray,
@@ -128,16 +123,3 @@ def _cv(
     cnt = np.bincount(idx[ok], minlength=idx.max() + 1)
     per = np.where(cnt > 0, tot / np.maximum(cnt, 1), np.nan)
     return CV.rms_rows(e, npts, coords=(0, 1, 2), scale=1.0 / wp), per
-
-
-def _cv_better(a: np.ndarray | None, b: np.ndarray | None) -> bool:
-    """Paired comparison over configurations: is b's held-out error
-    significantly below a's (t < -2)?"""
-    if a is None or b is None or a.size < 3:
-        return False
-    d = b - a
-    d = d[np.isfinite(d)]
-    if d.size < 3:
-        return False
-    se = float(np.std(d, ddof=1)) / math.sqrt(d.size)
-    return bool(se > 0 and d.mean() / se < -2.0)

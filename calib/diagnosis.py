@@ -38,7 +38,11 @@ The one rule of each decision, both kinds (docs/calibration.md 7.2):
   that is far below alpha); the best candidate's corrected test rejecting
   at alpha makes the verdict inadequate, and only a candidate whose own
   corrected test rejects is proposed (both report ``multiplicity_p``,
-  ``multiplicity_method``, ``bonferroni_p``).
+  ``multiplicity_method``, ``bonferroni_p``);
+- ties: :func:`tie_rivals` (another target, significant on its own, within
+  TIE_LOG10 in log10 p of the one to propose or significantly better held
+  out); a tie blocks the proposal and names the command that plans the
+  measurements telling them apart.
 
 What the two kinds still decide each their own way (to be made one rule
 each; today's tests pin both):
@@ -47,10 +51,6 @@ each; today's tests pin both):
   the pure error of replicated rows (no replicates: cannot judge); tracker
   data have no test, the verdict rests on the held-out error and the
   residual's structure (calib/absolute_structure.py);
-- ties: deflections tie candidates of other targets within TIE_LOG10 in
-  log10 p or significantly better held out (paired), with the posture and
-  load that would separate them; tracker data tie useful candidates
-  within CV_GAIN of the proposal's held-out error;
 - proposal: deflections propose the untied leader; tracker data the
   candidate of lowest held-out error, checked by a fit with it (the
   simpler of two nested candidates first);
@@ -98,6 +98,9 @@ __all__ = [
     "bonferroni",
     "few_dof_warning",
     "CV_GAIN",
+    "TIE_LOG10",
+    "DUPLICATE_COS",
+    "tie_rivals",
     "NSIM",
     "corrected_p",
     "NO_HELD_OUT",
@@ -112,6 +115,10 @@ CV_FOLDS = 5
 #: a proposal must lower the model's held-out RMS by at least this fraction (both kinds): less is
 #: within what the held-out estimate itself varies by, or the fit's own flexibility
 CV_GAIN = 0.02
+#: rivals within this many decades of the leader's p-value are undecidable together (both kinds)
+TIE_LOG10 = 1.0
+#: explained parts of two candidates this alike (cosine) are the same part of the residual
+DUPLICATE_COS = 0.99
 #: Monte Carlo draws of the max-score test (199 when the answer is settled on either side of alpha)
 NSIM = 999
 #: the seed of its draws (reproducible)
@@ -326,6 +333,58 @@ def corrected_p(
     cstart = np.cumsum([1] + [b.shape[1] for b in blocks]).astype(np.int32)
     A = A if A.shape[1] else np.zeros((A.shape[0], 1))
     return float(core.max_score(A, Z, cstart, 1e-10, ZTOL, log_p, int(d_pe), ns, seed)), ns
+
+
+def _nested(A: np.ndarray, Zs: np.ndarray, Zb: np.ndarray) -> bool:
+    """Do the columns Zb span Zs off the model A (the smaller candidate is
+    part of the bigger one, e.g. a joint's column in the next link's
+    spring)?"""
+    AZ = np.hstack([A, Zb])
+    if AZ.shape[1] >= AZ.shape[0]:
+        return True  # as many columns as observations: they span what the data can tell
+    _, dof, _ = core.score(AZ, np.zeros(AZ.shape[0]), Zs, np.array([1, Zs.shape[1] + 1], np.int32), 1e-10, ZTOL)
+    return int(dof[0]) == 0
+
+
+def _cos(a: np.ndarray, b: np.ndarray) -> float:
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    return float(a @ b) / (na * nb) if na > 0 and nb > 0 else 0.0
+
+
+def _cv_better(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Paired comparison over configurations: is b's held-out error
+    significantly below a's (t < -2)?"""
+    if a is None or b is None or a.size < 3:
+        return False
+    d = b - a
+    d = d[np.isfinite(d)]
+    if d.size < 3:
+        return False
+    se = float(np.std(d, ddof=1)) / math.sqrt(d.size)
+    return bool(se > 0 and d.mean() / se < -2.0)
+
+
+def tie_rivals(lead: Candidate, ranked: Sequence[Candidate], A: np.ndarray, alpha: float) -> list[Candidate]:
+    """The one tie rule, both kinds: the candidates the data cannot tell from
+    ``lead`` (the one to propose), one a family (kind and target): of
+    another family, significant at alpha on their own, with a log10 p
+    within TIE_LOG10 of the leader's (or better) or a held-out error
+    significantly lower (paired over configurations, ``_cv``). Nested
+    candidates (the columns ``_cols`` of one in the span of the model's and
+    the other's, e.g. joint offsets inside frame errors) are not rivals:
+    the one proposed is the step, and the rest remains a candidate of the
+    next step."""
+    sig = math.log(alpha)
+    out: list[Candidate] = []
+    for c in ranked:
+        if c is lead or c.family == lead.family or c.log_p >= sig:
+            continue
+        if _nested(A, lead._cols, c._cols) or _nested(A, c._cols, lead._cols):
+            continue  # nested: not rivals (the one proposed is the step, the rest a candidate of the next)
+        close_p = (c.log_p - lead.log_p) / math.log(10) <= TIE_LOG10
+        if (close_p or _cv_better(lead._cv, c._cv)) and all(t.family != c.family for t in out):
+            out.append(c)
+    return out
 
 
 def bonferroni(p_best: float, n_tests: int) -> float:

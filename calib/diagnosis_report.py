@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from ..io.tomlw import effect_toml
-from .diagnosis import ALPHA, MIN_RESIDUAL_DOF, NOTHING_FITS_LINE, PROPOSAL_LINE
+from .diagnosis import ALPHA, MIN_RESIDUAL_DOF, NOTHING_FITS_LINE, PROPOSAL_LINE, TIE_LOG10
 
 __all__ = [
     "pipeline_json",
@@ -17,6 +17,8 @@ __all__ = [
     "multiplicity_method",
     "multiplicity_line",
     "not_significant",
+    "undecidable",
+    "tie_line",
 ]
 
 
@@ -72,3 +74,16 @@ def not_significant(log_p: float, mult_p: float | None, n_tests: int) -> str:
     """Why the best candidate is not proposed when its corrected test does not reject, both kinds."""
     corr = f", corrected for looking at all {n_tests}: p = {mult_p:.3g}" if mult_p is not None else ""
     return f"no single candidate is significant on its own (best log10 p = {log_p / math.log(10):.3g}{corr})"
+
+
+def undecidable(labels: list[str]) -> str:
+    """Why a tie blocks the proposal, both kinds."""
+    return f"undecidable: {', '.join(labels)} fit these data about as well"
+
+
+def tie_line(labels: list[str]) -> str:
+    """A tie in the report, both kinds (the rule: ``diagnosis.tie_rivals``)."""
+    return (
+        f"undecidable: {', '.join(labels)} fit these data about as well (within {TIE_LOG10:g} in log10 p, or "
+        "better on held-out configurations); adding one of them would be a guess."
+    )
