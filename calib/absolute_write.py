@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from ..io.files import atomic_write_text
 from ..robot import catalogue, model_file
+from ..robot.effect_values import COMPENSATOR_KEYS
 from ..robot.model import SYM
 from ..robot.model_bodies import BODY_KINDS, body_table
 from ..robot.tree import TreeJoint
@@ -194,6 +195,8 @@ def model_effects(
             elif catalogue.KIND[kind].params:  # the key(s) the reader takes the values from (robot/catalogue.py)
                 e = catalogue.KIND[kind]
                 tab.update(catalogue.value_table(kind, [vals[n] for n in e.names]))
+                if kind == "gravity_compensator":  # its geometry, fixed parameters of the model
+                    tab.update({k: vals[k] for k in COMPENSATOR_KEYS})
                 if e.w0_key:
                     tab[e.w0_key] = _tau0(model, target)
             else:  # pragma: no cover - every kind of ABS_KINDS is handled above

@@ -69,8 +69,9 @@ LAWS = {
 #: offset within COM_MAX m
 MASS_MAX, COM_MAX = 100.0, 1.0
 _BODY_KEYS = frozenset({"target", "value", "prior"})
-#: slots of law_joint's parameters (core/sk_laws.f90 js_*, 1-based): the profile's five, k_s
-JS_PROFILE, JS_KS = 4, 11
+#: slots of law_joint's parameters (core/sk_laws.f90 js_*, 1-based): the profile's five, k_s, the
+#: compensator's geometry a, b, beta, s0 (fixed parameters)
+JS_PROFILE, JS_KS, JS_GEOM = 4, 11, 12
 #: default smoothing of joint_deadzone: tau0 = this fraction of the RMS torque about the joint in the data
 DEADZONE_TAU0_FRACTION = 0.05
 
@@ -350,12 +351,17 @@ ENTRIES: tuple[Kind, ...] = (
     ),
     Kind(
         "gravity_compensator",
-        (DEFLECTION,),
+        BOTH,
         "actuated joint",
-        {DEFLECTION: frozenset({"target", "a", "b", "beta", "s0", "k_s"})},
+        {
+            DEFLECTION: frozenset({"target", "a", "b", "beta", "s0", "k_s"}),
+            ABSOLUTE: frozenset({"target", "a", "b", "beta", "s0", "k_s"}),
+        },
         (Param("k_s", "N/m", lo=0.0, quantity="spring_stiffness"),),
         "stiffness 1/c + k_s (s'^2 + (s - s0) s''), s = sqrt(a^2 + b^2 - 2ab cos(q + beta))",
-        needs_joint=(DEFLECTION,),
+        law="LAW_JOINT",
+        slots=(JS_KS,),
+        needs_joint=BOTH,
         term=3,
         posture_dependent=True,
         per_joint=True,

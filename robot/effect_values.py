@@ -19,7 +19,7 @@ from ..io import validate as V
 from . import catalogue
 from .catalogue import Param
 
-__all__ = ["effect_where", "effect_kind", "effect_values", "effect_w0", "nonnegative"]
+__all__ = ["effect_where", "effect_kind", "effect_values", "effect_w0", "compensator_geometry", "nonnegative"]
 
 
 def effect_where(path: object, i: int, table: dict) -> str:
@@ -114,6 +114,28 @@ def effect_w0(table: dict, kind: str, where: str) -> float | None:
     if not key or key not in table:
         return None
     return V.number(table[key], f"{where}: {key}", "moment", lo=0.0, lo_open=True)
+
+
+#: a gravity_compensator's geometry keys (docs/calibration.md section 2), in the core's slot order
+COMPENSATOR_KEYS = ("a", "b", "beta", "s0")
+
+
+def compensator_geometry(table: dict, where: str) -> dict[str, float]:
+    """A gravity_compensator's geometry a, b > 0 (m), beta (rad), s0 >= 0
+    (m), for both readers."""
+    limits = {
+        "a": ("length", {"lo": 0.0, "lo_open": True}),
+        "b": ("length", {"lo": 0.0, "lo_open": True}),
+        "beta": ("angle", {}),
+        "s0": ("length", {"lo": 0.0}),
+    }
+    out = {}
+    for key in COMPENSATOR_KEYS:
+        if key not in table:
+            raise InputError(f"{where}: missing {key!r}")
+        q, lim = limits[key]
+        out[key] = V.number(table[key], f"{where}: {key}", q, **lim)
+    return out
 
 
 def nonnegative(kind: str, name: str) -> bool:

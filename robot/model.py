@@ -24,7 +24,7 @@ from ..io.linkjson import check_spring_matrix, read_link_compliance
 from ..io.tables import read_toml
 from . import catalogue
 from .catalogue import DEADZONE_TAU0_FRACTION
-from .effect_values import effect_kind, effect_values, effect_w0, effect_where
+from .effect_values import compensator_geometry, effect_kind, effect_values, effect_w0, effect_where
 from .indices import Indices, stiffness_indices_where
 from .model_core import known_joint_compliances
 from .plan_settings import plan_table
@@ -381,12 +381,7 @@ def expand_effect(
                 elif t.value is not None:
                     raise InputError(f"{where}: a joint_deadzone with a value needs its tau0 (N m) too")
             elif kind == "gravity_compensator":
-                t.geometry = {
-                    "a": _number(table, "a", where, "length", lo=0.0, lo_open=True),
-                    "b": _number(table, "b", where, "length", lo=0.0, lo_open=True),
-                    "beta": _number(table, "beta", where, "angle"),
-                    "s0": _number(table, "s0", where, "length", lo=0.0),
-                }
+                t.geometry = compensator_geometry(table, where)
             terms.append(t)
     elif kind in ("link", "base", "tool"):
         if kind == "link":

@@ -16,7 +16,7 @@ from .._core.tree import CoreArrays
 from ..errors import InputError
 from . import catalogue
 from .catalogue import LAW_LINEAR, LAW_SPRING6
-from .effect_values import effect_values, effect_w0
+from .effect_values import COMPENSATOR_KEYS, compensator_geometry, effect_values, effect_w0
 from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import body_entries
 from .tree import Tree, TreeJoint
@@ -198,6 +198,10 @@ def _joint_law(b: Builder, jn: str, slot: dict, vj: int) -> tuple:
             start = p.default if v2 is None else v2[s]
             kp[e.slots[s] - 1 if e.slots else 1 + s] = b.add_param(f"{jn}.{p.suffix}", kind, jn, i2, start, v2 is None)
         law = catalogue.law_code(kind)
+        if kind == "gravity_compensator":  # its geometry: fixed parameters of the block
+            g = compensator_geometry(t2, w2)
+            for k, key in enumerate(COMPENSATOR_KEYS):
+                kp[catalogue.JS_GEOM - 1 + k] = b.add_param(f"{jn}.{key}", kind, jn, i2, g[key], False)
         if e.w0_key:
             w0 = effect_w0(t2, kind, w2) or 0.0  # 0: set from the data's torque scale before the first evaluation
     return law, [vj], kp, w0

@@ -257,6 +257,8 @@ def test_every_absolute_kind_reads_back_exactly(dual_truth, tmp_path_factory, da
         tab = {"kind": kind, "target": j}
         if catalogue.KIND[kind].w0_key:
             tab[catalogue.KIND[kind].w0_key] = 1.0 + data.draw(MAG) * 1e3
+        if kind == "gravity_compensator":  # its geometry, fixed parameters that read back too
+            tab.update(a=0.1 + data.draw(MAG), b=0.2 + data.draw(MAG), beta=data.draw(MAG), s0=data.draw(MAG))
         extra.append(tab)
     m = tree_model.tree_model_from_tables(tree, truth + extra, (0.0, 0.0, -9.81))
     theta = m.theta0.copy()
