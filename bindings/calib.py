@@ -1,6 +1,6 @@
 """Typed wrappers of the serial-chain and calibration core (``_calib``,
-core/sk_api_calib.f90): chain kinematics, tool compliance and spring
-Jacobians (on the chain's tree model), the deflection model, weighted
+core/sk_api_calib.f90): chain kinematics, the springs' Jacobians (on the
+chain's tree model), the deflection model, weighted
 least squares, score tests, tail probabilities, and the Levenberg-Marquardt
 iteration by reverse communication (core/sk_lm.f90).
 
@@ -16,31 +16,6 @@ import numpy as np
 
 from . import _calib
 from .errors import call, check
-
-
-def tool_compliance(
-    chain: dict, stype: np.ndarray, sidx: np.ndarray, cs: np.ndarray, cj: np.ndarray, q: np.ndarray
-) -> tuple:
-    """Tool compliance and stiffness at postures q (ndof, N) Fortran-ordered.
-
-    Returns (C (N,6,6), K (N,6,6), rank (N,), kinfo (N,))."""
-    c, k, rank, kinfo, info = call(
-        _calib.sk_tool_compliance, "sk_tool_compliance", **chain, stype=stype, sidx=sidx, cs=cs, cj=cj, q=q
-    )
-    check(
-        info,
-        "tool_compliance (sk_tool_compliance)",
-        {
-            6: "the chain or spring description is inconsistent (axis not unit, bad index)",
-            9: "a joint compliance is negative or a 6x6 spring value has a negative eigenvalue: not a physical spring",
-        },
-    )
-    return (
-        np.ascontiguousarray(np.transpose(c, (2, 0, 1))),
-        np.ascontiguousarray(np.transpose(k, (2, 0, 1))),
-        rank,
-        kinfo,
-    )
 
 
 def chain_poses(chain: dict, q: np.ndarray) -> dict[str, np.ndarray]:

@@ -3,23 +3,6 @@
 !> explicit-shape arrays of iso_c_binding kinds and an integer `info`
 !> (sk_errors); the numerics live in sk_chain, sk_chain_tree and sk_calib.
 
-!> Tool compliance and stiffness at np postures q[ndof,np] (the chain's
-!> tree model, sk_chain_tree).
-subroutine sk_tool_compliance(nj, ndof, ns, np, jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, &
-        cs, cj, q, c, k, rank, kinfo, info)
-    use, intrinsic :: iso_c_binding, only: c_double, c_int
-    use sk_chain_tree, only: tool_compliance_batch
-    implicit none
-    integer(c_int), intent(in) :: nj, ndof, ns, np
-    real(c_double), intent(in) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), trot(3, 3), tpos(3)
-    integer(c_int), intent(in) :: qidx(nj), stype(ns), sidx(ns)
-    real(c_double), intent(in) :: cs(6, 6, ns), cj(ns, np), q(ndof, np)
-    real(c_double), intent(out) :: c(6, 6, np), k(6, 6, np)
-    integer(c_int), intent(out) :: rank(np), kinfo(np), info
-    call tool_compliance_batch(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, cs, cj, q, c, k, &
-        rank, kinfo, info)
-end subroutine sk_tool_compliance
-
 !> Poses of every joint frame F_k and of the tool at np postures (sk_chain).
 subroutine sk_chain_poses(nj, ndof, np, jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rt, pt, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int

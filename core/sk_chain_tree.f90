@@ -27,11 +27,11 @@ module sk_chain_tree
     use sk_tree_check, only: vj_fixed, vj_revolute, vj_prismatic
     use sk_tree_model, only: tree_model, tree_state, model_setup, state_init
     use sk_tree_equil, only: deflected_frames, posture_values
-    use sk_tree_point, only: point_twists, compliance_batch
+    use sk_tree_point, only: point_twists
     use sk_chain, only: spring_joint, spring_frame, spring_base, spring_tool, spring_ndof, check_chain
     implicit none
     private
-    public :: chain_tree_model, tool_compliance_batch, spring_jacobians
+    public :: chain_tree_model, spring_jacobians
 
 contains
 
@@ -164,73 +164,6 @@ contains
         st%delta = 0.0_dp
         call deflected_frames(m, st)
     end subroutine zero_state
-
-    !> Tool compliance c[6,6,np] = sum_s J_s C_s J_s^T of the chain at np
-    !> postures q[ndof,np] (base axes, about the tool-frame origin): the
-    !> tool point's compliance of the chain's tree model, its springs law
-    !> blocks whose parameters are each posture's values (joint spring s:
-    !> the compliance cj(s, ip); 6-dof spring s: the constant cs[6,6,s]),
-    !> with its stiffness k, rank and kinfo (sk_tree_point%compliance_batch,
-    !> the one evaluator of a point's compliance). info: sk_ok,
-    !> sk_err_argument (check_chain), sk_err_nonfinite, sk_err_indefinite (a
-    !> negative joint compliance or an indefinite 6x6 spring: no spring),
-    !> sk_err_overflow.
-    subroutine tool_compliance_batch(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, cs, cj, &
-            q, c, k, rank, kinfo, info)
-        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3)
-        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:)
-        real(dp), intent(in) :: cs(:, :, :), cj(:, :), q(:, :)
-        real(dp), intent(out) :: c(:, :, :), k(:, :, :)
-        integer(ip), intent(out) :: rank(:), kinfo(:), info
-        type(tree_model) :: m
-        integer, allocatable :: sv(:)
-        integer(ip), allocatable :: bktype(:), bkpar(:, :)
-        integer(ip), allocatable :: vidx(:)
-        real(dp), allocatable :: theta(:), vval(:, :)
-        integer :: s, e, ia, ib, tool, ns, npar, nvar
-        c = 0.0_dp
-        k = 0.0_dp
-        rank = 0
-        kinfo = 0
-        call check_chain(jaxis, qidx, size(q, 1, kind=ip), stype, sidx, info)
-        if (info /= sk_ok) return
-        ns = size(stype)
-        ! theta of each posture: one slot per joint spring, 21 per 6-dof spring
-        allocate(bktype(ns), bkpar(nsym, ns), sv(ns))
-        bkpar = 0
-        npar = 0
-        do s = 1, ns
-            if (stype(s) == spring_joint) then
-                bktype(s) = law_linear
-                bkpar(1, s) = int(npar + 1, ip)
-                npar = npar + 1
-            else
-                bktype(s) = law_spring6
-                bkpar(:, s) = [(int(npar + e, ip), e = 1, nsym)]
-                npar = npar + nsym
-            end if
-        end do
-        ! the 6-dof springs' values are constant, the joint springs' vary per posture
-        allocate(theta(max(npar, 1)), vidx(count(stype == spring_joint)), vval(count(stype == spring_joint), size(q, 2)))
-        theta = 0.0_dp
-        nvar = 0
-        do s = 1, ns
-            if (stype(s) == spring_joint) then
-                nvar = nvar + 1
-                vidx(nvar) = bkpar(1, s)
-                vval(nvar, :) = cj(s, :)
-            else
-                do e = 1, nsym
-                    call sym_index(e, ia, ib)
-                    theta(bkpar(e, s)) = cs(ia, ib, s)
-                end do
-            end if
-        end do
-        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, 1, kind=ip), m, sv, &
-            tool, info, bktype, bkpar, [(1.0_dp, s = 1, ns)], int(max(npar, 1), ip), [1, 1, 1, 1, 1, 1], [1, 1, 1])
-        if (info /= sk_ok) return
-        call compliance_batch(m, theta, vidx, vval, tool, q, c, k, rank, kinfo, info)
-    end subroutine tool_compliance_batch
 
     !> Jacobians of every spring at one posture q: jac[6, nd], the columns of
     !> spring s (1 for a joint spring, 6 otherwise) one after the other (the

@@ -45,7 +45,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -58,7 +58,7 @@ from ..io.files import model_inputs
 from ..io.tables import read_toml
 from . import catalogue
 from .compensate_files import ADDED_COLUMNS, WRENCH, Targets, commands_text, read_targets, write_commands
-from .model import LOAD_NONLINEAR, SPRING_BASE, SPRING_FRAME, SPRING_TOOL, Model, load_model
+from .model import Model, load_model
 from .tree import Tree, load_tree
 from .tree_model import LAW_DEADZONE, TreeModel, load_tree_model, tree_model_from_tables
 from .urdf_checks import limit_warnings
@@ -372,15 +372,8 @@ def _absolute(path: Path) -> CompensationModel:
     )
 
 
-def relative_tree_model(model: Model, where: str = "model") -> tuple[TreeModel, list[tuple[int, int]], Tree]:
-    """The serial-chain model of sections 2-5 as a tree model for the core
-    (module docstring): (tree model, varying compliances (theta index,
-    chain joint index), the chain as a tree)."""
-    chain = model.chain
-    full = load_tree(chain.urdf, chain.base_link)
-    # the chain alone, its joints numbered along it (q order), no masses
-    path = [replace(j, index=k) for k, j in enumerate(full.path(chain.tool_frame))]
-    tree = Tree(full.urdf, chain.base_link, path, [chain.base_link] + [j.child for j in path], {})
+def _check_chain_values(model: Model, where: str) -> None:
+    """Every effect of a chain model but point_offset must carry a value."""
     for t in model.terms:
         if t.kind != "point_offset" and t.value is None:
             raise InputError(
@@ -388,44 +381,13 @@ def relative_tree_model(model: Model, where: str = "model") -> tuple[TreeModel, 
                 f"compensation evaluates a model with values (section 5): identify it first "
                 f"(stiffkit fit --write-model)"
             )
-    eff: list[dict] = [
-        {"kind": "tracker", "fixed": True},
-        {"kind": "marker", "target": chain.tool_frame, "fixed": True},
-    ]
-    linear = {}
-    varying = set()
-    for t in model.terms:
-        if t.kind == "joint":
-            linear[t.joint] = linear.get(t.joint, 0.0) + float(t.value[0])
-        elif t.kind in VARYING:
-            varying.add(t.joint)
-    nonlin = {t.joint: t for t in model.terms if t.kind in LOAD_NONLINEAR}
-    for j in sorted(set(linear) | varying | set(nonlin)):
-        name = chain.joint_names[j]
-        # a posture-dependent compliance: a placeholder, the value comes per row
-        eff.append({"kind": "joint", "target": name, "value": 0.0 if j in varying else linear.get(j, 0.0)})
-        t = nonlin.get(j)
-        if t is not None and t.kind == "joint_cubic":
-            eff.append({"kind": "joint_cubic", "target": name, "value": float(t.value[0])})
-        elif t is not None:
-            eff.append(
-                {"kind": "joint_deadzone", "target": name, "value": float(t.value[0]), "tau0": t.geometry["tau0"]}
-            )
-    for (stype, k), C in model.six_values().items():
-        if stype == SPRING_BASE:
-            eff.append({"kind": "base", "value": C.tolist()})
-        elif stype == SPRING_FRAME:
-            eff.append({"kind": "link", "target": chain.parents[k - 1], "value": C.tolist()})
-        elif stype == SPRING_TOOL:
-            eff.append({"kind": "link", "target": chain.tool_frame, "value": C.tolist()})
-    tm = tree_model_from_tables(tree, eff, (0.0, 0.0, 0.0), 1, where)
-    rows = [(tm.index(f"{chain.joint_names[j]}.c"), j) for j in sorted(varying)]
-    return tm, rows, tree
 
 
 def _relative(path: Path) -> CompensationModel:
     model = load_model(path)
-    tm, varying, tree = relative_tree_model(model, str(path))
+    _check_chain_values(model, str(path))
+    ct = model.tree_model(str(path))
+    tm, varying, tree = ct.model, ct.varying, ct.tree
     frames = _moving_links(tree)
     return CompensationModel(
         kind="relative",

@@ -8,8 +8,7 @@ when the table carries a value) and a virtual spring of the chain.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,8 +25,10 @@ from . import catalogue
 from .catalogue import DEADZONE_TAU0_FRACTION
 from .effect_values import compensator_geometry, effect_kind, effect_values, effect_w0, effect_where
 from .indices import Indices, stiffness_indices_where
-from .model_core import known_joint_compliances
+from .model_core import SPRING_BASE, SPRING_FRAME, SPRING_JOINT, SPRING_TOOL, known_joint_compliances
+from .model_tree import ChainTree, chain_tree_model
 from .plan_settings import plan_table
+from .spring6 import AXES, SYM, SYM_INDEX, TEMPLATES, rpy_matrix, template_elements  # noqa: F401 (robot.model's names)
 from .urdf import Chain, load_chain
 
 KINDS = catalogue.kinds(catalogue.DEFLECTION)
@@ -37,44 +38,6 @@ JOINT_KINDS = tuple(k for k in KINDS if catalogue.KIND[k].per_joint)
 LOAD_NONLINEAR = tuple(k for k in KINDS if catalogue.KIND[k].load_nonlinear)
 #: joint kinds that need a `joint` effect on the same joint
 NEEDS_JOINT = tuple(k for k in KINDS if catalogue.DEFLECTION in catalogue.KIND[k].needs_joint)
-TEMPLATES = ("full", "beam", "diagonal")
-AXES = "xyz"
-SPRING_JOINT, SPRING_FRAME, SPRING_BASE, SPRING_TOOL = 1, 2, 3, 4
-
-#: element (a, b), 0-based a <= b, of the 21 upper-triangle entries (core order)
-SYM = [(a, b) for a in range(6) for b in range(a, 6)]
-SYM_INDEX = {ab: k for k, ab in enumerate(SYM)}
-
-
-def template_elements(template: str, axis: int = 0) -> list[int]:
-    """Indices (0..20) of the elements a template keeps (M1, M2 / eq. 13).
-
-    ``beam`` along axis a (0, 1, 2): the six diagonal elements plus the two
-    bending couplings (translation along b with rotation about c, and c with
-    b), b, c the transverse axes in cyclic order.
-    """
-    if template == "full":
-        return list(range(21))
-    if template == "diagonal":
-        return [SYM_INDEX[(i, i)] for i in range(6)]
-    if template == "beam":
-        b, c = (axis + 1) % 3, (axis + 2) % 3
-        pairs = [(i, i) for i in range(6)] + [(b, 3 + c), (c, 3 + b)]
-        return sorted(SYM_INDEX[tuple(sorted(p))] for p in pairs)
-    raise InputError(f"unknown template {template!r}; choose one of {', '.join(TEMPLATES)}")
-
-
-def rpy_matrix(rpy: Sequence[float] | np.ndarray) -> np.ndarray:
-    """URDF rpy: R = Rz(y) Ry(p) Rx(r)."""
-    r, p, y = (float(v) for v in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
 
 
 @dataclass
@@ -207,12 +170,20 @@ class Model:
             col += n
         return out
 
+    def tree_model(self, where: str | None = None) -> ChainTree:
+        """The one tree model of this chain model (robot/model_tree.py): the
+        TreeModel the tree core evaluates, with the parameters of its
+        posture-dependent joint compliances. Its effects must carry values."""
+        return chain_tree_model(self, where or str(self.path or "model"))
+
     def tool_compliance(
         self, Q: npt.ArrayLike, return_stiffness: bool = False, wrench: npt.ArrayLike | None = None
     ) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Tool-frame compliance (N, 6, 6) at postures Q (N, dof): base axes,
         about the tool-frame origin, sum_i J_i C_i J_i^T, one core call: the
-        tool point's compliance of the chain's tree model (core/sk_chain_tree.f90).
+        tool frame's compliance of the model's TreeModel (:meth:`tree_model`,
+        TreeModel.compliance), every joint's compliance at the posture a
+        parameter of that posture.
 
         With ``return_stiffness`` also (K (N,6,6), rank (N,), ok (N,) bool):
         K = C^-1 where C is positive definite, else zeros and ok False.
@@ -229,26 +200,22 @@ class Model:
             if wrench.shape != (Q.shape[0], 6):
                 raise InputError(f"wrench must be an array of shape ({Q.shape[0]}, 6), got {np.shape(wrench)}")
         jc = self.joint_compliances(Q, wrench=wrench)
-        six = self.six_values()
-        springs = [(SPRING_JOINT, j + 1) for j in sorted(jc)] + list(six)
-        ns = max(len(springs), 1)
-        stype = np.zeros(ns, np.int32)
-        sidx = np.zeros(ns, np.int32)
-        cs = np.zeros((6, 6, ns), order="F")
-        cj = np.zeros((ns, Q.shape[0]), order="F")
-        if not springs:  # a rigid robot: one zero base spring
-            stype[0] = SPRING_BASE
-        for s, sp in enumerate(springs):
-            stype[s], sidx[s] = sp
-            if sp[0] == SPRING_JOINT:
-                cj[s] = jc[sp[1] - 1]
-            else:
-                cs[:, :, s] = six[sp]
-        C, K, rank, kinfo = core.tool_compliance(
-            self.chain.core_arrays(), stype=stype, sidx=sidx, cs=cs, cj=cj, q=np.asfortranarray(Q.T)
-        )
+        self.six_values()  # every 6-dof spring has its value (else a clear error)
+        tm = self.tree_model().model
+        # each joint's compliance at the posture (its secant under the wrench) is
+        # its c; the load-nonlinear laws' own parameters are then 0
+        theta = tm.theta0
+        names = {n: i for i, n in enumerate(tm.names)}
+        for t in self.terms:
+            if t.kind in LOAD_NONLINEAR:
+                for n in t.names:
+                    theta[names[n]] = 0.0
+        joints = sorted(jc)
+        idx = [names[f"{self.chain.joint_names[j]}.c"] for j in joints]
+        vals = np.column_stack([jc[j] for j in joints]) if joints else np.zeros((len(Q), 0))
+        C, K, rank, ok = tm.compliance(Q, self.chain.tool_frame, theta, (idx, vals))
         if return_stiffness:
-            return C, K, rank.astype(int), kinfo == 0
+            return C, K, rank, ok
         return C
 
     def stiffness(self, Q: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -24,8 +24,8 @@ if TYPE_CHECKING:
     from .model import Term
     from .urdf import Chain
 
-#: the chain's joint spring type (core/sk_chain.f90 spring_joint; robot.model.SPRING_JOINT)
-_SPRING_JOINT = 1
+#: the chain's spring types (core/sk_chain.f90 spring_*; robot.model's names; tests/test_architecture.py checks them)
+SPRING_JOINT, SPRING_FRAME, SPRING_BASE, SPRING_TOOL = 1, 2, 3, 4
 _LOAD_NONLINEAR = tuple(e.name for e in catalogue.ENTRIES if e.load_nonlinear)
 #: the kinds of a joint spring (robot.model.JOINT_KINDS)
 JOINT_KINDS = tuple(e.name for e in catalogue.ENTRIES if e.per_joint and catalogue.DEFLECTION in e.data)
@@ -120,7 +120,7 @@ def known_joint_compliances(
         ):
             joints.append(t.joint)
         jterms.append(t)
-    enc = encode(jterms, {}, [(_SPRING_JOINT, j + 1) for j in joints])
+    enc = encode(jterms, {}, [(SPRING_JOINT, j + 1) for j in joints])
     if not enc["stype"].size:
         return {}
     tau = None

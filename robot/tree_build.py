@@ -17,8 +17,8 @@ from ..errors import InputError
 from . import catalogue
 from .catalogue import LAW_LINEAR, LAW_SPRING6
 from .effect_values import COMPENSATOR_KEYS, compensator_geometry, effect_values, effect_w0
-from .model import SYM, TEMPLATES, rpy_matrix, template_elements
 from .model_bodies import body_entries
+from .spring6 import SYM, TEMPLATES, rpy_matrix, template_elements
 from .tree import Tree, TreeJoint
 from .tree_effects import Effect, table_vector
 from .tree_lateral import duplicated_tilt, joint_tilts

@@ -63,8 +63,8 @@ from ..errors import InputError
 from ..io import validate as V
 from ..io.tables import read_toml
 from .catalogue import DEADZONE_TAU0_FRACTION, LAW_CUBIC, LAW_DEADZONE, LAW_LINEAR, LAW_SPRING6  # noqa: F401
-from .model import rpy_matrix  # noqa: F401 (re-exported)
 from .plan_settings import plan_table
+from .spring6 import rpy_matrix  # noqa: F401 (re-exported)
 from .tree import Tree, load_tree
 from .tree_build import FRAME_NAMES, Builder, Param, add_joints, core_arrays, tracker_and_markers
 from .tree_effects import ABS_KINDS, KEYS, group_effects, link_springs, per_joint_effects, table_number

@@ -1,5 +1,5 @@
 """Model.tool_compliance / stiffness on the tree model of the chain
-(core/sk_chain_tree.f90 tool_compliance_batch, core/sk_tree_point.f90)
+(Model.tree_model, robot/model_tree.py; TreeModel.compliance, core/sk_tree_point.f90)
 against the numbers of the serial-chain code it replaced (core/sk_chain.f90's
 spring Jacobians, before issue 15's one model), 1e-9 relative: five models
 of the KR-270-like robot (joints, links, base, tool, compensator, profile;
@@ -12,7 +12,7 @@ import pytest
 from _calib_util import data, joints_truth, spd
 
 from stiffkit.calib import synth as S
-from stiffkit.robot.model import SYM, model_from_tables
+from stiffkit.robot.model import SPRING_JOINT, SYM, model_from_tables
 
 RTOL = 1e-9
 Q = np.array([[0.3, -0.7, 0.4, 1.1, 0.9, -0.5], [-1.2, -0.2, 0.9, -2.0, 1.5, 2.2]])
@@ -148,29 +148,26 @@ def test_tree_route_gives_the_former_chain_numbers(chain, name):
 
 
 @pytest.mark.parametrize("name", sorted(cases()))
-def test_the_chains_tree_model_gives_the_same_compliance(chain, name):
-    """TreeModel.compliance (the core's point compliance on a packed tree
-    model) of the chain's TreeModel (robot/compensate.py builds it for
-    compensation) at the tool frame equals Model.tool_compliance, posture
-    by posture, the varying joint compliances as per-posture parameters."""
-    from stiffkit.robot.compensate import relative_tree_model
-
+def test_the_two_chain_builders_agree(chain, name):
+    """Model.tool_compliance (the Python builder of the chain's TreeModel,
+    robot/model_tree.py, and the tree core's point compliance) equals
+    sum_s J_s C_s J_s^T with the springs' Jacobians of the core's own chain
+    tree model (Model.jacobians, core/sk_chain_tree.f90), posture by posture."""
     m = model_from_tables(chain, cases()[name])
-    C, K, rank, ok = m.stiffness(Q)
-    tm, varying, _tree = relative_tree_model(m)
+    C = m.tool_compliance(Q)
     jc = m.joint_compliances(Q)
-    vary = ([i for i, _j in varying], np.array([jc[j] for _i, j in varying]).reshape(-1, len(Q)).T)
-    Ct, Kt, rank_t, ok_t = tm.compliance(Q, chain.tool_frame, vary=vary)
-    assert rank_t.tolist() == rank.tolist() and (ok_t == ok).all()
-    np.testing.assert_allclose(Ct, C, rtol=1e-12, atol=1e-12 * (np.abs(C).max() + 1e-300))
-    np.testing.assert_allclose(Kt, K, rtol=1e-9, atol=1e-9 * (np.abs(K).max() + 1e-300))
+    six = m.six_values()
+    for n, q in enumerate(Q):
+        ref = np.zeros((6, 6))
+        for (stype, k), J in m.jacobians(q).items():
+            ref += jc[k - 1][n] * J @ J.T if stype == SPRING_JOINT else J @ six[(stype, k)] @ J.T
+        np.testing.assert_allclose(C[n], ref, rtol=1e-12, atol=1e-12 * (np.abs(ref).max() + 1e-300))
 
 
 def test_tree_compliance_refuses_an_unknown_frame_and_bad_postures(chain):
     from stiffkit.errors import InputError
-    from stiffkit.robot.compensate import relative_tree_model
 
-    tm, _varying, _tree = relative_tree_model(model_from_tables(chain, cases()["joints"]))
+    tm = model_from_tables(chain, cases()["joints"]).tree_model().model
     with pytest.raises(InputError, match="unknown frame 'nowhere'"):
         tm.compliance(Q, "nowhere")
     with pytest.raises(InputError, match=r"postures must have shape \(N, 6\)"):

@@ -1,5 +1,5 @@
 !> Unit tests of a serial chain's elastostatics on its tree model
-!> (sk_chain_tree): a planar two-link arm against its hand-derived
+!> (sk_chain_tree, the point compliance of sk_tree_point): a planar two-link arm against its hand-derived
 !> compliance, the deflection rows' basis (their Jacobian, sk_deflect)
 !> against the tool compliance (two code paths of the core), and the tool
 !> compliance and the springs' Jacobians against the closed-form J_s of
@@ -10,9 +10,12 @@ program test_chain
     use sk_errors
     use sk_rotation, only: skew
     use sk_linalg, only: eye
-    use sk_spatial, only: sym_index, revolute_twist, twist_transfer, blockdiag_rot
-    use sk_chain, only: chain_frames, chain_poses_batch
-    use sk_chain_tree, only: tool_compliance_batch, spring_jacobians
+    use sk_spatial, only: sym_index, nsym, revolute_twist, twist_transfer, blockdiag_rot
+    use sk_laws, only: law_linear, law_spring6
+    use sk_tree_model, only: tree_model
+    use sk_tree_point, only: compliance_batch
+    use sk_chain, only: chain_frames, chain_poses_batch, spring_joint, check_chain
+    use sk_chain_tree, only: chain_tree_model, spring_jacobians
     use sk_deflect, only: deflection_rows
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     implicit none (type, external)
@@ -225,6 +228,75 @@ contains
         call chain_poses_batch(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rtb, ptb, info)
         call expect(info == sk_err_nonfinite, 'poses: Inf posture refused')
     end subroutine test_block_terms_equal_jacobian_products
+
+    !> Tool compliance c[6,6,np] = sum_s J_s C_s J_s^T of the chain at np
+    !> (the chain's tree model, sk_chain_tree, and its point compliance,
+    !> sk_tree_point%compliance_batch, as robot/model.py evaluates it)
+    !> postures q[ndof,np] (base axes, about the tool-frame origin): the
+    !> tool point's compliance of the chain's tree model, its springs law
+    !> blocks whose parameters are each posture's values (joint spring s:
+    !> the compliance cj(s, ip); 6-dof spring s: the constant cs[6,6,s]),
+    !> with its stiffness k, rank and kinfo (sk_tree_point%compliance_batch,
+    !> the one evaluator of a point's compliance). info: sk_ok,
+    !> sk_err_argument (check_chain), sk_err_nonfinite, sk_err_indefinite (a
+    !> negative joint compliance or an indefinite 6x6 spring: no spring),
+    !> sk_err_overflow.
+    subroutine tool_compliance_batch(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, cs, cj, &
+            q, c, k, rank, kinfo, info)
+        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3)
+        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:)
+        real(dp), intent(in) :: cs(:, :, :), cj(:, :), q(:, :)
+        real(dp), intent(out) :: c(:, :, :), k(:, :, :)
+        integer(ip), intent(out) :: rank(:), kinfo(:), info
+        type(tree_model) :: m
+        integer, allocatable :: sv(:)
+        integer(ip), allocatable :: bktype(:), bkpar(:, :)
+        integer(ip), allocatable :: vidx(:)
+        real(dp), allocatable :: theta(:), vval(:, :)
+        integer :: s, e, ia, ib, tool, ns, npar, nvar
+        c = 0.0_dp
+        k = 0.0_dp
+        rank = 0
+        kinfo = 0
+        call check_chain(jaxis, qidx, size(q, 1, kind=ip), stype, sidx, info)
+        if (info /= sk_ok) return
+        ns = size(stype)
+        ! theta of each posture: one slot per joint spring, 21 per 6-dof spring
+        allocate(bktype(ns), bkpar(nsym, ns), sv(ns))
+        bkpar = 0
+        npar = 0
+        do s = 1, ns
+            if (stype(s) == spring_joint) then
+                bktype(s) = law_linear
+                bkpar(1, s) = int(npar + 1, ip)
+                npar = npar + 1
+            else
+                bktype(s) = law_spring6
+                bkpar(:, s) = [(int(npar + e, ip), e = 1, nsym)]
+                npar = npar + nsym
+            end if
+        end do
+        ! the 6-dof springs' values are constant, the joint springs' vary per posture
+        allocate(theta(max(npar, 1)), vidx(count(stype == spring_joint)), vval(count(stype == spring_joint), size(q, 2)))
+        theta = 0.0_dp
+        nvar = 0
+        do s = 1, ns
+            if (stype(s) == spring_joint) then
+                nvar = nvar + 1
+                vidx(nvar) = bkpar(1, s)
+                vval(nvar, :) = cj(s, :)
+            else
+                do e = 1, nsym
+                    call sym_index(e, ia, ib)
+                    theta(bkpar(e, s)) = cs(ia, ib, s)
+                end do
+            end if
+        end do
+        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, 1, kind=ip), m, sv, &
+            tool, info, bktype, bkpar, [(1.0_dp, s = 1, ns)], int(max(npar, 1), ip), [1, 1, 1, 1, 1, 1], [1, 1, 1])
+        if (info /= sk_ok) return
+        call compliance_batch(m, theta, vidx, vval, tool, q, c, k, rank, kinfo, info)
+    end subroutine tool_compliance_batch
 
     pure function rotz(t) result(r)
         real(dp), intent(in) :: t
