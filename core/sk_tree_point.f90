@@ -56,19 +56,24 @@ contains
     !> st%par): sum over the blocks k of G_k D_k G_k^T, D_k = d delta/dw of
     !> block k's law at zero load (sk_laws%law_derivs), G = point_twists;
     !> symmetrised. Optional ok: every block's D is positive semi-definite
-    !> (a negative compliance is no spring).
-    pure subroutine point_compliance(m, st, vj, c, ok)
+    !> (a negative compliance is no spring); the 6-dof blocks' only when
+    !> check6 (default true: an eigenvalue problem per block).
+    pure subroutine point_compliance(m, st, vj, c, ok, check6)
         type(tree_model), intent(in) :: m
         type(tree_state), intent(in) :: st
         integer, intent(in) :: vj
         real(dp), intent(out) :: c(6, 6)
         logical, intent(out), optional :: ok
+        logical, intent(in), optional :: check6
+        logical :: six
         real(dp) :: g(6, m%ne), d(6, 6), dpar(6, nsym), dval(6), w(6), gk(6, 6)
         integer :: k, e0, n, a, b
         call point_twists(m, st, vj, st%pa(:, vj), g)
         c = 0.0_dp
         w = 0.0_dp
         if (present(ok)) ok = .true.
+        six = .true.
+        if (present(check6)) six = check6
         do k = 1, m%nk
             e0 = m%kfirst(k)
             n = m%kdim(k)
@@ -77,8 +82,8 @@ contains
             if (present(ok)) then
                 if (n == 1) then
                     if (d(1, 1) < 0.0_dp) ok = .false.
-                else if (psd_defect(6, d) < -psd_tol) then
-                    ok = .false.
+                else if (six) then
+                    if (psd_defect(6, d) < -psd_tol) ok = .false.
                 end if
             end if
             if (n == 1) then
@@ -145,8 +150,8 @@ contains
         integer(ip), intent(out) :: rank(:), kinfo(:), info
         type(tree_state) :: st
         real(dp) :: th(size(theta))
-        integer :: ipost
-        logical :: ok
+        integer :: ipost, kb
+        logical :: ok, vary6
         c = 0.0_dp
         k = 0.0_dp
         rank = 0
@@ -158,6 +163,12 @@ contains
         if (frame < 1 .or. frame > m%nv .or. any(vidx < 1) .or. any(vidx > m%npar)) return
         info = sk_err_nonfinite
         if (.not. (all_finite(theta) .and. all_finite(vval) .and. all_finite(q))) return
+        ! a 6-dof block's compliance is the same at every posture unless one
+        ! of its parameters varies: its check once
+        vary6 = .false.
+        do kb = 1, m%nk
+            if (m%kdim(kb) == 6) vary6 = vary6 .or. any([(any(m%kpar(:, kb) == vidx(ipost)), ipost = 1, size(vidx))])
+        end do
         call state_init(m, st)
         th = theta
         do ipost = 1, size(q, 2)
@@ -165,7 +176,7 @@ contains
             call posture_values(m, th, q(:, ipost), st)
             st%delta = 0.0_dp
             call deflected_frames(m, st)
-            call point_compliance(m, st, frame, c(:, :, ipost), ok)
+            call point_compliance(m, st, frame, c(:, :, ipost), ok, ipost == 1 .or. vary6)
             if (.not. ok) then
                 info = sk_err_indefinite
                 return

@@ -84,6 +84,8 @@ class Model:
     robot_table: dict = field(default_factory=dict)
     #: the file's optional [plan] table as written (robot/plan_settings.py reads it; the writers keep it)
     plan: dict = field(default_factory=dict)
+    #: the last tree model built (tree_model) and the terms it was built from
+    _tree: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     # -- springs --------------------------------------------------------
     def springs(self, extra_terms: Iterable[Term] = ()) -> list[tuple[int, int]]:
@@ -174,7 +176,13 @@ class Model:
         """The one tree model of this chain model (robot/model_tree.py): the
         TreeModel the tree core evaluates, with the parameters of its
         posture-dependent joint compliances. Its effects must carry values."""
-        return chain_tree_model(self, where or str(self.path or "model"))
+        key = (
+            id(self.chain),
+            [(t.kind, t.target, t.spring, _values(t.value), sorted(t.geometry.items())) for t in self.terms],
+        )
+        if self._tree is None or self._tree[0] != key:
+            self._tree = (key, chain_tree_model(self, where or str(self.path or "model")))
+        return self._tree[1]
 
     def tool_compliance(
         self, Q: npt.ArrayLike, return_stiffness: bool = False, wrench: npt.ArrayLike | None = None
@@ -233,6 +241,10 @@ class Model:
         _, K, _, ok = self.stiffness(Q)
         lscale = self.chain.characteristic_length if lscale is None else lscale
         return stiffness_indices_where(K, ok, lscale), ok
+
+
+def _values(v: np.ndarray | None) -> tuple | None:
+    return None if v is None else tuple(np.ravel(v).tolist())
 
 
 #: the gravity compensator's d2V/dq2 per unit k_s (the law is the core's, core/sk_deflect.f90)
