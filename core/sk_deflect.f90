@@ -45,7 +45,19 @@ module sk_deflect
         js_backlash, js_profile, js_harmonic, js_ks, js_geom
     implicit none
     private
-    public :: deflection_rows, joint_secant
+    public :: deflection_rows, deflection_setup, deflection_eval, joint_secant
+
+    !> The deflection model of a chain on its rows as the tree problem of
+    !> the chain's tree model (deflection_setup): pr, the tree's parameters
+    !> th, the entry home(i) that carries value i of par, theta's columns
+    !> colof in the tree's free list (0: none), the terms and known values.
+    type, public :: deflection_model
+        type(tree_problem) :: pr
+        real(dp), allocatable :: th(:), par(:)
+        integer, allocatable :: home(:), colof(:)
+        integer(ip), allocatable :: tint(:, :)
+        integer :: nm = 0
+    end type deflection_model
     !> term kinds (robot/model_core.py TERM_* mirrors them)
     integer, parameter, public :: term_joint = 1, term_profile = 2, term_compensator = 3, term_cubic = 4, &
         term_deadzone = 5, term_six = 6, term_offset = 7, term_harmonic = 8
@@ -146,49 +158,44 @@ contains
         end do
     end subroutine values
 
-    !> Predicted rows pred[6,nm] at theta and, when want_jac, their Jacobian
-    !> jac[6,nm,npar] (module header). q[ndof,nm], w[6,nm] (f, m at the tool
-    !> origin, base axes), p[3,nm] (tool coordinates). info: sk_ok,
-    !> sk_err_argument (inconsistent chain, springs or terms), sk_err_nonfinite.
-    subroutine deflection_rows(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, &
-            theta, q, w, p, want_jac, pred, jac, info)
+    !> The deflection model (module header) of a chain with the terms at
+    !> npar free columns, on rows q[ndof,nm], w[6,nm] (f, m at the tool
+    !> origin, base axes), p[3,nm] (tool coordinates), as the tree problem
+    !> dm that deflection_eval evaluates. info: sk_ok, sk_err_argument
+    !> (inconsistent chain, springs or terms), sk_err_size, sk_err_nonfinite.
+    subroutine deflection_setup(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, npar, &
+            q, w, p, dm, info)
         real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3)
-        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:), tint(:, :), elem(:)
-        real(dp), intent(in) :: tgeo(:, :), par(:), theta(:), q(:, :), w(:, :), p(:, :)
-        logical, intent(in) :: want_jac
-        real(dp), intent(out) :: pred(:, :), jac(:, :, :)
+        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:), tint(:, :), elem(:), npar
+        real(dp), intent(in) :: tgeo(:, :), par(:), q(:, :), w(:, :), p(:, :)
+        type(deflection_model), intent(out) :: dm
         integer(ip), intent(out) :: info
-        real(dp), allocatable :: pv(:), th(:), bkw0(:), predt(:, :), res(:), jt(:, :), delta(:, :), opt(:, :)
-        integer(ip), allocatable :: bktype(:), bkpar(:, :), free(:), opost(:), okind(:), nit(:), eqinfo(:), lpost(:)
+        real(dp), allocatable :: pv(:), th(:), bkw0(:), opt(:, :)
+        integer(ip), allocatable :: bktype(:), bkpar(:, :), free(:), opost(:), okind(:), lpost(:)
         integer, allocatable :: sv(:), colof(:)
         integer(ip) :: tpar(6), mpar(3)
         integer :: m, s, t, k, ns, nm, npall, nth, ig, nfree, c, tool
         integer, allocatable :: home(:)
         type(tree_model) :: tm
-        type(tree_problem) :: pr
         ns = size(stype)
         nm = size(q, 2)
         npall = size(par)
-        pred = 0.0_dp
-        if (want_jac) jac = 0.0_dp
         call check_chain(jaxis, qidx, size(q, 1, kind=ip), stype, sidx, info)
         if (info /= sk_ok) return
-        call check_terms(tint, tgeo, elem, int(ns, ip), size(par, kind=ip), size(theta, kind=ip), &
-            size(q, 1, kind=ip), info)
+        call check_terms(tint, tgeo, elem, int(ns, ip), size(par, kind=ip), npar, size(q, 1, kind=ip), info)
         if (info /= sk_ok) return
         info = sk_err_size
-        if (size(w, 2) /= nm .or. size(p, 2) /= nm .or. size(pred, 2) /= nm) return
-        if (want_jac .and. (size(jac, 2) /= nm .or. size(jac, 3) /= size(theta))) return
+        if (size(w, 2) /= nm .or. size(p, 2) /= nm) return
         info = sk_err_nonfinite
         if (.not. (all_finite(q) .and. all_finite(w) .and. all_finite(p) .and. all_finite(par) &
-            .and. all_finite(theta) .and. all_finite(tgeo))) return
+            .and. all_finite(tgeo))) return
         ! the tree's parameters: every value, the compensators' geometry, the
         ! sums of values that share a slot (a known and a free 6-dof spring
         ! element: home(i) is the entry that carries value i), a zero
         nth = 2*npall + 4*count(tint(1, :) == term_compensator) + 1
-        allocate(pv(npall), th(nth), bktype(ns), bkpar(nsym, ns), bkw0(ns), sv(ns), colof(size(theta)), &
-            free(size(theta)), home(npall))
-        call values(tint, par, theta, pv)
+        allocate(pv(npall), th(nth), bktype(ns), bkpar(nsym, ns), bkw0(ns), sv(ns), colof(npar), free(npar), &
+            home(npall))
+        pv = par
         th = 0.0_dp
         th(1:npall) = pv
         home = [(k, k = 1, npall)]
@@ -253,31 +260,21 @@ contains
         if (info /= sk_ok) return
         ! row m: posture m under its load at the tool; observations m (the
         ! point's deflection) and nm + m (the tool's rotation)
-        allocate(predt(3, 2*nm), res(6*nm), jt(6*nm, nfree), delta(tm%ne, nm), nit(nm), eqinfo(nm), &
-            opt(3, 2*nm), opost(2*nm), okind(2*nm), lpost(nm))
+        allocate(opt(3, 2*nm), opost(2*nm), okind(2*nm), lpost(nm))
         lpost = [(int(m, ip), m = 1, nm)]
         opost = [lpost, lpost]
         okind = [(obs_deflection, m = 1, nm), (obs_rotation, m = 1, nm)]
         opt(:, 1:nm) = p
         opt(:, nm + 1:) = p
-        call problem_setup(pr, tm, q, lpost, spread(int(tool, ip), 1, nm), w, opost, spread(1_ip, 1, 2*nm), &
+        call problem_setup(dm%pr, tm, q, lpost, spread(int(tool, ip), 1, nm), w, opost, spread(1_ip, 1, 2*nm), &
             spread([0.0_dp, 0.0_dp, 0.0_dp], 2, 2*nm), spread(1.0_dp, 1, 2*nm), free(1:nfree), info, okind, opt)
         if (info /= sk_ok) return
-        call evaluate(pr, th, 1_ip, 0.0_dp, want_jac, predt, res, jt, delta, nit, eqinfo, info)
-        if (info /= sk_ok) return
-        pred(1:3, :) = predt(:, 1:nm)
-        pred(4:6, :) = predt(:, nm + 1:)
-        if (want_jac) then
-            do c = 1, size(theta)
-                if (colof(c) == 0) cycle
-                do m = 1, nm
-                    jac(1:3, m, c) = jt(3*m - 2:3*m, colof(c))
-                    jac(4:6, m, c) = jt(3*(nm + m) - 2:3*(nm + m), colof(c))
-                end do
-            end do
-        end if
-        info = sk_ok
-        if (.not. all_finite(pred)) info = sk_err_overflow
+        dm%th = th
+        dm%home = home
+        dm%colof = colof
+        dm%tint = tint
+        dm%par = par
+        dm%nm = nm
 
     contains
 
@@ -298,6 +295,78 @@ contains
             home(i) = ig
             bkpar(j, s) = int(ig, ip)
         end subroutine slot
+    end subroutine deflection_setup
+
+    !> Predicted rows pred[6,nm] of the deflection model dm
+    !> (deflection_setup) at theta[npar] and, when want_jac, their Jacobian
+    !> jac[6,nm,npar] (module header): the tree evaluator's deflection and
+    !> rotation observations (sk_tree_jac evaluate, first order). info:
+    !> sk_ok, sk_err_size, sk_err_nonfinite, sk_err_overflow, or evaluate's.
+    subroutine deflection_eval(dm, theta, want_jac, pred, jac, info)
+        type(deflection_model), intent(inout) :: dm
+        real(dp), intent(in) :: theta(:)
+        logical, intent(in) :: want_jac
+        real(dp), intent(out) :: pred(:, :), jac(:, :, :)
+        integer(ip), intent(out) :: info
+        real(dp), allocatable :: pv(:), predt(:, :), res(:), jt(:, :), delta(:, :)
+        integer(ip), allocatable :: nit(:), eqinfo(:)
+        integer :: nm, i, c, m
+        nm = dm%nm
+        pred = 0.0_dp
+        if (want_jac) jac = 0.0_dp
+        info = sk_err_size
+        if (size(pred, 1) /= 6 .or. size(pred, 2) /= nm .or. size(theta) /= size(dm%colof)) return
+        if (want_jac .and. any(shape(jac) /= [6, nm, size(theta)])) return
+        info = sk_err_nonfinite
+        if (.not. all_finite(theta)) return
+        allocate(pv(size(dm%par)), predt(3, 2*nm), res(6*nm), jt(6*nm, dm%pr%nfree), delta(dm%pr%m%ne, nm), &
+            nit(nm), eqinfo(nm))
+        ! the tree's parameters: the values, and the sums of those that share a slot
+        call values(dm%tint, dm%par, theta, pv)
+        dm%th(1:size(pv)) = pv
+        do i = 1, size(pv)
+            if (dm%home(i) > size(pv)) dm%th(dm%home(i)) = 0.0_dp
+        end do
+        do i = 1, size(pv)
+            if (dm%home(i) > size(pv)) dm%th(dm%home(i)) = dm%th(dm%home(i)) + pv(i)
+        end do
+        call evaluate(dm%pr, dm%th, 1_ip, 0.0_dp, want_jac, predt, res, jt, delta, nit, eqinfo, info)
+        if (info /= sk_ok) return
+        pred(1:3, :) = predt(:, 1:nm)
+        pred(4:6, :) = predt(:, nm + 1:)
+        if (want_jac) then
+            do c = 1, size(theta)
+                if (dm%colof(c) == 0) cycle
+                do m = 1, nm
+                    jac(1:3, m, c) = jt(3*m - 2:3*m, dm%colof(c))
+                    jac(4:6, m, c) = jt(3*(nm + m) - 2:3*(nm + m), dm%colof(c))
+                end do
+            end do
+        end if
+        info = sk_ok
+        if (.not. all_finite(pred)) info = sk_err_overflow
+    end subroutine deflection_eval
+
+    !> Predicted rows pred[6,nm] at theta and, when want_jac, their Jacobian
+    !> jac[6,nm,npar] (module header; deflection_setup, deflection_eval).
+    !> q[ndof,nm], w[6,nm] (f, m at the tool origin, base axes), p[3,nm]
+    !> (tool coordinates). info: sk_ok, sk_err_argument (inconsistent chain,
+    !> springs or terms), sk_err_size, sk_err_nonfinite, sk_err_overflow.
+    subroutine deflection_rows(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, &
+            theta, q, w, p, want_jac, pred, jac, info)
+        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3)
+        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:), tint(:, :), elem(:)
+        real(dp), intent(in) :: tgeo(:, :), par(:), theta(:), q(:, :), w(:, :), p(:, :)
+        logical, intent(in) :: want_jac
+        real(dp), intent(out) :: pred(:, :), jac(:, :, :)
+        integer(ip), intent(out) :: info
+        type(deflection_model) :: dm
+        pred = 0.0_dp
+        if (want_jac) jac = 0.0_dp
+        call deflection_setup(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, &
+            size(theta, kind=ip), q, w, p, dm, info)
+        if (info /= sk_ok) return
+        call deflection_eval(dm, theta, want_jac, pred, jac, info)
     end subroutine deflection_rows
 
     !> Compliance cj[ns,np] of every joint spring at postures q[ndof,np]

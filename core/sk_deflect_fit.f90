@@ -24,7 +24,7 @@
 module sk_deflect_fit
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_deflect, only: deflection_rows
+    use sk_deflect, only: deflection_model, deflection_setup, deflection_eval
     use sk_lm_solve, only: lm_problem, lm_solve
     implicit none
     private
@@ -37,13 +37,12 @@ module sk_deflect_fit
     end type lm_vars
 
     !> deflection_lm's problem for the core's one LM loop (sk_lm_solve):
-    !> the model and data (deflection_rows' arguments, the weighted data
-    !> and masks), the variables v, the accepted theta with its weighted
-    !> Jacobian a and residual res, the last trial with a2, res2.
+    !> the model on its rows (sk_deflect deflection_setup, set up once), the
+    !> weighted data and masks, the variables v, the accepted theta with its
+    !> weighted Jacobian a and residual res, the last trial with a2, res2.
     type, extends(lm_problem) :: defl_fit
-        real(dp), allocatable :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(:, :), tpos(:), tgeo(:, :), par(:), &
-            q(:, :), w(:, :), p(:, :), y(:), wrow(:)
-        integer(ip), allocatable :: qidx(:), stype(:), sidx(:), tint(:, :), elem(:)
+        type(deflection_model) :: dm
+        real(dp), allocatable :: y(:), wrow(:)
         logical, allocatable :: neg(:), nlmask(:), inv(:)
         real(dp), allocatable :: theta(:), trial(:), pred(:, :), jac(:, :, :), a(:, :), res(:), a2(:, :), res2(:)
         type(lm_vars) :: v
@@ -148,13 +147,19 @@ contains
         info = sk_err_size
         if (size(y) /= nobs .or. size(wrow) > 6 .or. size(neg) /= n .or. size(nlmask) /= n .or. size(inv) /= n) &
             return
-        df = defl_fit(jrot=jrot, jpos=jpos, jaxis=jaxis, qidx=qidx, trot=trot, tpos=tpos, stype=stype, sidx=sidx, &
-            tint=tint, tgeo=tgeo, elem=elem, par=par, q=q, w=w, p=p, y=y, wrow=wrow, neg=neg, nlmask=nlmask, inv=inv, &
-            theta=theta, trial=theta)
+        df%y = y
+        df%wrow = wrow
+        df%neg = neg
+        df%nlmask = nlmask
+        df%inv = inv
+        df%theta = theta
+        df%trial = theta
         allocate(df%pred(6, nm), df%jac(6, nm, n), df%a(nobs, n), df%res(nobs), df%a2(nobs, n), df%res2(nobs), &
             az(nobs, n))
-        call deflection_rows(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, theta, &
-            q, w, p, .true., df%pred, df%jac, info)
+        call deflection_setup(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, tint, tgeo, elem, par, int(n, ip), &
+            q, w, p, df%dm, info)
+        if (info /= sk_ok) return
+        call deflection_eval(df%dm, theta, .true., df%pred, df%jac, info)
         if (info /= sk_ok) return
         call weigh(df%pred, df%jac, y, wrow, neg, df%a, df%res)
         call var_set(theta, df%a, inv, nlmask, df%v)
@@ -193,9 +198,7 @@ contains
         if (.not. ok) return
         self%trial = z
         where (self%v%use) self%trial = 1.0_dp/z
-        call deflection_rows(self%jrot, self%jpos, self%jaxis, self%qidx, self%trot, self%tpos, self%stype, &
-            self%sidx, self%tint, self%tgeo, self%elem, self%par, self%trial, self%q, self%w, self%p, .true., &
-            self%pred, self%jac, einfo)
+        call deflection_eval(self%dm, self%trial, .true., self%pred, self%jac, einfo)
         ok = einfo == sk_ok
         if (.not. ok) return
         call weigh(self%pred, self%jac, self%y, self%wrow, self%neg, self%a2, self%res2)
