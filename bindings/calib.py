@@ -1,6 +1,5 @@
 """Typed wrappers of the serial-chain and calibration core (``_calib``,
-core/sk_api_calib.f90): chain kinematics, the springs' Jacobians (on the
-chain's tree model), the deflection model, weighted
+core/sk_api_calib.f90): chain kinematics, the deflection model, weighted
 least squares, score tests, tail probabilities, and the Levenberg-Marquardt
 iteration by reverse communication (core/sk_lm.f90).
 
@@ -32,15 +31,6 @@ def chain_poses(chain: dict, q: np.ndarray) -> dict[str, np.ndarray]:
         "rt": np.transpose(rt, (2, 0, 1)),
         "pt": pt.T.copy(),
     }
-
-
-def spring_jacobians(nd: int, chain: dict, stype: np.ndarray, sidx: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Jacobians (6, nd) of every spring at one posture q (ndof,)."""
-    jac, _rt, _pt, info = call(
-        _calib.sk_spring_jacobians, "sk_spring_jacobians", nd, **chain, stype=stype, sidx=sidx, q=q
-    )
-    check(info, "spring Jacobians (sk_spring_jacobians)")
-    return jac
 
 
 def deflection_rows(

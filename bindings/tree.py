@@ -257,6 +257,17 @@ def compliance(
     return np.transpose(c, (2, 0, 1)), np.transpose(k, (2, 0, 1)), rank, kinfo
 
 
+def twists(model: PackedTree, theta: np.ndarray, frame: int, q: np.ndarray) -> np.ndarray:
+    """Twists g (6, ne) of virtual joint ``frame``'s frame (1-based; about its
+    origin, base axes) per unit elastic coordinate at posture q (ndof,),
+    undeflected (core/sk_tree_point.f90): the columns of every spring's
+    Jacobian, in the blocks' order."""
+    args = dict(theta=_f(theta), q=_f(np.asarray(q, float).ravel()))
+    g, info, errloc = _tree.sk_tree_twists(model.mi, model.mr, **args, frame=int(frame))
+    _check(info, errloc, "twists (sk_tree_twists)", dict(args, model=model.arrays, ne=model.ne))
+    return g
+
+
 def frame_jacobian(
     model: PackedTree,
     theta: np.ndarray,

@@ -17,21 +17,6 @@ subroutine sk_chain_poses(nj, ndof, np, jrot, jpos, jaxis, qidx, trot, tpos, q, 
     call chain_poses_batch(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rt, pt, info)
 end subroutine sk_chain_poses
 
-!> Jacobians jac[6,nd] of every spring at one posture q[ndof], and the
-!> tool frame rt[3,3], pt[3] (the chain's tree model, sk_chain_tree).
-subroutine sk_spring_jacobians(nj, ndof, ns, nd, jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q, &
-        jac, rt, pt, info)
-    use, intrinsic :: iso_c_binding, only: c_double, c_int
-    use sk_chain_tree, only: spring_jacobians
-    implicit none
-    integer(c_int), intent(in) :: nj, ndof, ns, nd
-    real(c_double), intent(in) :: jrot(3, 3, nj), jpos(3, nj), jaxis(3, nj), trot(3, 3), tpos(3), q(ndof)
-    integer(c_int), intent(in) :: qidx(nj), stype(ns), sidx(ns)
-    real(c_double), intent(out) :: jac(6, nd), rt(3, 3), pt(3)
-    integer(c_int), intent(out) :: info
-    call spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q, jac, rt, pt, info)
-end subroutine sk_spring_jacobians
-
 !> Weighted least squares with groups (sk_calib%wls_svd).
 subroutine sk_wls(n, p, a, y, rcond, gtol, theta, stdu, s, v, rank, group, res, info)
     use, intrinsic :: iso_c_binding, only: c_double, c_int

@@ -93,6 +93,30 @@ subroutine sk_tree_compliance(nmi, nmr, nv, ne, ndof, npar, np, nvar, mi, mr, th
     call compliance_batch(m, theta, vidx, vval, int(frame), q, c, k, rank, kinfo, info)
 end subroutine sk_tree_compliance
 
+!> Twists g[6,ne] of the frame of joint frame (about its origin, base axes)
+!> per unit elastic coordinate at posture q[ndof], undeflected
+!> (sk_tree_point%twists_at): every spring's Jacobian.
+subroutine sk_tree_twists(nmi, nmr, nv, ne, ndof, npar, mi, mr, theta, frame, q, g, info, errloc)
+    use, intrinsic :: iso_c_binding, only: c_double, c_int
+    use sk_errors, only: sk_ok
+    use sk_tree, only: tree_model
+    use sk_tree_pack, only: unpack_with_inputs
+    use sk_tree_point, only: twists_at
+    implicit none
+    integer(c_int), intent(in) :: nmi, nmr, nv, ne, ndof, npar, mi(nmi), frame
+    real(c_double), intent(in) :: mr(nmr), theta(npar), q(ndof)
+    real(c_double), intent(out) :: g(6, ne)
+    integer(c_int), intent(out) :: info, errloc(2)
+    type(tree_model) :: m
+    integer(c_int) :: none(0)
+    real(c_double) :: nonew(6, 0)
+    g = 0
+    call unpack_with_inputs(mi, mr, nv, ne, theta, reshape(q, [ndof, 1]), none, none, nonew, 0.0_c_double, m, &
+        info, errloc)
+    if (info /= sk_ok) return
+    call twists_at(m, theta, int(frame), q, g, info)
+end subroutine sk_tree_twists
+
 !> Predicted points pred[3,no], weighted residuals res[3*no] and Jacobian
 !> jac[3*no,nfree] w.r.t. theta(free), deflections delta[ne,np], nit[np],
 !> eqinfo[np] (sk_tree%evaluate).

@@ -16,22 +16,21 @@
 !> the point rides on it. At zero deflection the six joints of a spring
 !> have the frame of the spring, so their screws are the columns of
 !> the columns of the spring's Jacobian J_s (and the generalised forces
-!> J_s^T w): the tool compliance of the chain is the tool point's
-!> compliance of this model (sk_tree_point), sum_s J_s C_s J_s^T.
+!> J_s^T w). The deflection model of relative data (sk_deflect) evaluates
+!> it; robot/model_tree.py builds the same tree model in Python for the
+!> tool compliance, the springs' Jacobians and compensation.
 module sk_chain_tree
     use sk_kinds, only: dp, ip
     use sk_errors
-    use sk_linalg, only: eye, all_finite
-    use sk_spatial, only: nsym, sym_index
+    use sk_linalg, only: eye
+    use sk_spatial, only: nsym
     use sk_laws, only: law_linear, law_spring6
     use sk_tree_check, only: vj_fixed, vj_revolute, vj_prismatic
-    use sk_tree_model, only: tree_model, tree_state, model_setup, state_init
-    use sk_tree_equil, only: deflected_frames, posture_values
-    use sk_tree_point, only: point_twists
-    use sk_chain, only: spring_joint, spring_frame, spring_base, spring_tool, spring_ndof, check_chain
+    use sk_tree_model, only: tree_model, model_setup
+    use sk_chain, only: spring_joint, spring_frame, spring_base, spring_tool, spring_ndof
     implicit none
     private
-    public :: chain_tree_model, spring_jacobians
+    public :: chain_tree_model
 
 contains
 
@@ -150,60 +149,5 @@ contains
             v = v + 6
         end subroutine six
     end subroutine chain_tree_model
-
-    !> The state st of m at posture q without deflection (frames, law
-    !> parameters from theta: the chain's model has none, its one theta
-    !> entry is unused).
-    subroutine zero_state(m, st, q)
-        type(tree_model), intent(in) :: m
-        type(tree_state), intent(inout) :: st
-        real(dp), intent(in) :: q(:)
-        real(dp) :: theta(1)
-        theta = 0.0_dp
-        call posture_values(m, theta, q, st)
-        st%delta = 0.0_dp
-        call deflected_frames(m, st)
-    end subroutine zero_state
-
-    !> Jacobians of every spring at one posture q: jac[6, nd], the columns of
-    !> spring s (1 for a joint spring, 6 otherwise) one after the other (the
-    !> tool point's twists per elastic coordinate of the chain's tree
-    !> model); rt[3,3], pt[3] the tool frame.
-    subroutine spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q, jac, rt, pt, info)
-        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3), q(:)
-        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:)
-        real(dp), intent(out) :: jac(:, :), rt(3, 3), pt(3)
-        integer(ip), intent(out) :: info
-        type(tree_model) :: m
-        type(tree_state) :: st
-        integer, allocatable :: sv(:)
-        integer :: s, n, tool
-        jac = 0.0_dp
-        rt = 0.0_dp
-        pt = 0.0_dp
-        call check_chain(jaxis, qidx, size(q, kind=ip), stype, sidx, info)
-        if (info /= sk_ok) return
-        n = 0
-        do s = 1, size(stype)
-            n = n + spring_ndof(stype(s))
-        end do
-        if (size(jac, 1) /= 6 .or. size(jac, 2) /= n) then
-            info = sk_err_size
-            return
-        end if
-        if (.not. all_finite(q)) then
-            info = sk_err_nonfinite
-            return
-        end if
-        allocate(sv(size(stype)))
-        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, kind=ip), m, sv, tool, info)
-        if (info /= sk_ok) return
-        call state_init(m, st)
-        call zero_state(m, st, q)
-        rt = st%ra(:, :, tool)
-        pt = st%pa(:, tool)
-        call point_twists(m, st, tool, pt, jac)
-        info = sk_ok
-    end subroutine spring_jacobians
 
 end module sk_chain_tree

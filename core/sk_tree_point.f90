@@ -20,7 +20,7 @@ module sk_tree_point
     use sk_tree_equil, only: posture_values, deflected_frames
     implicit none
     private
-    public :: point_twists, point_compliance, compliance_stiffness, compliance_batch
+    public :: point_twists, point_compliance, compliance_stiffness, compliance_batch, twists_at
 
 contains
 
@@ -187,5 +187,32 @@ contains
         info = sk_ok
         if (.not. (all_finite(c) .and. all_finite(k))) info = sk_err_overflow
     end subroutine compliance_batch
+
+    !> g[6,ne]: the twists of the frame of joint frame (about its origin,
+    !> base axes) per unit elastic coordinate (point_twists) at posture
+    !> q[ndof] with the parameters theta[npar], undeflected: the columns of
+    !> every spring's Jacobian. info: sk_ok, sk_err_size, sk_err_argument
+    !> (frame), sk_err_nonfinite.
+    subroutine twists_at(m, theta, frame, q, g, info)
+        type(tree_model), intent(in) :: m
+        real(dp), intent(in) :: theta(:), q(:)
+        integer, intent(in) :: frame
+        real(dp), intent(out) :: g(:, :)
+        integer(ip), intent(out) :: info
+        type(tree_state) :: st
+        g = 0.0_dp
+        info = sk_err_size
+        if (size(theta) /= m%npar .or. size(q) /= m%ndof .or. size(g, 1) /= 6 .or. size(g, 2) /= m%ne) return
+        info = sk_err_argument
+        if (frame < 1 .or. frame > m%nv) return
+        info = sk_err_nonfinite
+        if (.not. (all_finite(theta) .and. all_finite(q))) return
+        call state_init(m, st)
+        call posture_values(m, theta, q, st)
+        st%delta = 0.0_dp
+        call deflected_frames(m, st)
+        call point_twists(m, st, frame, st%pa(:, frame), g)
+        info = sk_ok
+    end subroutine twists_at
 
 end module sk_tree_point

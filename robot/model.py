@@ -153,24 +153,18 @@ class Model:
     def jacobians(self, q: npt.ArrayLike) -> dict:
         """Jacobians of every spring of the model at posture q (dof,):
         {(stype, joint index): (6, 1) or (6, 6)}; the tool twist per spring
-        deflection (base axes, about the tool-frame origin): the tool point's
-        twists per elastic coordinate of the chain's tree model."""
+        deflection (base axes, about the tool-frame origin): the tool
+        frame's twists per elastic block of the model's TreeModel
+        (:meth:`tree_model`, TreeModel.twists)."""
         springs = self.springs()
         if not springs:
             return {}
         q = np.asarray(q, dtype=float).reshape(-1)
         if q.shape != (self.chain.dof,):
             raise InputError(f"posture must have {self.chain.dof} values, got {q.size}")
-        stype = np.array([s[0] for s in springs], np.int32)
-        sidx = np.array([s[1] for s in springs], np.int32)
-        nd = int(sum(1 if s == SPRING_JOINT else 6 for s in stype))
-        jac = core.spring_jacobians(nd, self.chain.core_arrays(), stype=stype, sidx=sidx, q=q)
-        out, col = {}, 0
-        for sp in springs:
-            n = 1 if sp[0] == SPRING_JOINT else 6
-            out[sp] = jac[:, col : col + n].copy()
-            col += n
-        return out
+        ct = self.tree_model()
+        g = dict(zip(ct.springs, ct.model.twists(q, self.chain.tool_frame)))
+        return {sp: g[sp].copy() for sp in springs}
 
     def tree_model(self, where: str | None = None) -> ChainTree:
         """The one tree model of this chain model (robot/model_tree.py): the

@@ -8,8 +8,10 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from . import catalogue
-from .model_core import SPRING_BASE, SPRING_FRAME, SPRING_TOOL
+from .model_core import SPRING_BASE, SPRING_FRAME, SPRING_JOINT, SPRING_TOOL
 from .tree import Tree, load_tree
 from .tree_model import TreeModel, tree_model_from_tables
 
@@ -27,17 +29,24 @@ LOAD_NONLINEAR = tuple(e.name for e in catalogue.ENTRIES if e.load_nonlinear)
 @dataclass
 class ChainTree:
     """A chain model's tree model, the parameters of its posture-dependent
-    joint compliances ``varying`` [(theta index, chain joint index)], and
-    the chain as a tree."""
+    joint compliances ``varying`` [(theta index, chain joint index)], the
+    chain as a tree, and the chain's spring (stype, 1-based joint index) of
+    every elastic block of the tree model (``springs``, in block order)."""
 
     model: TreeModel
     varying: list[tuple[int, int]]
     tree: Tree
+    springs: list[tuple[int, int]]
+
+
+def _known(t: object) -> float:
+    """A joint term's known value, 0 while it has none (the tree's place of it)."""
+    return 0.0 if t.value is None else float(t.value[0])
 
 
 def chain_tree_model(model: Model, where: str = "model") -> ChainTree:
-    """The tree model of a serial-chain model (sections 2-5) whose effects
-    carry values (the caller checks them): the chain from base_link to
+    """The tree model of a serial-chain model (sections 2-5), an effect
+    without a value yet at 0 (an evaluation checks the values first): the chain from base_link to
     tool_frame alone, no masses, gravity off, first-order equilibrium;
     ``joint`` springs the linear law on the joint's virtual joint (a
     posture-dependent compliance, joint_profile, gravity_compensator or
@@ -59,7 +68,7 @@ def chain_tree_model(model: Model, where: str = "model") -> ChainTree:
     varying = set()
     for t in model.terms:
         if t.kind == "joint":
-            linear[t.joint] = linear.get(t.joint, 0.0) + float(t.value[0])
+            linear[t.joint] = linear.get(t.joint, 0.0) + _known(t)
         elif t.kind in VARYING:
             varying.add(t.joint)
     nonlin = {t.joint: t for t in model.terms if t.kind in LOAD_NONLINEAR}
@@ -69,12 +78,16 @@ def chain_tree_model(model: Model, where: str = "model") -> ChainTree:
         eff.append({"kind": "joint", "target": name, "value": 0.0 if j in varying else linear.get(j, 0.0)})
         t = nonlin.get(j)
         if t is not None and t.kind == "joint_cubic":
-            eff.append({"kind": "joint_cubic", "target": name, "value": float(t.value[0])})
+            eff.append({"kind": "joint_cubic", "target": name, "value": _known(t)})
         elif t is not None:
             eff.append(
-                {"kind": "joint_deadzone", "target": name, "value": float(t.value[0]), "tau0": t.geometry["tau0"]}
+                {"kind": "joint_deadzone", "target": name, "value": _known(t), "tau0": t.geometry.get("tau0", 1.0)}
             )
-    for (stype, k), C in model.six_values().items():
+    six = model.six_values([t for t in model.terms if t.kind == "six" and t.value is not None])
+    for t in model.terms:  # a spring without its value yet: its place (its Jacobian), value 0
+        if t.kind == "six" and t.spring not in six:
+            six[t.spring] = np.zeros((6, 6))
+    for (stype, k), C in six.items():
         if stype == SPRING_BASE:
             eff.append({"kind": "base", "value": C.tolist()})
         elif stype == SPRING_FRAME:
@@ -83,4 +96,7 @@ def chain_tree_model(model: Model, where: str = "model") -> ChainTree:
             eff.append({"kind": "link", "target": chain.tool_frame, "value": C.tolist()})
     tm = tree_model_from_tables(tree, eff, (0.0, 0.0, 0.0), 1, where)
     rows = [(tm.index(f"{chain.joint_names[j]}.c"), j) for j in sorted(varying)]
-    return ChainTree(tm, rows, tree)
+    spring_of = {("base", "base"): (SPRING_BASE, 0), ("link", chain.tool_frame): (SPRING_TOOL, 0)}
+    spring_of.update({("link", p): (SPRING_FRAME, k + 1) for k, p in enumerate(chain.parents)})
+    spring_of.update({("joint", n): (SPRING_JOINT, k + 1) for k, n in enumerate(chain.joint_names)})
+    return ChainTree(tm, rows, tree, [spring_of[b] for b in tm.blocks])

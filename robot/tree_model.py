@@ -203,6 +203,19 @@ class TreeModel:
         C, K, rank, kinfo = core_tree.compliance(self.packed, th, self.vj_of_link[frame], Q, vary)
         return C, K, rank.astype(int), kinfo == 0
 
+    def twists(self, q: ArrayLike, frame: str, theta: ArrayLike | None = None) -> list[np.ndarray]:
+        """The twists of link ``frame``'s frame (about its origin, base axes)
+        per unit deflection of every elastic block at posture q (dof,),
+        undeflected (one core call): one (6, n) array per block (n = 6 for a
+        6-dof spring, else 1), in the order of ``blocks``."""
+        if frame not in self.vj_of_link:
+            raise InputError(f"unknown frame {frame!r}; links of the model: {', '.join(self.vj_of_link)}")
+        q = V.array(q, "posture", (len(self.actuated),), "angle")
+        th = self.theta0 if theta is None else V.array(theta, "theta", (len(self.params),))
+        g = core_tree.twists(self.packed, th, self.vj_of_link[frame], q)
+        ends = np.cumsum([6 if k == LAW_SPRING6 else 1 for k in self.arrays["ktype"]])
+        return [g[:, e - (6 if k == LAW_SPRING6 else 1) : e] for e, k in zip(ends, self.arrays["ktype"])]
+
     def index(self, name: str) -> int:
         try:
             return self.names.index(name)

@@ -148,11 +148,12 @@ def test_tree_route_gives_the_former_chain_numbers(chain, name):
 
 
 @pytest.mark.parametrize("name", sorted(cases()))
-def test_the_two_chain_builders_agree(chain, name):
-    """Model.tool_compliance (the Python builder of the chain's TreeModel,
-    robot/model_tree.py, and the tree core's point compliance) equals
-    sum_s J_s C_s J_s^T with the springs' Jacobians of the core's own chain
-    tree model (Model.jacobians, core/sk_chain_tree.f90), posture by posture."""
+def test_compliance_is_the_sum_of_the_springs_terms(chain, name):
+    """Model.tool_compliance (TreeModel.compliance of the chain's TreeModel,
+    one core loop) equals sum_s J_s C_s J_s^T with the springs' Jacobians
+    Model.jacobians (TreeModel.twists), posture by posture. (The core's own
+    chain tree model, the deflection rows', agrees with it:
+    test_calib_model.py test_basis_prediction_matches_tool_compliance.)"""
     m = model_from_tables(chain, cases()[name])
     C = m.tool_compliance(Q)
     jc = m.joint_compliances(Q)

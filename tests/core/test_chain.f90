@@ -13,9 +13,9 @@ program test_chain
     use sk_spatial, only: sym_index, nsym, revolute_twist, twist_transfer, blockdiag_rot
     use sk_laws, only: law_linear, law_spring6
     use sk_tree_model, only: tree_model
-    use sk_tree_point, only: compliance_batch
+    use sk_tree_point, only: compliance_batch, twists_at
     use sk_chain, only: chain_frames, chain_poses_batch, spring_joint, check_chain
-    use sk_chain_tree, only: chain_tree_model, spring_jacobians
+    use sk_chain_tree, only: chain_tree_model
     use sk_deflect, only: deflection_rows
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     implicit none (type, external)
@@ -154,8 +154,8 @@ contains
     end subroutine test_basis_matches_compliance
 
     !> Every spring type (joint, frame, base, tool) with full 6x6 springs on
-    !> a 4R chain with rotated joint origins: spring_jacobians (the tree
-    !> model's screws) equal the closed forms at sk_chain's frames (joint:
+    !> a 4R chain with rotated joint origins: the springs' Jacobians (the
+    !> chain tree model's screws, sk_tree_point%twists_at) equal the closed forms at sk_chain's frames (joint:
     !> the revolute twist of its axis; F_k: transfer(pt - p_k) blockdiag(R_k);
     !> base: transfer(pt); tool: blockdiag(R_t)), tool_compliance_batch
     !> equals sum J_s C_s J_s^T, and chain_poses_batch equals chain_frames.
@@ -200,7 +200,7 @@ contains
         call chain_poses_batch(jrot, jpos, jaxis, qidx, trot, tpos, q, rf, pf, rtb, ptb, info)
         call expect(info == sk_ok, 'poses: info')
         do m = 1, np
-            call spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q(:, m), jac, rt, pt, info)
+            call spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q(:, m), jac, info)
             call expect(info == sk_ok, 'block terms: jacobians info')
             call chain_frames(jrot, jpos, jaxis, qidx, trot, tpos, q(:, m), rf1, pf1, rt, pt)
             jcf(:, 1) = revolute_twist(matmul(rf1(:, :, 1), jaxis(:, 1)), pf1(:, 1), pt)
@@ -297,6 +297,20 @@ contains
         if (info /= sk_ok) return
         call compliance_batch(m, theta, vidx, vval, tool, q, c, k, rank, kinfo, info)
     end subroutine tool_compliance_batch
+
+    !> Jacobians jac[6,nd] of every spring at posture q: the tool point's
+    !> twists per elastic coordinate of the chain's tree model.
+    subroutine spring_jacobians(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, q, jac, info)
+        real(dp), intent(in) :: jrot(:, :, :), jpos(:, :), jaxis(:, :), trot(3, 3), tpos(3), q(:)
+        integer(ip), intent(in) :: qidx(:), stype(:), sidx(:)
+        real(dp), intent(out) :: jac(:, :)
+        integer(ip), intent(out) :: info
+        type(tree_model) :: m
+        integer :: sv(size(stype)), tool
+        call chain_tree_model(jrot, jpos, jaxis, qidx, trot, tpos, stype, sidx, size(q, kind=ip), m, sv, tool, info)
+        if (info /= sk_ok) return
+        call twists_at(m, [0.0_dp], tool, q, jac, info)
+    end subroutine spring_jacobians
 
     pure function rotz(t) result(r)
         real(dp), intent(in) :: t
