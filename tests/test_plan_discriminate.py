@@ -268,11 +268,38 @@ def test_bad_inputs(robot):
 
 
 def test_planned_postures_tell_the_springs_apart_10_seeds(robot):
-    """The rates are printed (pytest -s); measured: planned 9/10, random 8/10 (the true spring
-    ranked first of all candidates: planned 0/10, random 1/10: joint and lateral compliances of
-    the arm lead the list)."""
+    """The rates are printed (pytest -s); measured: planned 9/10, random 8/10. The true spring
+    ranked first of ALL candidates (the issue's number, 8 of 10): planned 0/10, random 1/10, not
+    met; no choice of these candidates can meet it (the next test: the true effect is, to 4 %,
+    the joint compliances of the tree)."""
     out = planned_vs_random(robot, 10)
     assert sum(out["planned"]) >= 8
+    assert sum(out["planned_first"]) <= 2 and sum(out["random_first"]) <= 2  # measured 0/10 and 1/10
+
+
+def test_the_true_spring_is_nearly_the_joint_compliances(robot):
+    """Why the true spring is not ranked first of all candidates however 10 of the 200 are
+    chosen: the truth, rotations at the origin of l2 (the link spring of l_link1 carries its
+    child there), is exactly a compliance of joint l2 plus a lateral one (both nested in the
+    spring), and nearly the compliances of the tree's joints. Noise-free rows at the 9 data
+    postures and ALL 200 candidates: joint:all (3 parameters) ranks first, the true spring (7)
+    second, its 4 more parameters explaining under 5 % more (measured 9.3 sigma^2 of 254). The
+    spring explains the truth exactly, so that difference is the noncentrality of joint:all
+    against the truth, which only grows with rows: at any subset of these postures it is at
+    most 9.3 sigma^2 (plus 4 expected from the noise in the 4 more parameters), short of what
+    4 parameters cost in the log p ranking (8 to 10 sigma^2 for log10 p from -3 to -5; with the
+    truth known, 10 postures chosen greedily reach 1.5 sigma^2). A plan cannot change that; a
+    truth the joint compliances cannot mimic would be a different case."""
+    seed, data, rng = tied_cases(robot, 1)[0]
+    full = joined(robot, data, postures(robot, 200, rng), rng)
+    full.xyz = predict(robot.truth, full, robot.truth.theta0)["pred"]  # noise-free
+    dg = diagnose_absolute(robot.model, full)
+    lab = ranks(dg)
+    assert lab[:2] == ["joint:all", TRUE], lab[:4]
+    top, spring = dg.candidates[0], dg.candidates[1]
+    assert (top.dof, spring.dof) == (3, 7)
+    assert 0 < spring.statistic - top.statistic < 0.05 * spring.statistic
+    assert spring.statistic - top.statistic < 10.0
 
 
 def test_diagnose_names_the_plan_command_on_a_tie(robot):
