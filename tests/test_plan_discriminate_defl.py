@@ -170,10 +170,9 @@ def noise_free(truth, q, w, p):
 def test_the_hidden_spring_has_an_exact_twin(tied_cases):
     """Why planned pairs do not make the hidden link_3 spring rank first more often than random
     ones (10 pairs: planned 11/16, random 11/16; another draw of candidates and noise: 13/16,
-    14/16): its
-    effect is exactly a beam spring of link_4 (joint a4 turns about link_3's own axis, and
-    link_4's beam along that axis, 0.6 m further, spans the same deflections at every posture
-    and load). Noise-free rows at the data's (posture, load) pairs and all 160 candidates:
+    14/16): its effect is exactly a beam spring of link_4 (joint a4 turns about link_3's own
+    axis, and link_4's beam along that axis, 0.6 m further, spans the same deflections at every
+    posture and load). Noise-free rows at the data's (posture, load) pairs and all 160 candidates:
     link_3:beam and link_4:beam explain the same to 1e-6 and the diagnosis lists them
     indistinguishable; link_3:diagonal (5 parameters, counted as the true spring when it leads)
     and link_4:beam (6) stay tied, 2.3 sigma^2 of 2624 apart over every candidate (seeds 2, 3:
