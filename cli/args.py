@@ -98,10 +98,10 @@ def choice_list(text: str, option: str, choices: Collection[str]) -> list[str]:
 
 def kinds_help(data: str, indent: int = 2, width: int = 100) -> str:
     """The kinds of data kind ``data`` for a command's --help (``stiffkit fit
-    --help``), one entry each, from the catalogue (robot/catalogue.py): its law, its target, its parameters as
-    printed after ``<target>.`` with their units, what its other keys mean
-    (``usage``, else their names) and whether it needs a ``joint`` effect
-    on its joint."""
+    --help``), one entry each, from the catalogue (robot/catalogue.py): its
+    law, its target, its parameters as printed after ``<target>.`` with
+    their units, what its other keys mean (``usage``, else their names) and
+    whether it needs a ``joint`` effect on its joint."""
     nb = "\xa0"  # a unit or a parenthesis is not broken across lines
 
     def keep(text: str) -> str:
