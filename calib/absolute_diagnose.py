@@ -74,6 +74,7 @@ from .diagnosis import (
     CV_FOLDS,
     Noise,
     bonferroni,
+    catalogue_fails,
     check_residual,
     corrected_p,
     distinct_rows,
@@ -298,7 +299,10 @@ def diagnose_absolute(
         for cand, cols in top:
             e = cvf.held_out(np.concatenate([np.arange(p_a), [at[col[x]] for x in cols]]).astype(int))
             cand.cv_rms_position_m, cand._cv = _cv_rms(e, w), _cv_per_posture(e, w, data.posture)
-        # 3. the proposal
+        # 3. nothing fits (one rule, both kinds: diagnosis.catalogue_fails; with the noise known), the proposal
+        if sig_decl and (dg.verdict == "inadequate" or log_p < math.log(alpha)):
+            noise = Noise(s2, "declared", nres)
+            dg.nothing_fits, dg.together_fraction = catalogue_fails([c for c, _ in ranked], A, r, noise, alpha)
         propose(
             dg,
             ranked,

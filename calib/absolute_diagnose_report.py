@@ -59,6 +59,7 @@ class AbsoluteDiagnosis:
     multiplicity_p: float | None = None  # the best candidate's p corrected by the max-score test
     nsim: int = 0  # its Monte Carlo draws (0: Bonferroni's bound, far below alpha)
     best_inadequate: bool = False  # the corrected test rejects at alpha
+    together_fraction: float | None = None  # the best three's share of the excess (nothing-fits rule)
 
     @property
     def floor(self) -> float:
@@ -87,6 +88,7 @@ class AbsoluteDiagnosis:
             "prune": self.pruned,
             "ties": self.ties,
             "nothing_fits": self.nothing_fits,
+            "together_excess_fraction": self.together_fraction,
             "residual_structure": self.residual_structure,
             "no_proposal_reasons": self.reasons,
             "warnings": self.warnings,

@@ -23,7 +23,7 @@ from .absolute_fit import _nonnegative, _solve, predict
 from .absolute_structure import structure_verdict
 from .diagnose_candidates import Candidate
 from .diagnosis import CV_GAIN, NO_HELD_OUT, ZTOL, lowers_held_out, tie_rivals
-from .diagnosis_report import not_significant, undecidable
+from .diagnosis_report import not_significant, nothing_fits_reason, undecidable
 
 if TYPE_CHECKING:
     from .absolute_diagnose_report import AbsoluteDiagnosis
@@ -63,6 +63,11 @@ def propose(
     """The proposal: significant after multiplicity, lowers the held-out
     error, and a fit with it realises the improvement; ties; or why none."""
     fit = dg.fit
+    if dg.nothing_fits:  # diagnosis.catalogue_fails, with a declared sigma
+        dg.verdict = "inadequate"
+        dg.reasons.append(nothing_fits_reason(ranked[0][0].excess_fraction if ranked else None))
+        structure_verdict(dg, data, fit, w, checked=True, decide=False)
+        return
     useful = [c for c, _ in top if significant(c) and lowers_held_out(c.cv_rms_position_m, cv_base)]
     best = None
     tried: set[str] = set()
@@ -125,15 +130,12 @@ def propose(
         )
     checked = cv_base is not None or not ranked  # candidates held out (or none to check)
     if sig_decl and log_p < math.log(alpha):
+        # inadequate; whether nothing fits was the catalogue_fails rule's (unified: was every time
+        # nothing was proposed)
         dg.verdict = "inadequate"
-        dg.nothing_fits = checked
-        if checked:
-            dg.reasons.append(
-                "the residual is larger than the declared noise, but no catalogued effect explains it: look at "
-                "the data checks and at the residual's shape (fit --plots)"
-            )
     if not sig_decl or dg.verdict == "inadequate":
-        structure_verdict(dg, data, fit, w, checked)
+        # the residual's structure: the verdict without a declared sigma, else what it suggests
+        structure_verdict(dg, data, fit, w, checked, decide=not sig_decl)
 
 
 def _refit_rms(

@@ -67,11 +67,18 @@ def residual_structure(data: AbsoluteData, residual: np.ndarray, w: np.ndarray, 
 
 
 def structure_verdict(
-    dg: AbsoluteDiagnosis, data: AbsoluteData, fit: AbsoluteFit, w: np.ndarray, checked: bool = True
+    dg: AbsoluteDiagnosis,
+    data: AbsoluteData,
+    fit: AbsoluteFit,
+    w: np.ndarray,
+    checked: bool = True,
+    decide: bool = True,
 ) -> None:
     """No candidate proposed: say whether the residual is still structured
-    (then, when the candidates were ``checked`` (scored and held out),
-    nothing in the catalogue fits; and what the structure suggests)."""
+    and what the structure suggests; when it ``decide``s (no declared
+    sigma: the verdict) a structured residual is inadequate and, when the
+    candidates were ``checked`` (scored and held out), nothing in the
+    catalogue fits."""
     st = residual_structure(data, fit.residual, w, fit.model)
     dg.residual_structure = st
     found = {
@@ -81,8 +88,10 @@ def structure_verdict(
     }
     if not found:
         return
-    dg.nothing_fits = checked
-    dg.verdict = "inadequate"
+    if decide:
+        dg.nothing_fits = checked
+        dg.verdict = "inadequate"
+    checked = checked and dg.nothing_fits
     rms = fit.rms_position * 1e3
     if "posture" in found:
         v = found["posture"]

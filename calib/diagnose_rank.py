@@ -14,9 +14,18 @@ import numpy as np
 from .._core import calib as core
 from ..robot.model import Model, compensator_h
 from .diagnose_candidates import Candidate
-from .diagnose_stats import ZTOL, logsf_chi2
-from .diagnosis import CV_GAIN, NO_HELD_OUT, lowers_held_out, tie_rivals
-from .diagnosis_report import not_significant, undecidable
+from .diagnose_stats import ZTOL
+from .diagnosis import (  # noqa: F401 (re-exported)
+    CV_GAIN,
+    NO_HELD_OUT,
+    NOTHING_FITS,
+    TOGETHER_FITS,
+    Noise,
+    catalogue_fails,
+    lowers_held_out,
+    tie_rivals,
+)
+from .diagnosis_report import not_significant, nothing_fits_reason, undecidable
 from .fit import FitResult, Problem, identified_model
 from .measure import Measurements
 
@@ -28,8 +37,6 @@ if TYPE_CHECKING:
 __all__ = ["separating_measurements", "compensator_shape_match"]
 
 CV_TOP = 5  # held-out error for this many leading candidates (and every tied one)
-NOTHING_FITS = 0.5  # the leader explains less than this fraction of the excess residual
-TOGETHER_FITS = 0.8  # ... unless the leading few together explain this much
 EQUIVALENT = 1e-6  # tied fits predicting the same to this relative level everywhere are one effect
 COMPENSATOR_MATCH = 0.9  # a compensator shape explaining this share of a joint_profile's part: hint
 
@@ -85,36 +92,16 @@ def _rank_honestly(
             }
         )
     # nothing fits: the leader (and the leading few together) explain little of the excess
-    if dg.verdict == "inadequate" and dg.excess > 0:
-        if L.excess_fraction is not None and L.excess_fraction < NOTHING_FITS:
-            fams, blocks = [], []
-            for c in ranked:
-                if c.family not in fams and c.log_p < sig:
-                    fams.append(c.family)
-                    blocks.append(c._cols)
-                if len(blocks) == 3:
-                    break
-            together = L.excess_fraction
-            if len(blocks) > 1:
-                Zt = np.hstack(blocks)
-                st, dt, _ = core.score(A, res.r, Zt, np.array([1, Zt.shape[1] + 1], np.int32), 1e-10, ZTOL)
-                together = float((st[0] / dg.scale2 - dt[0]) / dg.excess)
-            dg.together_fraction = together
-            # ... and the leader leaves the model inadequate (else the excess was mostly noise)
-            rest = float(res.r @ res.r) / dg.scale2 - L.statistic
-            rest_dof = res.dof - L.dof
-            left = logsf_chi2(rest, rest_dof) < sig if rest_dof > 0 else False
-            dg.nothing_fits = together < TOGETHER_FITS and left
+    if dg.verdict == "inadequate":
+        noise = Noise(dg.scale2, "declared" if dg.sigma_source == "declared" else "pure error", res.dof)
+        dg.nothing_fits, dg.together_fraction = catalogue_fails(ranked, A, res.r, noise, dg.alpha)
     # the proposal
     if dg.verdict != "inadequate":
         if dg.data_checks is not None and dg.data_checks.set_aside:
             dg.reasons.append("the model fits the data once the rows listed by the data checks are set aside")
         return
     if dg.nothing_fits:
-        dg.reasons.append(
-            f"nothing in the catalogue fits: the best candidate explains {100 * (L.excess_fraction or 0.0):.0f} % "
-            f"of the residual above the noise"
-        )
+        dg.reasons.append(nothing_fits_reason(L.excess_fraction))
     if tied:
         dg.reasons.append(undecidable([L.label] + [c.label for c in tied]))
     if cv0 is None:

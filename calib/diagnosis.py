@@ -42,7 +42,13 @@ The one rule of each decision, both kinds (docs/calibration.md 7.2):
 - ties: :func:`tie_rivals` (another target, significant on its own, within
   TIE_LOG10 in log10 p of the one to propose or significantly better held
   out); a tie blocks the proposal and names the command that plans the
-  measurements telling them apart.
+  measurements telling them apart;
+- nothing fits, with the noise known apart from the residual (declared
+  sigma, pure error): :func:`catalogue_fails` (the best candidate explains
+  less than NOTHING_FITS of the residual above the noise, the best three
+  together less than TOGETHER_FITS, and the model with the best one is
+  still inadequate); it blocks the proposal. Tracker data without a
+  declared sigma (no such noise) judge by the residual's structure.
 
 What the two kinds still decide each their own way (to be made one rule
 each; today's tests pin both):
@@ -54,10 +60,6 @@ each; today's tests pin both):
 - proposal: deflections propose the untied leader; tracker data the
   candidate of lowest held-out error, checked by a fit with it (the
   simpler of two nested candidates first);
-- nothing fits: deflections when the leader and the best three together
-  explain little of the residual above the noise and the leader leaves
-  the model inadequate; tracker data when the chi-square rejects a declared
-  sigma and nothing is proposed, else by the residual's structure;
 - data checks: deflections by a robust (Huber) fit (gross errors, unit
   slips, angle units, outlying configurations); tracker data by unit slips
   and gross errors against a robust scale of the plain fit.
@@ -101,6 +103,9 @@ __all__ = [
     "TIE_LOG10",
     "DUPLICATE_COS",
     "tie_rivals",
+    "NOTHING_FITS",
+    "TOGETHER_FITS",
+    "catalogue_fails",
     "NSIM",
     "corrected_p",
     "NO_HELD_OUT",
@@ -119,6 +124,10 @@ CV_GAIN = 0.02
 TIE_LOG10 = 1.0
 #: explained parts of two candidates this alike (cosine) are the same part of the residual
 DUPLICATE_COS = 0.99
+#: nothing fits: the best candidate explains less than this share of the residual above the noise ...
+NOTHING_FITS = 0.5
+#: ... and the best three (of different targets) together less than this
+TOGETHER_FITS = 0.8
 #: Monte Carlo draws of the max-score test (199 when the answer is settled on either side of alpha)
 NSIM = 999
 #: the seed of its draws (reproducible)
@@ -385,6 +394,45 @@ def tie_rivals(lead: Candidate, ranked: Sequence[Candidate], A: np.ndarray, alph
         if (close_p or _cv_better(lead._cv, c._cv)) and all(t.family != c.family for t in out):
             out.append(c)
     return out
+
+
+def catalogue_fails(
+    ranked: Sequence[Candidate], A: np.ndarray, r: np.ndarray, noise: Noise, alpha: float
+) -> tuple[bool, float | None]:
+    """The one nothing-fits rule, both kinds, on a model found inadequate
+    with the noise known apart from the residual (declared sigma or pure
+    error; ``ranked`` best first, with their columns ``_cols``): the best
+    candidate explains less than NOTHING_FITS of the residual above the
+    noise, the best three of different targets (significant on their own)
+    together less than TOGETHER_FITS, and the model with the best one is
+    still inadequate (chi-square of what it leaves). Returns (nothing fits,
+    the share the best three explain together, or None when not needed)."""
+    if not ranked:
+        return True, None
+    rss = float(r @ r)
+    excess = noise.excess(rss)
+    lead = ranked[0]
+    if not excess > 0 or lead.excess_fraction is None or lead.excess_fraction >= NOTHING_FITS:
+        return False, None
+    sig = math.log(alpha)
+    fams, blocks = [], []
+    for c in ranked:
+        if c.family not in fams and c.log_p < sig:
+            fams.append(c.family)
+            blocks.append(c._cols)
+        if len(blocks) == 3:
+            break
+    together = lead.excess_fraction
+    if len(blocks) > 1:
+        Zt = np.hstack(blocks)
+        if A.shape[1] + Zt.shape[1] >= A.shape[0]:
+            return False, None  # as many columns as observations: no test of what they leave
+        st, dt, _ = core.score(A, r, Zt, np.array([1, Zt.shape[1] + 1], np.int32), 1e-10, ZTOL)
+        together = float((st[0] / noise.scale2 - dt[0]) / excess)
+    rest = rss / noise.scale2 - lead.statistic
+    rest_dof = noise.nres - lead.dof
+    left = core.chi2_logsf(rest, rest_dof) < sig if rest_dof > 0 else False
+    return bool(together < TOGETHER_FITS and left), together
 
 
 def bonferroni(p_best: float, n_tests: int) -> float:

@@ -19,6 +19,7 @@ __all__ = [
     "not_significant",
     "undecidable",
     "tie_line",
+    "nothing_fits_reason",
 ]
 
 
@@ -86,4 +87,12 @@ def tie_line(labels: list[str]) -> str:
     return (
         f"undecidable: {', '.join(labels)} fit these data about as well (within {TIE_LOG10:g} in log10 p, or "
         "better on held-out configurations); adding one of them would be a guess."
+    )
+
+
+def nothing_fits_reason(share: float | None) -> str:
+    """Why nothing is proposed when nothing in the catalogue fits (``diagnosis.catalogue_fails``), both kinds."""
+    return (
+        f"nothing in the catalogue fits: the best candidate explains {100 * (share or 0.0):.0f} % "
+        "of the residual above the noise"
     )
