@@ -44,6 +44,7 @@ import numpy as np
 
 from .._core import calib as core_calib
 from .._core import tree as core
+from ..errors import StiffkitError
 from ..robot.tree_model import TreeModel
 from .absolute_candidates import (
     JOINT_KINDS,
@@ -62,6 +63,8 @@ from .absolute_fit import (
     _loads,
     _marker_index,
     fit_absolute,
+    huber_fit,
+    predict,
 )
 from .absolute_propose import propose
 from .absolute_structure import PATH_GAP, STRUCTURE_ALPHA, STRUCTURE_PERMUTATIONS, residual_structure, structure_verdict
@@ -72,6 +75,7 @@ from .diagnose_candidates import Candidate
 from .diagnosis import (
     ALPHA,
     CV_FOLDS,
+    OUTLIER_ALPHA,
     Noise,
     bonferroni,
     catalogue_fails,
@@ -85,6 +89,7 @@ from .diagnosis import (
     score_blocks,
 )
 from .plan_hint import plan_command
+from .robust import MAX_SET_ASIDE
 
 __all__ = [
     "AbsoluteDiagnosis",
@@ -100,9 +105,8 @@ __all__ = [
     "PATH_GAP",
 ]
 
-#: gross errors are judged against the residual of a model that may still lack effects (whose errors
-#: are not Gaussian): a stricter level than the tests of the effects
-OUTLIER_ALPHA = 1e-4
+#: LM iterations of the data checks' robust fit (from the plain fit's values)
+HUBER_MAXIT = 50
 #: held-out errors of this many leading candidates (each one CV of the linearised model)
 CV_TOP = 6
 
@@ -119,18 +123,30 @@ def _data_checks(
     }
     w = data.weight.copy()
     labels = [data.configs[p] for p in data.posture]
-    pred = data.xyz - fit.residual
+    # the rows are judged against a robust (Huber) fit, not pulled by them (one rule, both kinds:
+    # the deflection checks' robust fit; was the plain fit)
+    try:
+        rm, sol, _hw = huber_fit(fit.model, data, fit.theta, fit.reduction.kept, w, HUBER_MAXIT)
+        pred = predict(rm, data, sol["theta"])["pred"]
+    except StiffkitError:
+        pred = data.xyz - fit.residual
+    residual = data.xyz - pred
     slips = unit_slips(data.xyz, pred, labels, sig_decl)
     # gross errors among the rows still in use (the reader sets gross unit slips aside)
     use = np.flatnonzero(w > 0)
-    res_use = fit.residual[use]
+    res_use = residual[use]
     scale = sig_decl if sig_decl else _robust_sigma(res_use)
     flags = outlier_rows(res_use, scale, [labels[i] for i in use], alpha=OUTLIER_ALPHA)
     for f in flags:
         f.row = int(use[f.row])
     dchecks["unit_slips"] = [s.to_json() for s in slips]
     dchecks["outliers"] = [f.to_json(line=data.lines[f.row]) for f in flags]
-    aside = {f.row for f in flags} | {r for s in slips for r in s.rows} | set(np.flatnonzero(w == 0).tolist())
+    flagged = {f.row for f in flags} | {r for s in slips for r in s.rows}
+    # more than MAX_SET_ASIDE of the rows: the misfit is the model's, nothing is set aside (both kinds)
+    dchecks["too_many_to_set_aside"] = len(flagged) > MAX_SET_ASIDE * max(use.size, 1)
+    if dchecks["too_many_to_set_aside"]:
+        flagged = set()
+    aside = flagged | set(np.flatnonzero(w == 0).tolist())
     data_all = data
     if aside:
         w[list(aside)] = 0.0

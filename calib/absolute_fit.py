@@ -504,12 +504,11 @@ def fit_absolute(
     return fit
 
 
-def _robust(
+def huber_fit(
     model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, w0: np.ndarray, maxit: int
-) -> tuple[TreeModel, dict, np.ndarray, dict]:
+) -> tuple[TreeModel, dict, np.ndarray]:
     """Iteratively reweighted LM: Huber weights on the points' standardised
-    distances (scale from their median), then the rows beyond SET_ASIDE
-    get weight 0 and the fit is repeated."""
+    distances (scale from their median). Returns (model, solution, weights)."""
     w = w0.copy()
     m, sol = _solve(model, data, theta, free, w, maxit)
     for _ in range(8):
@@ -523,6 +522,15 @@ def _robust(
             break
         w = w_new
         m, sol = _solve(m, data, sol["theta"], free, w, maxit)
+    return m, sol, w
+
+
+def _robust(
+    model: TreeModel, data: AbsoluteData, theta: np.ndarray, free: np.ndarray, w0: np.ndarray, maxit: int
+) -> tuple[TreeModel, dict, np.ndarray, dict]:
+    """The Huber fit (:func:`huber_fit`), then the rows beyond SET_ASIDE
+    get weight 0 and the fit is repeated."""
+    m, sol, _w = huber_fit(model, data, theta, free, w0, maxit)
     d = np.linalg.norm(data.xyz - predict(m, data, sol["theta"])["pred"], axis=1)
     s = float(np.median(d[w0 > 0])) / CHI3_MEDIAN
     u = d / s if s > 0 else np.zeros_like(d)

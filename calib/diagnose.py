@@ -82,6 +82,7 @@ from .diagnose_stats import (
 )
 from .diagnosis import (
     DUPLICATE_COS,
+    OUTLIER_ALPHA,
     Noise,
     bonferroni,
     corrected_p,
@@ -180,7 +181,8 @@ def diagnose(
     pb = Problem(model, meas, extra_terms=flat, sigma_position=sigma_position)
     res_all = judged_fit(lambda: fit(model, meas, problem=pb), meas.path, meas.n, copies, pb.npar, pb.rows)
     test, stat, dof, log_p, sigma, source, scale2, d_pe = _adequacy(res_all, pb, meas, copies)
-    dc = check_data(res_all, alpha=alpha) if checks else None
+    # one level of the data checks, both kinds (was alpha on deflections)
+    dc = check_data(res_all, alpha=OUTLIER_ALPHA) if checks else None
     res, log_p_all, verdict_all = res_all, None, None
     if dc is not None and dc.set_aside:
         log_p_all = log_p

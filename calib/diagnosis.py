@@ -48,7 +48,10 @@ The one rule of each decision, both kinds (docs/calibration.md 7.2):
   less than NOTHING_FITS of the residual above the noise, the best three
   together less than TOGETHER_FITS, and the model with the best one is
   still inadequate); it blocks the proposal. Tracker data without a
-  declared sigma (no such noise) judge by the residual's structure.
+  declared sigma (no such noise) judge by the residual's structure;
+- data checks: gross errors (level OUTLIER_ALPHA, Bonferroni over the
+  rows) and unit slips against a robust (Huber) fit, set aside unless more
+  than ``robust.MAX_SET_ASIDE`` of the rows (then the misfit is the model's).
 
 What the two kinds still decide each their own way (to be made one rule
 each; today's tests pin both):
@@ -59,10 +62,7 @@ each; today's tests pin both):
   residual's structure (calib/absolute_structure.py);
 - proposal: deflections propose the untied leader; tracker data the
   candidate of lowest held-out error, checked by a fit with it (the
-  simpler of two nested candidates first);
-- data checks: deflections by a robust (Huber) fit (gross errors, unit
-  slips, angle units, outlying configurations); tracker data by unit slips
-  and gross errors against a robust scale of the plain fit.
+  simpler of two nested candidates first).
 """
 
 from __future__ import annotations
@@ -103,6 +103,7 @@ __all__ = [
     "TIE_LOG10",
     "DUPLICATE_COS",
     "tie_rivals",
+    "OUTLIER_ALPHA",
     "NOTHING_FITS",
     "TOGETHER_FITS",
     "catalogue_fails",
@@ -124,6 +125,9 @@ CV_GAIN = 0.02
 TIE_LOG10 = 1.0
 #: explained parts of two candidates this alike (cosine) are the same part of the residual
 DUPLICATE_COS = 0.99
+#: gross errors are judged against the residual of a model that may still lack effects (whose errors
+#: are not Gaussian): a stricter level than the tests of the effects (Bonferroni over the rows), both kinds
+OUTLIER_ALPHA = 1e-4
 #: nothing fits: the best candidate explains less than this share of the residual above the noise ...
 NOTHING_FITS = 0.5
 #: ... and the best three (of different targets) together less than this
